@@ -1,0 +1,144 @@
+//! Reading a scene file: syntax and type errors with their location, then the semantic checks.
+
+use std::path::{Path, PathBuf};
+
+use crate::diagnostic::{did_you_mean, Diagnostic, LoadError};
+use crate::locate::{line_col, locate, JsonPath};
+use crate::scene::Scene;
+use crate::validate::validate;
+
+/// Largest scene file accepted, in bytes (1 GiB); larger inputs are refused before parsing.
+pub const MAX_SCENE_BYTES: u64 = 1 << 30;
+
+/// Parses scene JSON text into a typed [`Scene`] without semantic checks. On failure the single
+/// diagnostic names the JSON path, the line and column, and what was expected.
+pub fn parse_scene(text: &str) -> Result<Scene, Diagnostic> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let result: Result<Scene, _> = serde_path_to_error::deserialize(&mut de);
+    let (path, inner) = match result {
+        Ok(scene) => match de.end() {
+            Ok(()) => return Ok(scene),
+            // Trailing characters after the document.
+            Err(e) => (JsonPath::root(), e),
+        },
+        Err(err) => (JsonPath::parse(&err.path().to_string()), err.into_inner()),
+    };
+    let (message, help) = explain(&inner.to_string());
+    let location = if inner.line() > 0 {
+        Some(crate::locate::LineCol { line: inner.line(), column: inner.column() })
+    } else {
+        locate(text, &path)
+    };
+    let mut d = Diagnostic::new(path, message);
+    d.location = location;
+    d.help = help;
+    Err(d)
+}
+
+/// Parses and validates scene text. `base_dir` is where relative file paths resolve (the scene
+/// file's folder); `None` skips file-existence checks. `file` labels the diagnostics.
+pub fn load_scene_str(text: &str, file: &Path, base_dir: Option<&Path>) -> Result<Scene, LoadError> {
+    let invalid = |diagnostics| LoadError::Invalid { file: file.to_path_buf(), diagnostics };
+    let scene = parse_scene(text).map_err(|d| invalid(vec![d]))?;
+    let mut diagnostics = validate(&scene, base_dir);
+    if diagnostics.is_empty() {
+        return Ok(scene);
+    }
+    for d in &mut diagnostics {
+        d.location = locate(text, &d.path);
+    }
+    diagnostics.sort_by_key(|d| d.location.map(|l| (l.line, l.column)));
+    Err(invalid(diagnostics))
+}
+
+/// Reads, parses and validates a scene file; relative paths inside resolve against its folder.
+pub fn load_scene_file(path: &Path) -> Result<Scene, LoadError> {
+    let io = |source| LoadError::Io { path: path.to_path_buf(), source };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if meta.len() > MAX_SCENE_BYTES {
+        return Err(LoadError::Invalid {
+            file: path.to_path_buf(),
+            diagnostics: vec![Diagnostic::new(
+                JsonPath::root(),
+                format!("file is {} bytes, above the limit of {MAX_SCENE_BYTES}", meta.len()),
+            )
+            .with_help("put large meshes in OBJ or glTF files and reference them")],
+        });
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
+    let text = match String::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let at = e.utf8_error().valid_up_to();
+            let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
+            let mut d = Diagnostic::new(JsonPath::root(), "file is not valid UTF-8");
+            d.location = Some(line_col(&text, at));
+            return Err(LoadError::Invalid { file: path.to_path_buf(), diagnostics: vec![d] });
+        }
+    };
+    let base = base_dir_of(path);
+    load_scene_str(&text, path, Some(&base))
+}
+
+/// The folder relative paths in the scene file at `path` resolve against.
+pub fn base_dir_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// Rewrites serde_json's messages into "expected X, found Y" form, with a suggestion for
+/// misspelt keys.
+fn explain(raw: &str) -> (String, Option<String>) {
+    // serde_json appends " at line L column C"; the location is reported separately.
+    let msg = match raw.rfind(" at line ") {
+        Some(i) => &raw[..i],
+        None => raw,
+    };
+    if let Some(rest) = msg.strip_prefix("invalid type: ") {
+        if let Some((found, expected)) = rest.split_once(", expected ") {
+            return (format!("expected {}, found {}", plain_type(expected), found), None);
+        }
+    }
+    if let Some(rest) = msg.strip_prefix("unknown field `") {
+        if let Some((field, expected)) = rest.split_once("`, expected ") {
+            let candidates: Vec<&str> = expected
+                .split('`')
+                .enumerate()
+                .filter(|(i, _)| i % 2 == 1)
+                .map(|(_, s)| s)
+                .collect();
+            let help = match did_you_mean(field, candidates.iter().copied()) {
+                Some(s) => format!("did you mean `{s}`?"),
+                None => format!("expected one of {}", candidates.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(", ")),
+            };
+            return (format!("unknown field `{field}`"), Some(help));
+        }
+        if let Some(field) = rest.strip_suffix("`, there are no fields") {
+            return (format!("unknown field `{field}`"), Some("this object takes no fields".into()));
+        }
+    }
+    if let Some(rest) = msg.strip_prefix("unknown variant `") {
+        if let Some((variant, expected)) = rest.split_once("`, expected ") {
+            let candidates: Vec<&str> = expected.split('`').enumerate().filter(|(i, _)| i % 2 == 1).map(|(_, s)| s).collect();
+            let help = did_you_mean(variant, candidates.iter().copied()).map(|s| format!("did you mean `{s}`?"));
+            return (format!("unknown kind `{variant}`, expected {expected}"), help);
+        }
+    }
+    if msg.starts_with("data did not match any variant of untagged enum Scale") {
+        return ("expected a number or an array of three numbers".into(), Some("a uniform scale is one number, a per-axis scale is [x, y, z]".into()));
+    }
+    (msg.to_string(), None)
+}
+
+/// serde's type names in words a scene author knows.
+fn plain_type(expected: &str) -> String {
+    match expected {
+        "f32" | "f64" => "a number".into(),
+        "u32" | "u64" | "usize" => "a non-negative integer".into(),
+        "a string" => "a string".into(),
+        e if e.starts_with("an array of length") => e.replace("an array of length", "an array of"),
+        e => e.to_string(),
+    }
+}

@@ -1,0 +1,711 @@
+//! The scene description: plain serde data, one type per concept.
+//!
+//! Conventions used by every type here:
+//! - Right-handed coordinates, y up. Lengths are in scene units (arbitrary but consistent).
+//! - Colours are linear RGB triples. Reflectances and weights are unitless fractions in [0, 1];
+//!   radiance is in W·sr⁻¹·m⁻² per channel.
+//! - Angles are in degrees.
+//! - File paths are resolved relative to the folder of the scene file.
+//! - Every struct rejects unknown keys, so a typo is an error instead of a silently ignored key.
+
+use std::collections::BTreeMap;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// A three-component vector (x, y, z) in scene units.
+pub type Vec3 = [f32; 3];
+/// A two-component vector.
+pub type Vec2 = [f32; 2];
+/// A linear RGB colour.
+pub type Rgb = [f32; 3];
+
+/// The format version this crate reads and writes.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// A complete lumo scene: what to render and how.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Path or URL of the JSON Schema this file follows, for editors
+    /// (`"../schema/scene.schema.json"` in lumo's examples). Not used by the renderer.
+    #[serde(rename = "$schema", default, skip_serializing_if = "Option::is_none")]
+    pub schema: Option<String>,
+    /// Version of the scene format. Must be 1.
+    #[schemars(range(min = 1, max = 1))]
+    pub format_version: u32,
+    /// Output image size.
+    #[serde(default)]
+    pub image: Image,
+    /// How the image is computed.
+    #[serde(default)]
+    pub render: RenderSettings,
+    /// The viewpoint.
+    pub camera: Camera,
+    /// What a ray that leaves the scene sees. Default: black.
+    #[serde(default)]
+    pub background: Background,
+    /// Image textures by name, referenced by materials.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub textures: BTreeMap<String, Texture>,
+    /// Materials by name, referenced by objects.
+    pub materials: BTreeMap<String, Material>,
+    /// The geometry.
+    pub objects: Vec<Object>,
+    /// Punctual lights. Emissive materials are lights too (area lights).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<Light>,
+}
+
+/// Output image size in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Image {
+    /// Width in pixels. Default 512.
+    #[serde(default = "default_image_side")]
+    #[schemars(range(min = 1, max = 16384))]
+    pub width: u32,
+    /// Height in pixels. Default 512.
+    #[serde(default = "default_image_side")]
+    #[schemars(range(min = 1, max = 16384))]
+    pub height: u32,
+}
+
+fn default_image_side() -> u32 {
+    512
+}
+
+impl Default for Image {
+    fn default() -> Self {
+        Image { width: default_image_side(), height: default_image_side() }
+    }
+}
+
+/// The light-transport algorithm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Integrator {
+    /// Unidirectional path tracing with next-event estimation and multiple importance sampling.
+    #[default]
+    Path,
+    /// Fast preview: primary rays, direct light from punctual lights and emitters,
+    /// mirror and refraction up to `max_depth`.
+    Raycast,
+}
+
+/// How the image is computed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSettings {
+    /// The light-transport algorithm. Default `path`.
+    #[serde(default)]
+    pub integrator: Integrator,
+    /// Samples per pixel. Default 64.
+    #[serde(default = "default_spp")]
+    #[schemars(range(min = 1))]
+    pub spp: u32,
+    /// Maximum path depth, counted as Mitsuba does: 1 = only emitters seen directly,
+    /// 2 = direct illumination, n = up to n − 1 bounces after the camera ray. Default 8.
+    #[serde(default = "default_max_depth")]
+    #[schemars(range(min = 1, max = 1024))]
+    pub max_depth: u32,
+    /// Seed of the random sequences. The same scene and seed give the same image,
+    /// whatever the thread count. Default 0.
+    #[serde(default)]
+    pub seed: u64,
+    /// Optional wall-clock budget in seconds: rendering stops after the pass that exceeds it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0))]
+    pub time_budget_s: Option<f32>,
+}
+
+fn default_spp() -> u32 {
+    64
+}
+fn default_max_depth() -> u32 {
+    8
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            integrator: Integrator::default(),
+            spp: default_spp(),
+            max_depth: default_max_depth(),
+            seed: 0,
+            time_budget_s: None,
+        }
+    }
+}
+
+/// A perspective camera: a pinhole, or a thin lens when `aperture_radius` > 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    /// Position of the eye (the lens centre).
+    pub position: Vec3,
+    /// A point the camera looks at; the view direction is `look_at − position`.
+    pub look_at: Vec3,
+    /// Approximate up direction; it is re-orthogonalised against the view direction.
+    /// Default (0, 1, 0).
+    #[serde(default = "default_up")]
+    pub up: Vec3,
+    /// Full vertical field of view in degrees, in (0, 180).
+    #[schemars(extend("exclusiveMinimum" = 0, "exclusiveMaximum" = 180))]
+    pub fov_y_deg: f32,
+    /// Radius of the thin lens in scene units. 0 (the default) is a pinhole: everything sharp.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0))]
+    pub aperture_radius: f32,
+    /// Distance from the lens along the view direction to the plane in perfect focus, in scene
+    /// units. Default: the distance to `look_at`. Only meaningful with `aperture_radius` > 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0))]
+    pub focus_distance: Option<f32>,
+}
+
+fn default_up() -> Vec3 {
+    [0.0, 1.0, 0.0]
+}
+
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
+}
+
+/// What rays that leave the scene see.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Background {
+    /// Constant radiance in every direction (linear RGB, W·sr⁻¹·m⁻²). Default black.
+    #[serde(default)]
+    pub color: Rgb,
+}
+
+/// Colour space of a texture's stored values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ColorSpace {
+    /// sRGB-encoded (colour images: base colour, emission). Decoded to linear on load.
+    #[default]
+    Srgb,
+    /// Linear values (data images: roughness, metallic).
+    Linear,
+}
+
+/// What a texture lookup does outside [0, 1].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Wrap {
+    /// Tile the image.
+    #[default]
+    Repeat,
+    /// Tile, mirroring every other copy.
+    Mirror,
+    /// Repeat the edge texels.
+    Clamp,
+}
+
+/// An image texture, sampled bilinearly. Texture coordinate (0, 0) is the bottom-left corner of
+/// the image, (1, 1) the top-right (OpenGL convention; glTF's top-left origin is converted).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Texture {
+    /// Image file (PNG, JPEG, BMP, HDR, EXR), or a glTF/GLB file when `gltf_image` is given.
+    pub file: String,
+    /// Index of the image inside the glTF/GLB `file` (its `images` array).
+    /// Only for glTF files; must be absent for plain image files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gltf_image: Option<u32>,
+    /// How the stored values are encoded. Default `srgb`.
+    #[serde(default)]
+    pub color_space: ColorSpace,
+    /// Behaviour outside [0, 1]. Default `repeat`.
+    #[serde(default)]
+    pub wrap: Wrap,
+}
+
+/// A use of a named texture, with an optional affine map of the texture coordinates
+/// (KHR_texture_transform): uv' = translate(offset) · rotate(rotation_deg) · scale(scale) · uv.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TextureRef {
+    /// Name of a texture in `textures`.
+    pub texture: String,
+    /// Added to the texture coordinates after scaling and rotation. Default (0, 0).
+    #[serde(default, skip_serializing_if = "is_zero2")]
+    pub offset: Vec2,
+    /// Counter-clockwise rotation of the texture coordinates, in degrees. Default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rotation_deg: f32,
+    /// Multiplies the texture coordinates first. Default (1, 1).
+    #[serde(default = "one2", skip_serializing_if = "is_one2")]
+    pub scale: Vec2,
+}
+
+fn is_zero2(v: &Vec2) -> bool {
+    *v == [0.0, 0.0]
+}
+fn one2() -> Vec2 {
+    [1.0, 1.0]
+}
+fn is_one2(v: &Vec2) -> bool {
+    *v == [1.0, 1.0]
+}
+
+/// A surface's appearance: a mix of lobes chosen by weight, plus emission.
+///
+/// The weights of the lobes are fractions of the incoming light each lobe scatters:
+/// `diffuse + specular + transmission ≤ 1`; whatever is left is absorbed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Reflectance of the diffuse lobe and tint of the specular lobe (linear RGB, each in [0, 1]).
+    /// Default (0.8, 0.8, 0.8).
+    #[serde(default = "default_base_color")]
+    pub base_color: Rgb,
+    /// Multiplies `base_color` by this texture (its RGB channels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_color_texture: Option<TextureRef>,
+    /// Weight of the Lambertian diffuse lobe, in [0, 1].
+    /// Default: the rest, `1 − specular − transmission`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 0, max = 1))]
+    pub diffuse: Option<f32>,
+    /// Weight of the specular (metal) lobe, tinted by the base colour, in [0, 1]. Default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0, max = 1))]
+    pub specular: f32,
+    /// Weight of the dielectric lobe (Fresnel-weighted reflection and refraction), in [0, 1].
+    /// Default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0, max = 1))]
+    pub transmission: f32,
+    /// Roughness of the specular lobe, in [0, 1]: 0 is a perfect mirror, otherwise a GGX
+    /// microfacet lobe with α = roughness². Default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0, max = 1))]
+    pub roughness: f32,
+    /// Per-texel factors in glTF's layout: the green channel multiplies `roughness`, the blue
+    /// channel multiplies `specular` (and the diffuse weight becomes the rest). Linear data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roughness_specular_texture: Option<TextureRef>,
+    /// Index of refraction of the dielectric lobe (inside over outside). Default 1.5.
+    #[serde(default = "default_ior", skip_serializing_if = "is_default_ior")]
+    #[schemars(extend("exclusiveMinimum" = 0))]
+    pub ior: f32,
+    /// Emitted radiance (linear RGB, W·sr⁻¹·m⁻², each ≥ 0): a surface with emission is an area
+    /// light. Default black.
+    #[serde(default, skip_serializing_if = "is_black")]
+    pub emission: Rgb,
+    /// Multiplies `emission` by this texture (its RGB channels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub emission_texture: Option<TextureRef>,
+    /// Emit from both faces. By default a surface emits only from its front face (the side its
+    /// geometric normal points to: outside of spheres and lathes, counter-clockwise side of
+    /// triangles, the normal's side of planes).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub two_sided_emission: bool,
+}
+
+fn default_base_color() -> Rgb {
+    [0.8, 0.8, 0.8]
+}
+fn default_ior() -> f32 {
+    1.5
+}
+fn is_default_ior(x: &f32) -> bool {
+    *x == 1.5
+}
+fn is_black(c: &Rgb) -> bool {
+    *c == [0.0, 0.0, 0.0]
+}
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            base_color: default_base_color(),
+            base_color_texture: None,
+            diffuse: None,
+            specular: 0.0,
+            transmission: 0.0,
+            roughness: 0.0,
+            roughness_specular_texture: None,
+            ior: default_ior(),
+            emission: [0.0; 3],
+            emission_texture: None,
+            two_sided_emission: false,
+        }
+    }
+}
+
+impl Material {
+    /// The diffuse weight with its default applied: `1 − specular − transmission` when absent.
+    pub fn diffuse_weight(&self) -> f32 {
+        self.diffuse.unwrap_or((1.0 - self.specular - self.transmission).max(0.0))
+    }
+}
+
+/// One step of an object's placement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum TransformOp {
+    /// Move by this offset.
+    Translate(Vec3),
+    /// Rotate right-handedly (counter-clockwise looking down the axis towards the origin).
+    Rotate(Rotation),
+    /// Scale about the origin, uniformly (one number) or per axis (three numbers).
+    Scale(Scale),
+    /// A general affine 4×4 matrix, row by row; the last row must be (0, 0, 0, 1).
+    /// Points map as p' = M · (x, y, z, 1).
+    Matrix([[f32; 4]; 4]),
+}
+
+/// A rotation about an axis through the origin.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Rotation {
+    /// Axis direction (need not be unit length, must not be zero).
+    pub axis: Vec3,
+    /// Angle in degrees, right-handed about `axis`.
+    pub degrees: f32,
+}
+
+/// Uniform or per-axis scale factors (non-zero).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum Scale {
+    /// The same factor on every axis.
+    Uniform(f32),
+    /// One factor per axis.
+    PerAxis(Vec3),
+}
+
+/// Placement of an object: a list of steps applied to the object **in the order listed**
+/// (the first step acts first): p_world = Opₙ ⋯ Op₂ · Op₁ · p_object.
+/// Example: `[{"scale": 2}, {"rotate": {"axis": [0,1,0], "degrees": 30}}, {"translate": [1,0,0]}]`
+/// scales, then rotates, then moves. Normals transform with the inverse transpose.
+pub type Transform = Vec<TransformOp>;
+
+/// A piece of geometry with its material and placement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Object {
+    /// A sphere.
+    Sphere(Sphere),
+    /// An infinite plane.
+    Plane(Plane),
+    /// A single triangle.
+    Triangle(Triangle),
+    /// A triangle mesh from an OBJ file, a glTF/GLB file, or inline arrays.
+    Mesh(Mesh),
+    /// A surface of revolution about the y axis.
+    Lathe(Lathe),
+}
+
+/// A sphere. Texture coordinates: u = azimuth φ / 2π about +y measured from +x towards −z,
+/// v = polar angle from −y to +y / π (v = 1 at the north pole, +y).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Sphere {
+    /// Optional name, for messages and exporters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Name of a material in `materials`.
+    pub material: String,
+    /// Placement of the sphere (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transform: Transform,
+    /// Centre in object space. Default (0, 0, 0).
+    #[serde(default)]
+    pub center: Vec3,
+    /// Radius in scene units, > 0.
+    #[schemars(extend("exclusiveMinimum" = 0))]
+    pub radius: f32,
+}
+
+/// The infinite plane of points p with dot(normal, p) = offset. Its front is the side `normal`
+/// points to. Texture coordinates are the point's coordinates along two tangent axes, in scene
+/// units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Plane {
+    /// Optional name, for messages and exporters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Name of a material in `materials`.
+    pub material: String,
+    /// Placement of the plane (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transform: Transform,
+    /// Normal direction (non-zero; normalised on load, `offset` is measured along the unit normal).
+    pub normal: Vec3,
+    /// Signed distance of the plane from the origin along the unit normal. Default 0.
+    #[serde(default)]
+    pub offset: f32,
+}
+
+/// A single triangle; its front face is the counter-clockwise side (normal (v1−v0)×(v2−v0)).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Triangle {
+    /// Optional name, for messages and exporters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Name of a material in `materials`.
+    pub material: String,
+    /// Placement of the triangle (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transform: Transform,
+    /// The three corners in object space.
+    pub vertices: [Vec3; 3],
+}
+
+/// A triangle mesh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Mesh {
+    /// Optional name, for messages and exporters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Name of a material in `materials`.
+    pub material: String,
+    /// Placement of the mesh (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transform: Transform,
+    /// Where the triangles come from.
+    pub source: MeshSource,
+    /// Interpolate vertex normals across faces: the file's normals when it has them, otherwise
+    /// angle-weighted averages of the face normals. When false, faces are flat. Default false.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub smooth: bool,
+}
+
+/// Where a mesh's triangles come from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MeshSource {
+    /// A Wavefront OBJ file (all its objects and groups; polygons are fan-triangulated).
+    Obj(String),
+    /// One primitive of one mesh inside a glTF (.gltf) or binary glTF (.glb) file.
+    Gltf(GltfMeshRef),
+    /// Arrays written in the scene file.
+    Inline(InlineMesh),
+}
+
+/// A mesh primitive inside a glTF file, by index.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GltfMeshRef {
+    /// The .gltf or .glb file.
+    pub file: String,
+    /// Index into the file's `meshes` array.
+    pub mesh: u32,
+    /// Index into that mesh's `primitives` array. Default 0.
+    #[serde(default)]
+    pub primitive: u32,
+}
+
+/// Mesh data written out in full.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InlineMesh {
+    /// Vertex positions in object space.
+    pub positions: Vec<Vec3>,
+    /// Triangles as triples of 0-based indices into `positions`, counter-clockwise front.
+    pub indices: Vec<[u32; 3]>,
+    /// Optional per-vertex normals (one per position); used when `smooth` is true.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normals: Option<Vec<Vec3>>,
+    /// Optional per-vertex texture coordinates (one per position).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uvs: Option<Vec<Vec2>>,
+}
+
+/// A surface of revolution: the profile curve, drawn in the xy-plane, revolved about the y axis:
+/// S(t, θ) = (x(t) cos θ, y(t), −x(t) sin θ). |x| is the radius, so profiles at negative x
+/// work: a profile and its mirror image (−x, y) describe the same surface, oriented the same way.
+/// Orientation: the front (outside) normal is n = ∂S/∂θ × ∂S/∂t, which at θ = 0 is
+/// x · (y′, −x′, 0): **a profile traversed upwards (increasing y) faces away from the axis**,
+/// one traversed downwards faces the axis. At poles (x = 0) the normal is the limit along the
+/// axis.
+/// Texture coordinates: u = θ / 2π, v = the curve parameter normalised to [0, 1] over the
+/// whole profile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Lathe {
+    /// Optional name, for messages and exporters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Name of a material in `materials`.
+    pub material: String,
+    /// Placement of the lathe (default: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transform: Transform,
+    /// The profile curve in the xy-plane.
+    pub profile: Profile,
+}
+
+/// A planar profile curve.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Profile {
+    /// One Bézier curve of degree `points.len() − 1` (at least 2 points), parameter in [0, 1].
+    Bezier(BezierProfile),
+    /// A B-spline.
+    Bspline(BsplineProfile),
+}
+
+/// A Bézier profile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BezierProfile {
+    /// Control points (x, y); the degree is one less than their number.
+    pub points: Vec<Vec2>,
+}
+
+/// A B-spline profile of the given degree.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BsplineProfile {
+    /// Polynomial degree, ≥ 1. Default 3 (cubic).
+    #[serde(default = "default_degree")]
+    #[schemars(range(min = 1, max = 16))]
+    pub degree: u32,
+    /// Control points (x, y); at least `degree + 1` of them.
+    pub points: Vec<Vec2>,
+    /// Knot vector: `points.len() + degree + 1` non-decreasing values. The curve is traced over
+    /// [knots[degree], knots[points.len()]]. Default: clamped uniform on [0, 1] (the curve starts
+    /// and ends at the first and last control points).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub knots: Option<Vec<f32>>,
+}
+
+fn default_degree() -> u32 {
+    3
+}
+
+impl BsplineProfile {
+    /// The knot vector with its default applied: clamped uniform on [0, 1].
+    pub fn knots_or_default(&self) -> Vec<f32> {
+        if let Some(k) = &self.knots {
+            return k.clone();
+        }
+        let p = self.degree as usize;
+        let n = self.points.len();
+        let spans = n.saturating_sub(p).max(1);
+        let mut knots = Vec::with_capacity(n + p + 1);
+        knots.extend(std::iter::repeat_n(0.0, p + 1));
+        for i in 1..spans {
+            knots.push(i as f32 / spans as f32);
+        }
+        knots.extend(std::iter::repeat_n(1.0, p + 1));
+        knots
+    }
+}
+
+/// A punctual light. Emissive materials are area lights and need no entry here.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Light {
+    /// Light from one point, equally in all directions, falling off with the squared distance.
+    Point(PointLight),
+    /// Light from infinitely far away along one direction (the sun).
+    Directional(DirectionalLight),
+    /// A point light restricted to a cone, with a smooth falloff between the inner and outer
+    /// angle.
+    Spot(SpotLight),
+}
+
+/// A point light.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PointLight {
+    /// Position in world space.
+    pub position: Vec3,
+    /// Radiant intensity (linear RGB, W·sr⁻¹, each ≥ 0).
+    pub intensity: Rgb,
+}
+
+/// A directional light.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalLight {
+    /// The direction the light travels (from the light towards the scene), non-zero.
+    pub direction: Vec3,
+    /// Irradiance on a surface facing the light (linear RGB, W·m⁻², each ≥ 0).
+    pub irradiance: Rgb,
+}
+
+/// A spot light.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLight {
+    /// Position in world space.
+    pub position: Vec3,
+    /// The cone's axis: the direction the light shines, non-zero.
+    pub direction: Vec3,
+    /// Radiant intensity on the axis (linear RGB, W·sr⁻¹, each ≥ 0).
+    pub intensity: Rgb,
+    /// Half-angle in degrees inside which the intensity is full. Default 0.
+    #[serde(default)]
+    #[schemars(range(min = 0, max = 90))]
+    pub inner_angle_deg: f32,
+    /// Half-angle in degrees outside which there is no light; ≥ `inner_angle_deg`, in (0, 90].
+    /// Default 45.
+    #[serde(default = "default_outer_angle")]
+    #[schemars(extend("exclusiveMinimum" = 0), range(max = 90))]
+    pub outer_angle_deg: f32,
+}
+
+fn default_outer_angle() -> f32 {
+    45.0
+}
+
+impl Object {
+    /// The material name of the object.
+    pub fn material(&self) -> &str {
+        match self {
+            Object::Sphere(o) => &o.material,
+            Object::Plane(o) => &o.material,
+            Object::Triangle(o) => &o.material,
+            Object::Mesh(o) => &o.material,
+            Object::Lathe(o) => &o.material,
+        }
+    }
+
+    /// The placement of the object.
+    pub fn transform(&self) -> &Transform {
+        match self {
+            Object::Sphere(o) => &o.transform,
+            Object::Plane(o) => &o.transform,
+            Object::Triangle(o) => &o.transform,
+            Object::Mesh(o) => &o.transform,
+            Object::Lathe(o) => &o.transform,
+        }
+    }
+
+    /// The optional name of the object.
+    pub fn name(&self) -> Option<&str> {
+        match self {
+            Object::Sphere(o) => o.name.as_deref(),
+            Object::Plane(o) => o.name.as_deref(),
+            Object::Triangle(o) => o.name.as_deref(),
+            Object::Mesh(o) => o.name.as_deref(),
+            Object::Lathe(o) => o.name.as_deref(),
+        }
+    }
+
+    /// The key of this object's kind in JSON (`sphere`, `plane`, …).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Object::Sphere(_) => "sphere",
+            Object::Plane(_) => "plane",
+            Object::Triangle(_) => "triangle",
+            Object::Mesh(_) => "mesh",
+            Object::Lathe(_) => "lathe",
+        }
+    }
+}
