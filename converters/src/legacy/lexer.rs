@@ -69,21 +69,6 @@ impl<'a> Lexer<'a> {
         self.src
     }
 
-    /// The span just past the end of the text (for "unexpected end of file").
-    pub fn eof_span(&self) -> Span {
-        let (mut line, mut col) = (1u32, 1u32);
-        // Recomputed on demand: only used for errors.
-        for c in self.src.chars() {
-            if c == '\n' {
-                line = line.saturating_add(1);
-                col = 1;
-            } else {
-                col = col.saturating_add(1);
-            }
-        }
-        Span { start: self.src.len(), end: self.src.len(), line, col }
-    }
-
     /// The span of the last token consumed.
     pub fn last_span(&self) -> Span {
         self.last

@@ -115,17 +115,20 @@ fn suggestion(word: &str, candidates: &[&'static str]) -> Option<String> {
 }
 
 impl<'a> Parser<'a> {
+    /// The next token's span; at the end of the file, the last token's (so the excerpt shows
+    /// where the text stops).
     fn here(&mut self) -> Span {
         match self.lx.peek() {
             Some(t) => t.span,
-            None => self.lx.eof_span(),
+            None => self.lx.last_span(),
         }
     }
 
     fn unexpected(&mut self, expected: &str) -> Problem {
         let found = self.lx.peek();
         let span = self.here();
-        Problem::at(span, format!("expected {expected}, found {}", describe(found)))
+        let after = if found.is_none() && span.end > span.start { " after this" } else { "" };
+        Problem::at(span, format!("expected {expected}, found {}{after}", describe(found)))
     }
 
     fn warn(&mut self, span: Span, msg: impl Into<String>) {
