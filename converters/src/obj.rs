@@ -50,7 +50,10 @@ pub fn scan_file(path: &Path) -> Result<ObjSummary, ObjError> {
         return Err(ObjError::Io("not a regular file".into()));
     }
     if meta.len() > MAX_OBJ_BYTES {
-        return Err(ObjError::Io(format!("{} bytes is above the limit of {MAX_OBJ_BYTES}", meta.len())));
+        return Err(ObjError::Io(format!(
+            "{} bytes is above the limit of {MAX_OBJ_BYTES}",
+            meta.len()
+        )));
     }
     let bytes = std::fs::read(path).map_err(|e| ObjError::Io(e.to_string()))?;
     scan(&String::from_utf8_lossy(&bytes))
@@ -59,31 +62,48 @@ pub fn scan_file(path: &Path) -> Result<ObjSummary, ObjError> {
 /// Checks OBJ text: `v` lines have three numbers, `f` lines have at least three corners whose
 /// vertex indices (1-based, or negative = relative to the vertices so far) exist.
 pub fn scan(text: &str) -> Result<ObjSummary, ObjError> {
-    let mut s = ObjSummary { unterminated_last_line: !text.is_empty() && !text.ends_with('\n'), ..ObjSummary::default() };
+    let mut s = ObjSummary {
+        unterminated_last_line: !text.is_empty() && !text.ends_with('\n'),
+        ..ObjSummary::default()
+    };
     // Faces may in principle reference vertices defined later; check those at the end.
     let mut max_forward: Option<(usize, i64)> = None;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
-        let bad = |message: String| ObjError::Invalid { line: line_no, message };
+        let bad = |message: String| ObjError::Invalid {
+            line: line_no,
+            message,
+        };
         let line = raw.trim();
         let mut fields = line.split_whitespace();
         match fields.next() {
             Some("v") => {
                 let coords: Vec<&str> = fields.collect();
-                if coords.len() < 3 || coords[..3].iter().any(|c| c.parse::<f32>().map(|v| !v.is_finite()).unwrap_or(true)) {
-                    return Err(bad(format!("a vertex needs three finite numbers, found `{line}`")));
+                if coords.len() < 3
+                    || coords[..3]
+                        .iter()
+                        .any(|c| c.parse::<f32>().map(|v| !v.is_finite()).unwrap_or(true))
+                {
+                    return Err(bad(format!(
+                        "a vertex needs three finite numbers, found `{line}`"
+                    )));
                 }
                 s.vertices += 1;
             }
             Some("f") => {
                 let corners: Vec<&str> = fields.collect();
                 if corners.len() < 3 {
-                    return Err(bad(format!("a face needs at least 3 corners, found {}", corners.len())));
+                    return Err(bad(format!(
+                        "a face needs at least 3 corners, found {}",
+                        corners.len()
+                    )));
                 }
                 for c in &corners {
                     let mut parts = c.split('/');
                     let v = parts.next().unwrap_or("");
-                    let idx: i64 = v.parse().map_err(|_| bad(format!("`{c}` is not a vertex index")))?;
+                    let idx: i64 = v
+                        .parse()
+                        .map_err(|_| bad(format!("`{c}` is not a vertex index")))?;
                     if parts.count() == 2 && !c.contains("//") {
                         s.full_corners += 1;
                     }
@@ -92,9 +112,13 @@ pub fn scan(text: &str) -> Result<ObjSummary, ObjError> {
                     } else if idx < 0 {
                         s.relative_indices += 1;
                         if idx.unsigned_abs() as usize > s.vertices {
-                            return Err(bad(format!("relative index {idx} reaches before the first vertex ({} so far)", s.vertices)));
+                            return Err(bad(format!(
+                                "relative index {idx} reaches before the first vertex ({} so far)",
+                                s.vertices
+                            )));
                         }
-                    } else if idx as usize > s.vertices && max_forward.is_none_or(|(_, m)| idx > m) {
+                    } else if idx as usize > s.vertices && max_forward.is_none_or(|(_, m)| idx > m)
+                    {
                         max_forward = Some((line_no, idx));
                     }
                 }
@@ -108,11 +132,20 @@ pub fn scan(text: &str) -> Result<ObjSummary, ObjError> {
     }
     if let Some((line, idx)) = max_forward {
         if idx as usize > s.vertices {
-            return Err(ObjError::Invalid { line, message: format!("vertex index {idx} is out of range: the file has {} vertices", s.vertices) });
+            return Err(ObjError::Invalid {
+                line,
+                message: format!(
+                    "vertex index {idx} is out of range: the file has {} vertices",
+                    s.vertices
+                ),
+            });
         }
     }
     if s.triangles == 0 {
-        return Err(ObjError::Invalid { line: text.lines().count().max(1), message: "the file has no faces".into() });
+        return Err(ObjError::Invalid {
+            line: text.lines().count().max(1),
+            message: "the file has no faces".into(),
+        });
     }
     Ok(s)
 }
@@ -123,13 +156,39 @@ mod tests {
 
     #[test]
     fn counts_and_checks_faces() {
-        let s = scan("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1/1/1 2/2/2 -1/3/3\n").unwrap();
-        assert_eq!((s.vertices, s.triangles, s.polygons, s.full_corners, s.relative_indices), (4, 3, 1, 3, 1));
+        let s =
+            scan("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1/1/1 2/2/2 -1/3/3\n").unwrap();
+        assert_eq!(
+            (
+                s.vertices,
+                s.triangles,
+                s.polygons,
+                s.full_corners,
+                s.relative_indices
+            ),
+            (4, 3, 1, 3, 1)
+        );
         assert!(!s.unterminated_last_line);
         let e = scan("v 0 0 0\nv 1 0 0\nf 1 2 5").unwrap_err();
-        assert_eq!(e, ObjError::Invalid { line: 3, message: "vertex index 5 is out of range: the file has 2 vertices".into() });
-        assert!(matches!(scan("v 0 0\n"), Err(ObjError::Invalid { line: 1, .. })));
-        assert!(matches!(scan("v 0 0 0\nf 1 1\n"), Err(ObjError::Invalid { line: 2, .. })));
-        assert!(scan("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3").unwrap().unterminated_last_line);
+        assert_eq!(
+            e,
+            ObjError::Invalid {
+                line: 3,
+                message: "vertex index 5 is out of range: the file has 2 vertices".into()
+            }
+        );
+        assert!(matches!(
+            scan("v 0 0\n"),
+            Err(ObjError::Invalid { line: 1, .. })
+        ));
+        assert!(matches!(
+            scan("v 0 0 0\nf 1 1\n"),
+            Err(ObjError::Invalid { line: 2, .. })
+        ));
+        assert!(
+            scan("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3")
+                .unwrap()
+                .unterminated_last_line
+        );
     }
 }

@@ -11,11 +11,57 @@ use lumo_converters::legacy::{self, ImportOptions};
 use proptest::prelude::*;
 
 const VOCAB: &[&str] = &[
-    "{", "}", "[", "]", "Group", "numObjects", "MaterialIndex", "Transform", "Matrix4f", "Rotate", "XRotate", "Scale",
-    "UniformScale", "Translate", "Sphere", "Plane", "Triangle", "TriangleMesh", "RevSurface", "profile", "BezierCurve",
-    "BsplineCurve", "controls", "Materials", "numMaterials", "Material", "type", "refr", "emission", "texture", "glossy",
-    "Lights", "numLights", "PointLight", "DirectionalLight", "PerspectiveCamera", "DepthCamera", "0", "1", "-1", "0.5",
-    "1e30", "-1e-30", "3", "4", "1000001", "nan", "#", "obj_file", "x.obj", "",
+    "{",
+    "}",
+    "[",
+    "]",
+    "Group",
+    "numObjects",
+    "MaterialIndex",
+    "Transform",
+    "Matrix4f",
+    "Rotate",
+    "XRotate",
+    "Scale",
+    "UniformScale",
+    "Translate",
+    "Sphere",
+    "Plane",
+    "Triangle",
+    "TriangleMesh",
+    "RevSurface",
+    "profile",
+    "BezierCurve",
+    "BsplineCurve",
+    "controls",
+    "Materials",
+    "numMaterials",
+    "Material",
+    "type",
+    "refr",
+    "emission",
+    "texture",
+    "glossy",
+    "Lights",
+    "numLights",
+    "PointLight",
+    "DirectionalLight",
+    "PerspectiveCamera",
+    "DepthCamera",
+    "0",
+    "1",
+    "-1",
+    "0.5",
+    "1e30",
+    "-1e-30",
+    "3",
+    "4",
+    "1000001",
+    "nan",
+    "#",
+    "obj_file",
+    "x.obj",
+    "",
 ];
 
 fn scenes() -> Vec<String> {
@@ -23,7 +69,10 @@ fn scenes() -> Vec<String> {
     if let Some(dir) = common::shared_dir() {
         files.extend(common::txt_files(&dir.join("legacy-scenes")));
     }
-    files.iter().map(|f| std::fs::read_to_string(f).expect("scene text")).collect()
+    files
+        .iter()
+        .map(|f| std::fs::read_to_string(f).expect("scene text"))
+        .collect()
 }
 
 /// Runs the whole pipeline; panics only on a real bug.
@@ -33,7 +82,11 @@ fn exercise(text: &str, base: &Path) {
         Ok(imported) => {
             if let Ok(out) = legacy::export(&imported.scene) {
                 let again = legacy::import_str(&out, &path, &ImportOptions::default());
-                assert!(again.is_ok(), "export of an imported mutant does not import: {}\n{out}", again.unwrap_err());
+                assert!(
+                    again.is_ok(),
+                    "export of an imported mutant does not import: {}\n{out}",
+                    again.unwrap_err()
+                );
             }
         }
         Err(e) => {

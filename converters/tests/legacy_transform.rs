@@ -64,7 +64,13 @@ impl Step {
             Step::Scale(s) => format!("Scale {} {} {}", s[0], s[1], s[2]),
             Step::Uniform(s) => format!("UniformScale {s}"),
             Step::Rot(a, d) => format!("{}Rotate {d}", ["X", "Y", "Z"][*a]),
-            Step::Matrix(v) => format!("Matrix4f {{ {} }}", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")),
+            Step::Matrix(v) => format!(
+                "Matrix4f {{ {} }}",
+                v.iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            ),
         }
     }
 
@@ -103,14 +109,20 @@ fn apply_op(op: &TransformOp, p: [f64; 3]) -> [f64; 3] {
     match op {
         TransformOp::Translate(t) => [p[0] + t[0] as f64, p[1] + t[1] as f64, p[2] + t[2] as f64],
         TransformOp::Scale(Scale::Uniform(s)) => p.map(|x| x * *s as f64),
-        TransformOp::Scale(Scale::PerAxis(s)) => [p[0] * s[0] as f64, p[1] * s[1] as f64, p[2] * s[2] as f64],
+        TransformOp::Scale(Scale::PerAxis(s)) => {
+            [p[0] * s[0] as f64, p[1] * s[1] as f64, p[2] * s[2] as f64]
+        }
         TransformOp::Rotate(r) => {
             // Rodrigues: p cosθ + (k × p) sinθ + k (k·p)(1 − cosθ).
             let a = r.axis.map(|x| x as f64);
             let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
             let k = a.map(|x| x / n);
             let (s, c) = (r.degrees as f64).to_radians().sin_cos();
-            let kxp = [k[1] * p[2] - k[2] * p[1], k[2] * p[0] - k[0] * p[2], k[0] * p[1] - k[1] * p[0]];
+            let kxp = [
+                k[1] * p[2] - k[2] * p[1],
+                k[2] * p[0] - k[0] * p[2],
+                k[0] * p[1] - k[1] * p[0],
+            ];
             let kp = k[0] * p[0] + k[1] * p[1] + k[2] * p[2];
             [0, 1, 2].map(|i| p[i] * c + kxp[i] * s + k[i] * kp * (1.0 - c))
         }
@@ -143,7 +155,15 @@ fn import_nested(blocks: &[Vec<Step>]) -> Vec<TransformOp> {
     }
     text.push_str(&format!(
         "Triangle {{ vertex0 {} {} {} vertex1 {} {} {} vertex2 {} {} {} }}\n",
-        PTS[0][0], PTS[0][1], PTS[0][2], PTS[1][0], PTS[1][1], PTS[1][2], PTS[2][0], PTS[2][1], PTS[2][2]
+        PTS[0][0],
+        PTS[0][1],
+        PTS[0][2],
+        PTS[1][0],
+        PTS[1][1],
+        PTS[1][2],
+        PTS[2][0],
+        PTS[2][1],
+        PTS[2][2]
     ));
     for i in (0..blocks.len()).rev() {
         text.push_str("}\n");
@@ -152,7 +172,8 @@ fn import_nested(blocks: &[Vec<Step>]) -> Vec<TransformOp> {
         }
     }
     text.push_str("}\n");
-    let imported = legacy::import_str(&text, Path::new("t.txt"), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let imported = legacy::import_str(&text, Path::new("t.txt"), &ImportOptions::default())
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
     match &imported.scene.objects[..] {
         [Object::Triangle(t)] => t.transform.clone(),
         other => panic!("{other:?}"),
@@ -162,9 +183,16 @@ fn import_nested(blocks: &[Vec<Step>]) -> Vec<TransformOp> {
 fn check(blocks: &[Vec<Step>]) {
     let ops = import_nested(blocks);
     let m = blocks.iter().fold(ident(), |acc, b| mul(&acc, &block(b)));
-    let has_matrix = blocks.iter().flatten().any(|s| matches!(s, Step::Matrix(_)));
+    let has_matrix = blocks
+        .iter()
+        .flatten()
+        .any(|s| matches!(s, Step::Matrix(_)));
     if has_matrix {
-        assert_eq!(ops.len(), 1, "a chain with Matrix4f becomes one matrix: {ops:?}");
+        assert_eq!(
+            ops.len(),
+            1,
+            "a chain with Matrix4f becomes one matrix: {ops:?}"
+        );
     }
     let scale = m.iter().flatten().fold(1.0f64, |a, b| a.max(b.abs()));
     for p in PTS {
@@ -172,7 +200,10 @@ fn check(blocks: &[Vec<Step>]) {
         let got = ops.iter().fold(p, |q, op| apply_op(op, q));
         for i in 0..3 {
             // f32 storage of the inputs and of a composed matrix: relative error ~1e-6.
-            assert!((want[i] - got[i]).abs() <= 1e-4 * scale, "{blocks:?}\nops {ops:?}\npoint {p:?}: want {want:?}, got {got:?}");
+            assert!(
+                (want[i] - got[i]).abs() <= 1e-4 * scale,
+                "{blocks:?}\nops {ops:?}\npoint {p:?}: want {want:?}, got {got:?}"
+            );
         }
     }
 }
@@ -180,17 +211,28 @@ fn check(blocks: &[Vec<Step>]) {
 #[test]
 fn spec_examples() {
     // scene04_axes: `Translate 5 0 0  Scale 5 0.2 0.2` scales the cube, then moves it.
-    let ops = import_nested(&[vec![Step::Translate([5.0, 0.0, 0.0]), Step::Scale([5.0, 0.2, 0.2])]]);
+    let ops = import_nested(&[vec![
+        Step::Translate([5.0, 0.0, 0.0]),
+        Step::Scale([5.0, 0.2, 0.2]),
+    ]]);
     let p = ops.iter().fold([1.0, 1.0, 1.0], |q, op| apply_op(op, q));
-    assert!((p[0] - 10.0).abs() < 1e-6 && (p[1] - 0.2).abs() < 1e-6 && (p[2] - 0.2).abs() < 1e-6, "{p:?}");
+    assert!(
+        (p[0] - 10.0).abs() < 1e-6 && (p[1] - 0.2).abs() < 1e-6 && (p[2] - 0.2).abs() < 1e-6,
+        "{p:?}"
+    );
     // The wine glass: `ZRotate 15  Translate 1.7 0 0` moves, then rotates about the world z axis.
     let ops = import_nested(&[vec![Step::Rot(2, 15.0), Step::Translate([1.7, 0.0, 0.0])]]);
     let p = ops.iter().fold([0.0, 0.0, 0.0], |q, op| apply_op(op, q));
     let (s, c) = 15f64.to_radians().sin_cos();
-    assert!((p[0] - 1.7 * c).abs() < 1e-6 && (p[1] - 1.7 * s).abs() < 1e-6, "{p:?}");
+    assert!(
+        (p[0] - 1.7 * c).abs() < 1e-6 && (p[1] - 1.7 * s).abs() < 1e-6,
+        "{p:?}"
+    );
     // Matrix4f is column by column and left-multiplied: with `UniformScale 2` before it, the
     // object is still scaled first (M = Mat · S), then translated by (1, 2, 3).
-    let t = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0];
+    let t = [
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0,
+    ];
     let ops = import_nested(&[vec![Step::Uniform(2.0), Step::Matrix(t)]]);
     let p = ops.iter().fold([1.0, 1.0, 1.0], |q, op| apply_op(op, q));
     assert_eq!(p, [3.0, 4.0, 5.0]);
@@ -199,12 +241,25 @@ fn spec_examples() {
 #[test]
 fn nested_transforms_and_groups() {
     check(&[
-        vec![Step::Translate([4.0, 3.0, 1.0]), Step::Rot(0, 10.0), Step::Rot(1, 20.0)],
+        vec![
+            Step::Translate([4.0, 3.0, 1.0]),
+            Step::Rot(0, 10.0),
+            Step::Rot(1, 20.0),
+        ],
         vec![Step::Rot(2, 30.0), Step::Scale([2.0, 0.5, 3.0])],
         vec![Step::Uniform(0.5), Step::Translate([-1.0, 0.0, 2.0])],
     ]);
-    let shear = [1.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 0.25, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
-    check(&[vec![Step::Translate([1.0, 2.0, 3.0]), Step::Matrix(shear), Step::Rot(1, 45.0)], vec![Step::Scale([1.0, 2.0, 1.0])]]);
+    let shear = [
+        1.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 0.25, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    check(&[
+        vec![
+            Step::Translate([1.0, 2.0, 3.0]),
+            Step::Matrix(shear),
+            Step::Rot(1, 45.0),
+        ],
+        vec![Step::Scale([1.0, 2.0, 1.0])],
+    ]);
 }
 
 fn step() -> impl Strategy<Value = Step> {
@@ -217,7 +272,9 @@ fn step() -> impl Strategy<Value = Step> {
         (0usize..3, -180.0f64..180.0).prop_map(|(a, d)| Step::Rot(a, d.round())),
         (v(), 0.5f64..2.0).prop_map(|(t, k)| {
             let k = (k * 4.0).round() / 4.0;
-            Step::Matrix([k, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, t[0], t[1], t[2], 1.0])
+            Step::Matrix([
+                k, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, t[0], t[1], t[2], 1.0,
+            ])
         }),
     ]
 }

@@ -22,12 +22,20 @@ pub struct Problem {
 impl Problem {
     /// A problem at `span`.
     pub fn at(span: Span, message: impl Into<String>) -> Self {
-        Problem { span: Some(span), message: message.into(), help: None }
+        Problem {
+            span: Some(span),
+            message: message.into(),
+            help: None,
+        }
     }
 
     /// A problem with the file as a whole.
     pub fn whole(message: impl Into<String>) -> Self {
-        Problem { span: None, message: message.into(), help: None }
+        Problem {
+            span: None,
+            message: message.into(),
+            help: None,
+        }
     }
 
     /// Adds a suggestion.
@@ -58,20 +66,24 @@ pub enum LegacyError {
         /// Its text, for the excerpt.
         source_text: String,
         /// What and where.
-        problem: Problem,
+        problem: Box<Problem>,
     },
 }
 
 impl LegacyError {
     /// An error located in `text` of `file`.
     pub(crate) fn invalid(file: &Path, text: &str, problem: Problem) -> Self {
-        LegacyError::Invalid { file: file.to_path_buf(), source_text: text.to_string(), problem }
+        LegacyError::Invalid {
+            file: file.to_path_buf(),
+            source_text: text.to_string(),
+            problem: Box::new(problem),
+        }
     }
 
     /// `(line, column)` of the error, 1-based, when it has a location.
     pub fn location(&self) -> Option<(u32, u32)> {
         match self {
-            LegacyError::Invalid { problem: Problem { span: Some(s), .. }, .. } => Some((s.line, s.col)),
+            LegacyError::Invalid { problem, .. } => problem.span.map(|s| (s.line, s.col)),
             _ => None,
         }
     }
@@ -112,7 +124,9 @@ impl std::error::Error for Excerpt {}
 
 impl miette::Diagnostic for Excerpt {
     fn help<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
-        self.help.as_ref().map(|h| Box::new(h) as Box<dyn fmt::Display>)
+        self.help
+            .as_ref()
+            .map(|h| Box::new(h) as Box<dyn fmt::Display>)
     }
     fn source_code(&self) -> Option<&dyn miette::SourceCode> {
         Some(&self.source)
@@ -132,7 +146,13 @@ fn render(file: &Path, text: &str, p: &Problem) -> String {
         }
         return out;
     };
-    out.push_str(&format!("{}:{}:{}: error: {}\n", file.display(), span.line, span.col, p.message));
+    out.push_str(&format!(
+        "{}:{}:{}: error: {}\n",
+        file.display(),
+        span.line,
+        span.col,
+        p.message
+    ));
     let start = span.start.min(text.len());
     let len = span.end.saturating_sub(span.start).min(text.len() - start);
     let diag = Excerpt {
@@ -141,7 +161,9 @@ fn render(file: &Path, text: &str, p: &Problem) -> String {
         label: LabeledSpan::new(Some("here".into()), start, len),
         source: NamedSource::new(file.display().to_string(), text.to_string()),
     };
-    let handler = GraphicalReportHandler::new_themed(GraphicalTheme::unicode_nocolor()).with_width(100).with_context_lines(1);
+    let handler = GraphicalReportHandler::new_themed(GraphicalTheme::unicode_nocolor())
+        .with_width(100)
+        .with_context_lines(1);
     let mut drawn = String::new();
     if handler.render_report(&mut drawn, &diag).is_ok() {
         // Our header line replaces miette's "× message" line; keep its excerpt and help.

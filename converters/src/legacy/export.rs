@@ -20,7 +20,10 @@ use super::math;
 /// materials emit and that also has punctual lights reads back with its lights only under
 /// `LightsPolicy::Keep`.
 pub fn export(scene: &Scene) -> Result<String, ExportError> {
-    let mut w = Writer { out: String::new(), problems: Vec::new() };
+    let mut w = Writer {
+        out: String::new(),
+        problems: Vec::new(),
+    };
     w.camera(scene);
     w.line(0, "");
     w.line(0, "Background {");
@@ -33,7 +36,9 @@ pub fn export(scene: &Scene) -> Result<String, ExportError> {
     if w.problems.is_empty() {
         Ok(w.out)
     } else {
-        Err(ExportError { problems: w.problems })
+        Err(ExportError {
+            problems: w.problems,
+        })
     }
 }
 
@@ -53,7 +58,10 @@ fn v3(v: [f32; 3]) -> String {
 }
 
 fn is_token(s: &str) -> bool {
-    !s.is_empty() && !s.chars().any(|c| c.is_whitespace() || matches!(c, '{' | '}' | '[' | ']'))
+    !s.is_empty()
+        && !s
+            .chars()
+            .any(|c| c.is_whitespace() || matches!(c, '{' | '}' | '[' | ']'))
 }
 
 impl Writer {
@@ -71,13 +79,19 @@ impl Writer {
 
     fn camera(&mut self, scene: &Scene) {
         let c = &scene.camera;
-        let mut dir = [0.0f32; 3];
-        for i in 0..3 {
+        let dir: [f32; 3] = std::array::from_fn(|i| {
             let p = c.position[i];
-            dir[i] = math::invert_exact(c.look_at[i], c.look_at[i] - p, |x| p + x);
-        }
+            math::invert_exact(c.look_at[i], c.look_at[i] - p, |x| p + x)
+        });
         let lens = c.aperture_radius > 0.0;
-        self.line(0, if lens { "DepthCamera {" } else { "PerspectiveCamera {" });
+        self.line(
+            0,
+            if lens {
+                "DepthCamera {"
+            } else {
+                "PerspectiveCamera {"
+            },
+        );
         self.line(1, &format!("center {}", v3(c.position)));
         self.line(1, &format!("direction {}", v3(dir)));
         self.line(1, &format!("up {}", v3(c.up)));
@@ -132,9 +146,14 @@ impl Writer {
     /// then the others by name.
     fn materials(&mut self, scene: &Scene) -> HashMap<String, usize> {
         let mut names: Vec<&String> = scene.materials.keys().collect();
-        names.sort_by_key(|n| match n.strip_prefix("material").and_then(|k| k.parse::<usize>().ok()) {
-            Some(k) if material_name(k) == **n => (0, k, (*n).clone()),
-            _ => (1, 0, (*n).clone()),
+        names.sort_by_key(|n| {
+            match n
+                .strip_prefix("material")
+                .and_then(|k| k.parse::<usize>().ok())
+            {
+                Some(k) if material_name(k) == **n => (0, k, (*n).clone()),
+                _ => (1, 0, (*n).clone()),
+            }
         });
         let mut index = HashMap::new();
         self.line(0, "Materials {");
@@ -163,7 +182,10 @@ impl Writer {
         }
         lines.push(format!("type {} {} {}", f(d), f(s), f(t)));
         if s > 0.0 && m.roughness > 0.0 {
-            lines.push(format!("shininess {}", f(math::roughness_to_shininess(m.roughness))));
+            lines.push(format!(
+                "shininess {}",
+                f(math::roughness_to_shininess(m.roughness))
+            ));
         }
         if t > 0.0 || m.ior != 1.5 {
             lines.push(format!("refr {}", f(m.ior)));
@@ -176,7 +198,9 @@ impl Writer {
         }
         if let Some(r) = &m.base_color_texture {
             if r.offset != [0.0; 2] || r.rotation_deg != 0.0 || r.scale != [1.0; 2] {
-                self.problem(format!("{at}.base_color_texture: texture coordinate transforms cannot be written"));
+                self.problem(format!(
+                    "{at}.base_color_texture: texture coordinate transforms cannot be written"
+                ));
             }
             match scene.textures.get(&r.texture) {
                 Some(tex) => {
@@ -194,14 +218,21 @@ impl Writer {
                     }
                     lines.push(format!("texture {}", tex.file));
                 }
-                None => self.problem(format!("{at}.base_color_texture: unknown texture `{}`", r.texture)),
+                None => self.problem(format!(
+                    "{at}.base_color_texture: unknown texture `{}`",
+                    r.texture
+                )),
             }
         }
         if m.emission_texture.is_some() {
-            self.problem(format!("{at}.emission_texture: emission textures cannot be written"));
+            self.problem(format!(
+                "{at}.emission_texture: emission textures cannot be written"
+            ));
         }
         if m.roughness_specular_texture.is_some() {
-            self.problem(format!("{at}.roughness_specular_texture: roughness/specular textures cannot be written"));
+            self.problem(format!(
+                "{at}.roughness_specular_texture: roughness/specular textures cannot be written"
+            ));
         }
         lines
     }
@@ -212,10 +243,15 @@ impl Writer {
         for (i, obj) in scene.objects.iter().enumerate() {
             let at = format!("objects[{i}].{}", obj.kind());
             let Some(&k) = index.get(obj.material()) else {
-                self.problem(format!("{at}.material: unknown material `{}`", obj.material()));
+                self.problem(format!(
+                    "{at}.material: unknown material `{}`",
+                    obj.material()
+                ));
                 continue;
             };
-            let Some(shape) = self.shape(&at, obj) else { continue };
+            let Some(shape) = self.shape(&at, obj) else {
+                continue;
+            };
             if current != Some(k) {
                 body.push(format!("MaterialIndex {k}"));
                 current = Some(k);
@@ -244,8 +280,18 @@ impl Writer {
     /// The object's block lines (without its placement), or None after recording a problem.
     fn shape(&mut self, at: &str, obj: &Object) -> Option<Vec<String>> {
         Some(match obj {
-            Object::Sphere(s) => vec!["Sphere {".into(), format!("    center {}", v3(s.center)), format!("    radius {}", f(s.radius)), "}".into()],
-            Object::Plane(p) => vec!["Plane {".into(), format!("    normal {}", v3(p.normal)), format!("    offset {}", f(p.offset)), "}".into()],
+            Object::Sphere(s) => vec![
+                "Sphere {".into(),
+                format!("    center {}", v3(s.center)),
+                format!("    radius {}", f(s.radius)),
+                "}".into(),
+            ],
+            Object::Plane(p) => vec![
+                "Plane {".into(),
+                format!("    normal {}", v3(p.normal)),
+                format!("    offset {}", f(p.offset)),
+                "}".into(),
+            ],
             Object::Triangle(t) => vec![
                 "Triangle {".into(),
                 format!("    vertex0 {}", v3(t.vertices[0])),
@@ -271,14 +317,19 @@ impl Writer {
                 if !is_token(file) || !file.ends_with(".obj") {
                     self.problem(format!("{at}.source.obj: `{file}` cannot be written: the format needs one token ending in `.obj`"));
                 }
-                vec!["TriangleMesh {".into(), format!("    obj_file {file}"), "}".into()]
+                vec![
+                    "TriangleMesh {".into(),
+                    format!("    obj_file {file}"),
+                    "}".into(),
+                ]
             }
             Object::Lathe(l) => {
                 let (kind, points) = match &l.profile {
                     Profile::Bezier(b) => ("BezierCurve", bezier_for_legacy(&b.points)),
                     Profile::Bspline(b) => {
                         let n = b.points.len();
-                        let uniform = b.degree == 3 && b.knots.as_ref().is_some_and(|k| is_uniform(k, n));
+                        let uniform =
+                            b.degree == 3 && b.knots.as_ref().is_some_and(|k| is_uniform(k, n));
                         if !uniform {
                             self.problem(format!(
                                 "{at}.profile.bspline: only cubic B-splines with uniform (unclamped) knots can be written; this one has degree {} and {} knots",
@@ -290,7 +341,11 @@ impl Writer {
                         ("BsplineCurve", b.points.clone())
                     }
                 };
-                let mut lines = vec!["RevSurface {".into(), format!("    profile {kind} {{"), "        controls".into()];
+                let mut lines = vec![
+                    "RevSurface {".into(),
+                    format!("    profile {kind} {{"),
+                    "        controls".into(),
+                ];
                 for p in points {
                     lines.push(format!("            [ {} {} 0 ]", f(p[0]), f(p[1])));
                 }
@@ -314,7 +369,9 @@ fn is_uniform(k: &[f32], n: usize) -> bool {
     }
     let step = k[1] as f64 - k[0] as f64;
     let span = (k[k.len() - 1] as f64 - k[0] as f64).abs();
-    step > 0.0 && k.windows(2).all(|w| ((w[1] as f64 - w[0] as f64) - step).abs() <= 1e-5 * span)
+    step > 0.0
+        && k.windows(2)
+            .all(|w| ((w[1] as f64 - w[0] as f64) - step).abs() <= 1e-5 * span)
 }
 
 /// The legacy framework needs 3k+1 ≥ 4 Bézier points; other counts are degree-elevated, which
@@ -328,7 +385,10 @@ fn bezier_for_legacy(points: &[[f32; 2]]) -> Vec<[f32; 2]> {
         q.push(p[0]);
         for i in 1..n {
             let a = i as f64 / n as f64;
-            q.push([a * p[i - 1][0] + (1.0 - a) * p[i][0], a * p[i - 1][1] + (1.0 - a) * p[i][1]]);
+            q.push([
+                a * p[i - 1][0] + (1.0 - a) * p[i][0],
+                a * p[i - 1][1] + (1.0 - a) * p[i][1],
+            ]);
         }
         q.push(p[n - 1]);
         p = q;
@@ -344,11 +404,14 @@ fn bezier_for_legacy(points: &[[f32; 2]]) -> Vec<[f32; 2]> {
 /// placement, column by column.
 fn transform_lines(ops: &[TransformOp]) -> Vec<String> {
     if ops.iter().any(|o| matches!(o, TransformOp::Matrix(_))) {
-        let m = ops.iter().fold(math::identity(), |acc, op| math::mul(&math::schema_op_matrix(op), &acc));
+        let m = ops.iter().fold(math::identity(), |acc, op| {
+            math::mul(&math::schema_op_matrix(op), &acc)
+        });
         let mut s = String::from("Matrix4f {");
+        // Column by column: the row index varies fastest.
         for c in 0..4 {
-            for r in 0..4 {
-                let _ = write!(s, " {}", f(m[r][c] as f32));
+            for row in &m {
+                let _ = write!(s, " {}", f(row[c] as f32));
             }
         }
         s.push_str(" }");

@@ -6,8 +6,8 @@ use std::path::{Component, Path, PathBuf};
 
 use lumo_schema as schema;
 use lumo_schema::{
-    BezierProfile, BsplineProfile, Camera, Lathe, Light, Material, Mesh, MeshSource, Object, Plane, Profile, Rotation, Scale,
-    Scene, Sphere, Texture, TextureRef, TransformOp, Triangle,
+    BezierProfile, BsplineProfile, Camera, Lathe, Light, Material, Mesh, MeshSource, Object, Plane,
+    Profile, Rotation, Scale, Scene, Sphere, Texture, TextureRef, TransformOp, Triangle,
 };
 
 use super::ast::*;
@@ -71,7 +71,9 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
         ctx.warn(*span, msg.clone());
     }
     let Some(cam) = &doc.camera else {
-        return Err(Problem::whole("the scene has no camera").help("add `PerspectiveCamera { center … direction … up … angle … width … height … }`"));
+        return Err(Problem::whole("the scene has no camera").help(
+            "add `PerspectiveCamera { center … direction … up … angle … width … height … }`",
+        ));
     };
     origins.camera = Some(cam.span);
     let (camera, image) = camera(cam, ctx)?;
@@ -82,11 +84,23 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
             c.value
         }
         Some((None, span)) => {
-            ctx.warn(*span, format!("Background has no color: using the framework's default {}", fmt3(DEFAULT_BACKGROUND)));
+            ctx.warn(
+                *span,
+                format!(
+                    "Background has no color: using the framework's default {}",
+                    fmt3(DEFAULT_BACKGROUND)
+                ),
+            );
             DEFAULT_BACKGROUND
         }
         None => {
-            ctx.warnings.push((None, format!("no Background block: using the framework's default colour {}", fmt3(DEFAULT_BACKGROUND))));
+            ctx.warnings.push((
+                None,
+                format!(
+                    "no Background block: using the framework's default colour {}",
+                    fmt3(DEFAULT_BACKGROUND)
+                ),
+            ));
             DEFAULT_BACKGROUND
         }
     };
@@ -94,7 +108,11 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
     // Materials, named material0, material1, … by their index in the file.
     let mut textures: BTreeMap<String, Texture> = BTreeMap::new();
     let mut materials: BTreeMap<String, Material> = BTreeMap::new();
-    let defs: &[MaterialDef] = doc.materials.as_ref().map(|m| m.materials.as_slice()).unwrap_or(&[]);
+    let defs: &[MaterialDef] = doc
+        .materials
+        .as_ref()
+        .map(|m| m.materials.as_slice())
+        .unwrap_or(&[]);
     for (i, def) in defs.iter().enumerate() {
         let m = material(def, ctx, &mut textures)?;
         materials.insert(material_name(i), m);
@@ -106,14 +124,29 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
     let mut default_material: Option<String> = None;
     match &doc.root {
         Some(root) => {
-            let mut w = Walker { ctx, objects: &mut objects, spans: &mut origins.objects, default_material: &mut default_material, n_materials: defs.len() };
+            let mut w = Walker {
+                ctx,
+                objects: &mut objects,
+                spans: &mut origins.objects,
+                default_material: &mut default_material,
+                n_materials: defs.len(),
+            };
             w.node(root, &Chain::default())?;
         }
-        None => ctx.warnings.push((None, "the scene has no Group: it contains no objects".into())),
+        None => ctx.warnings.push((
+            None,
+            "the scene has no Group: it contains no objects".into(),
+        )),
     }
     if let Some(name) = &default_material {
         // The legacy defaults of a Material block with no fields: white diffuse.
-        materials.insert(name.clone(), Material { base_color: [1.0; 3], ..Material::default() });
+        materials.insert(
+            name.clone(),
+            Material {
+                base_color: [1.0; 3],
+                ..Material::default()
+            },
+        );
     }
 
     let mut scene = Scene {
@@ -131,7 +164,16 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
 
     // Lights: the path-tracing dialects light the scene with emissive materials and ignore the
     // Lights block; the original ray caster uses it. Auto keeps it only when no object emits.
-    let emitters = scene.objects.iter().filter(|o| scene.materials.get(o.material()).is_some_and(|m| !is_zero(m.emission))).count();
+    let emitters = scene
+        .objects
+        .iter()
+        .filter(|o| {
+            scene
+                .materials
+                .get(o.material())
+                .is_some_and(|m| !is_zero(m.emission))
+        })
+        .count();
     if let Some(lights) = &doc.lights {
         let keep = match ctx.lights {
             LightsPolicy::Keep => true,
@@ -150,16 +192,27 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
         } else if !lights.lights.is_empty() {
             let why = match ctx.lights {
                 LightsPolicy::Drop => "as asked".to_string(),
-                _ => format!("because {emitters} object(s) have emissive materials (the path-tracing dialects light the scene by emission only); use lights = keep to keep them"),
+                _ => format!("because {emitters} object(s) have emissive materials (the path-tracing dialects light the scene by emission only); set the lights policy to keep (`--lights keep`) to keep them"),
             };
-            ctx.warn(lights.span, format!("dropping the Lights block ({} light{}) {why}", lights.lights.len(), if lights.lights.len() == 1 { "" } else { "s" }));
+            ctx.warn(
+                lights.span,
+                format!(
+                    "dropping the Lights block ({} light{}) {why}",
+                    lights.lights.len(),
+                    if lights.lights.len() == 1 { "" } else { "s" }
+                ),
+            );
         }
     } else {
         ctx.warnings.push((None, "no Lights block".into()));
     }
     // The original ray caster (punctual lights, no emitters) is lumo's raycast preview; the
     // path-tracing dialects are path traced.
-    scene.render.integrator = if emitters == 0 && !scene.lights.is_empty() { schema::Integrator::Raycast } else { schema::Integrator::Path };
+    scene.render.integrator = if emitters == 0 && !scene.lights.is_empty() {
+        schema::Integrator::Raycast
+    } else {
+        schema::Integrator::Path
+    };
     Ok((scene, origins))
 }
 
@@ -171,60 +224,130 @@ pub fn material_name(i: usize) -> String {
 fn camera(c: &CameraDef, ctx: &mut Context<'_>) -> Result<(Camera, schema::Image), Problem> {
     for (v, what) in [(&c.width, "width"), (&c.height, "height")] {
         if v.value < 1 || v.value > schema::MAX_IMAGE_SIDE as i64 {
-            return Err(Problem::at(v.span, format!("image {what} {} is out of range", v.value)).help(format!("use 1 to {} pixels", schema::MAX_IMAGE_SIDE)));
+            return Err(
+                Problem::at(v.span, format!("image {what} {} is out of range", v.value))
+                    .help(format!("use 1 to {} pixels", schema::MAX_IMAGE_SIDE)),
+            );
         }
     }
     if (c.width.value as u64) * (c.height.value as u64) > schema::MAX_PIXELS {
-        return Err(Problem::at(c.height.span, format!("{}×{} pixels is above the limit of {}", c.width.value, c.height.value, schema::MAX_PIXELS)));
+        return Err(Problem::at(
+            c.height.span,
+            format!(
+                "{}×{} pixels is above the limit of {}",
+                c.width.value,
+                c.height.value,
+                schema::MAX_PIXELS
+            ),
+        ));
     }
     if !(c.angle.value > 0.0 && c.angle.value < 180.0) {
-        return Err(Problem::at(c.angle.span, format!("field of view {} is out of range", c.angle.value)).help("`angle` is the full vertical angle in degrees, strictly between 0 and 180"));
+        return Err(Problem::at(
+            c.angle.span,
+            format!("field of view {} is out of range", c.angle.value),
+        )
+        .help("`angle` is the full vertical angle in degrees, strictly between 0 and 180"));
     }
     let d = c.direction.value;
     if is_zero(d) {
-        return Err(Problem::at(c.direction.span, "the camera direction is the zero vector").help("give the direction the camera looks in, e.g. 0 0 -1"));
+        return Err(
+            Problem::at(c.direction.span, "the camera direction is the zero vector")
+                .help("give the direction the camera looks in, e.g. 0 0 -1"),
+        );
     }
-    let look_at = [c.center.value[0] + d[0], c.center.value[1] + d[1], c.center.value[2] + d[2]];
+    let look_at = [
+        c.center.value[0] + d[0],
+        c.center.value[1] + d[1],
+        c.center.value[2] + d[2],
+    ];
     if look_at == c.center.value {
-        return Err(Problem::at(c.direction.span, "the camera direction is too short to be represented next to the camera position").help("scale the direction up (its length does not matter)"));
+        return Err(Problem::at(
+            c.direction.span,
+            "the camera direction is too short to be represented next to the camera position",
+        )
+        .help("scale the direction up (its length does not matter)"));
     }
     let u = c.up.value;
-    let cross = [d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]];
+    let cross = [
+        d[1] * u[2] - d[2] * u[1],
+        d[2] * u[0] - d[0] * u[2],
+        d[0] * u[1] - d[1] * u[0],
+    ];
     if is_zero(u) || len(cross) <= 1e-6 * len(d) * len(u) {
-        return Err(Problem::at(c.up.span, "the up vector is zero or parallel to the direction, so the image's roll is undefined").help("use an up vector that is not along the direction, e.g. 0 1 0"));
+        return Err(Problem::at(
+            c.up.span,
+            "the up vector is zero or parallel to the direction, so the image's roll is undefined",
+        )
+        .help("use an up vector that is not along the direction, e.g. 0 1 0"));
     }
-    let mut camera = Camera { position: c.center.value, look_at, up: u, fov_y_deg: c.angle.value, aperture_radius: 0.0, focus_distance: None };
+    let mut camera = Camera {
+        position: c.center.value,
+        look_at,
+        up: u,
+        fov_y_deg: c.angle.value,
+        aperture_radius: 0.0,
+        focus_distance: None,
+    };
     if let Some((focus, aperture)) = &c.lens {
-        if !(aperture.value >= 0.0) {
-            return Err(Problem::at(aperture.span, format!("aperture {} must be ≥ 0", aperture.value)).help("the aperture is the lens radius in scene units; 0 is a pinhole"));
+        if aperture.value.is_nan() || aperture.value < 0.0 {
+            return Err(Problem::at(
+                aperture.span,
+                format!("aperture {} must be ≥ 0", aperture.value),
+            )
+            .help("the aperture is the lens radius in scene units; 0 is a pinhole"));
         }
         if aperture.value == 0.0 {
-            ctx.warn(aperture.span, "aperture 0 is a pinhole camera: the focal length is ignored");
+            ctx.warn(
+                aperture.span,
+                "aperture 0 is a pinhole camera: the focal length is ignored",
+            );
         } else {
-            if !(focus.value > 0.0) {
-                return Err(Problem::at(focus.span, format!("focus distance {} must be > 0", focus.value)));
+            if focus.value.is_nan() || focus.value <= 0.0 {
+                return Err(Problem::at(
+                    focus.span,
+                    format!("focus distance {} must be > 0", focus.value),
+                ));
             }
             camera.aperture_radius = aperture.value;
             camera.focus_distance = Some(focus.value);
         }
     }
-    Ok((camera, schema::Image { width: c.width.value as u32, height: c.height.value as u32 }))
+    Ok((
+        camera,
+        schema::Image {
+            width: c.width.value as u32,
+            height: c.height.value as u32,
+        },
+    ))
 }
 
 fn check_color(c: &Located<V3>, what: &str, max: Option<f32>) -> Result<(), Problem> {
     if c.value.iter().any(|x| *x < 0.0) {
-        return Err(Problem::at(c.span, format!("{what} {} has a negative channel", fmt3(c.value))));
+        return Err(Problem::at(
+            c.span,
+            format!("{what} {} has a negative channel", fmt3(c.value)),
+        ));
     }
     if let Some(m) = max {
         if c.value.iter().any(|x| *x > m) {
-            return Err(Problem::at(c.span, format!("{what} {} is above {m}: the surface would reflect more light than it receives", fmt3(c.value)))
-                .help("lumo needs reflectances in [0, 1]; scale the colour down"));
+            return Err(Problem::at(
+                c.span,
+                format!(
+                    "{what} {} is above {m}: the surface would reflect more light than it receives",
+                    fmt3(c.value)
+                ),
+            )
+            .help("lumo needs reflectances in [0, 1]; scale the colour down"));
         }
     }
     Ok(())
 }
 
-fn material(m: &MaterialDef, ctx: &mut Context<'_>, textures: &mut BTreeMap<String, Texture>) -> Result<Material, Problem> {
+fn material(
+    m: &MaterialDef,
+    ctx: &mut Context<'_>,
+    textures: &mut BTreeMap<String, Texture>,
+) -> Result<Material, Problem> {
     let mut out = Material::default();
     if let Some(c) = &m.color {
         check_color(c, "colour", Some(1.0))?;
@@ -241,40 +364,67 @@ fn material(m: &MaterialDef, ctx: &mut Context<'_>, textures: &mut BTreeMap<Stri
     let weight_sources: Vec<(Span, &str)> = [
         m.lobe_weights.map(|w| (w.span, "type")),
         m.reflection.map(|r| (r.span, "reflection")),
-        m.reflective.map(|r| (r.span, "reflective")).or(m.transmissive.map(|t| (t.0.span, "transmissive"))),
+        m.reflective
+            .map(|r| (r.span, "reflective"))
+            .or(m.transmissive.map(|t| (t.0.span, "transmissive"))),
     ]
     .into_iter()
     .flatten()
     .collect();
     if weight_sources.len() > 1 {
         let (span, second) = weight_sources[1];
-        return Err(Problem::at(span, format!("`{second}` conflicts with `{}`: both set the lobe weights", weight_sources[0].1)).help("keep one of them"));
+        return Err(Problem::at(
+            span,
+            format!(
+                "`{second}` conflicts with `{}`: both set the lobe weights",
+                weight_sources[0].1
+            ),
+        )
+        .help("keep one of them"));
     }
     let mut phong = false;
     let (mut d, mut s, mut t) = (1.0f32, 0.0f32, 0.0f32);
     if let Some(w) = &m.lobe_weights {
         let v = w.value;
         if v.iter().any(|x| *x < 0.0) {
-            return Err(Problem::at(w.span, format!("lobe weights `type {}` must not be negative", fmt3(v))));
+            return Err(Problem::at(
+                w.span,
+                format!("lobe weights `type {}` must not be negative", fmt3(v)),
+            ));
         }
         let sum = v[0] + v[1] + v[2];
         if sum == 0.0 {
-            return Err(Problem::at(w.span, "lobe weights `type 0 0 0` are all zero").help("give the (diffuse, specular, refraction) weights, e.g. `type 1 0 0`"));
+            return Err(
+                Problem::at(w.span, "lobe weights `type 0 0 0` are all zero")
+                    .help("give the (diffuse, specular, refraction) weights, e.g. `type 1 0 0`"),
+            );
         }
         // Normalised to sum 1 as the dialects do; weights already summing to 1 (to f32
         // precision) are kept as written so that exported weights read back unchanged.
-        (d, s, t) = if (sum as f64 - 1.0).abs() <= 1e-6 { (v[0], v[1], v[2]) } else { (v[0] / sum, v[1] / sum, v[2] / sum) };
+        (d, s, t) = if (sum as f64 - 1.0).abs() <= 1e-6 {
+            (v[0], v[1], v[2])
+        } else {
+            (v[0] / sum, v[1] / sum, v[2] / sum)
+        };
     } else if let Some(r) = &m.reflection {
         (d, s, t) = match r.value {
             0 => (1.0, 0.0, 0.0),
             1 => (0.0, 1.0, 0.0),
             2 => (0.0, 0.0, 1.0),
-            k => return Err(Problem::at(r.span, format!("reflection kind {k} is unknown")).help("0 is diffuse, 1 mirror, 2 glass")),
+            k => {
+                return Err(
+                    Problem::at(r.span, format!("reflection kind {k} is unknown"))
+                        .help("0 is diffuse, 1 mirror, 2 glass"),
+                )
+            }
         };
     } else if m.reflective.is_some() || m.transmissive.is_some() {
         let r = m.reflective.map(|r| r.value).unwrap_or(0.0);
         let w = m.transmissive.map(|t| t.0.value).unwrap_or(0.0);
-        for (v, span) in [(r, m.reflective.map(|x| x.span)), (w, m.transmissive.map(|x| x.0.span))] {
+        for (v, span) in [
+            (r, m.reflective.map(|x| x.span)),
+            (w, m.transmissive.map(|x| x.0.span)),
+        ] {
             if let Some(span) = span {
                 if !(0.0..=1.0).contains(&v) {
                     return Err(Problem::at(span, format!("weight {v} is outside [0, 1]")));
@@ -282,7 +432,10 @@ fn material(m: &MaterialDef, ctx: &mut Context<'_>, textures: &mut BTreeMap<Stri
             }
         }
         if r + w > 1.0 {
-            return Err(Problem::at(m.span, format!("reflective {r} + transmissive {w} exceed 1")));
+            return Err(Problem::at(
+                m.span,
+                format!("reflective {r} + transmissive {w} exceed 1"),
+            ));
         }
         (d, s, t) = (1.0 - r - w, r, w);
     } else if let Some(sc) = m.specular_color.filter(|c| !is_zero(c.value)) {
@@ -308,8 +461,11 @@ fn material(m: &MaterialDef, ctx: &mut Context<'_>, textures: &mut BTreeMap<Stri
 
     let mut roughness = 0.0f32;
     if let Some(sh) = &m.shininess {
-        if !(sh.value >= 0.0) {
-            return Err(Problem::at(sh.span, format!("shininess {} must be ≥ 0", sh.value)));
+        if sh.value.is_nan() || sh.value < 0.0 {
+            return Err(Problem::at(
+                sh.span,
+                format!("shininess {} must be ≥ 0", sh.value),
+            ));
         }
     }
     if let Some(g) = &m.glossy {
@@ -338,13 +494,21 @@ fn material(m: &MaterialDef, ctx: &mut Context<'_>, textures: &mut BTreeMap<Stri
     out.roughness = roughness;
     out.specular = s;
     out.transmission = t;
-    out.diffuse = if s == 0.0 && t == 0.0 && d == 1.0 { None } else { Some(d) };
+    out.diffuse = if s == 0.0 && t == 0.0 && d == 1.0 {
+        None
+    } else {
+        Some(d)
+    };
 
     // Index of refraction. The dialects default to 1 (no bending) when `refr` is missing.
     let ior = m.refr.or(m.transmissive.map(|t| t.1));
     if let Some(ior) = ior {
-        if !(ior.value > 0.0) {
-            return Err(Problem::at(ior.span, format!("index of refraction {} must be > 0", ior.value)).help("glass is about 1.5, water 1.33"));
+        if ior.value.is_nan() || ior.value <= 0.0 {
+            return Err(Problem::at(
+                ior.span,
+                format!("index of refraction {} must be > 0", ior.value),
+            )
+            .help("glass is about 1.5, water 1.33"));
         }
         out.ior = ior.value;
     } else if t > 0.0 {
@@ -353,36 +517,57 @@ fn material(m: &MaterialDef, ctx: &mut Context<'_>, textures: &mut BTreeMap<Stri
     }
 
     if let Some(tex) = &m.texture {
-        let file = ctx_file(ctx, tex, "texture image")?;
+        let (_, file) = ctx_file(ctx, tex, "texture image")?;
         let name = match textures.iter().find(|(_, t)| t.file == file) {
             Some((name, _)) => name.clone(),
             None => {
                 let name = format!("texture{}", textures.len());
-                textures.insert(name.clone(), Texture { file, gltf_image: None, color_space: schema::ColorSpace::Srgb, wrap: schema::Wrap::Repeat });
+                textures.insert(
+                    name.clone(),
+                    Texture {
+                        file,
+                        gltf_image: None,
+                        color_space: schema::ColorSpace::Srgb,
+                        wrap: schema::Wrap::Repeat,
+                    },
+                );
                 name
             }
         };
-        out.base_color_texture = Some(TextureRef { texture: name, offset: [0.0; 2], rotation_deg: 0.0, scale: [1.0; 2] });
+        out.base_color_texture = Some(TextureRef {
+            texture: name,
+            offset: [0.0; 2],
+            rotation_deg: 0.0,
+            scale: [1.0; 2],
+        });
     }
     Ok(out)
 }
 
-/// Resolves a file named in the scene and returns it relative to the output folder.
-fn ctx_file(ctx: &Context<'_>, name: &Located<String>, what: &str) -> Result<String, Problem> {
+/// Resolves a file named in the scene; returns where it is and how the JSON names it
+/// (relative to the output folder).
+fn ctx_file(
+    ctx: &Context<'_>,
+    name: &Located<String>,
+    what: &str,
+) -> Result<(PathBuf, String), Problem> {
     let given = Path::new(&name.value);
-    let candidates: Vec<PathBuf> = if given.is_absolute() { vec![given.to_path_buf()] } else { ctx.search.iter().map(|d| d.join(given)).collect() };
+    let candidates: Vec<PathBuf> = if given.is_absolute() {
+        vec![given.to_path_buf()]
+    } else {
+        ctx.search.iter().map(|d| d.join(given)).collect()
+    };
     let Some(found) = candidates.iter().find(|p| p.is_file()) else {
         let looked: Vec<String> = candidates.iter().map(|p| p.display().to_string()).collect();
         return Err(Problem::at(name.span, format!("{what} `{}` not found", name.value))
             .help(format!("looked for {}; paths are relative to the scene's folder (or the folder above `testcases/`)", looked.join(" and "))));
     };
-    Ok(relative_to(&ctx.out_dir, found))
+    Ok((found.clone(), relative_to(&ctx.out_dir, found)))
 }
 
 /// `target` written relative to `dir` with `/` separators (absolute when they share no root).
 pub fn relative_to(dir: &Path, target: &Path) -> String {
-    let abs = |p: &Path| p.canonicalize().or_else(|_| std::path::absolute(p)).unwrap_or_else(|_| p.to_path_buf());
-    let (dir, target) = (abs(dir), abs(target));
+    let (dir, target) = (real_path(dir), real_path(target));
     let a: Vec<Component> = dir.components().collect();
     let b: Vec<Component> = target.components().collect();
     let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
@@ -399,6 +584,31 @@ pub fn relative_to(dir: &Path, target: &Path) -> String {
     parts.join("/")
 }
 
+/// The absolute path with symbolic links resolved; for a path that does not exist yet (an output
+/// folder about to be created), its nearest existing ancestor is resolved and the rest appended,
+/// so that both sides of [`relative_to`] are comparable.
+fn real_path(p: &Path) -> PathBuf {
+    let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let mut existing = abs.as_path();
+    let mut rest = Vec::new();
+    loop {
+        if let Ok(real) = existing.canonicalize() {
+            let mut out = real;
+            for part in rest.iter().rev() {
+                out.push(part);
+            }
+            return out;
+        }
+        match (existing.parent(), existing.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                existing = parent;
+            }
+            _ => return abs,
+        }
+    }
+}
+
 /// Placement accumulated from the enclosing Transform blocks.
 #[derive(Debug, Clone)]
 struct Chain {
@@ -412,20 +622,20 @@ struct Chain {
 
 impl Default for Chain {
     fn default() -> Self {
-        Chain { ops: Vec::new(), matrix: math::identity(), has_matrix: false }
+        Chain {
+            ops: Vec::new(),
+            matrix: math::identity(),
+            has_matrix: false,
+        }
     }
 }
 
 impl Chain {
     fn transform(&self) -> Vec<TransformOp> {
         if self.has_matrix {
-            let mut m = [[0.0f32; 4]; 4];
-            for r in 0..4 {
-                for c in 0..4 {
-                    m[r][c] = self.matrix[r][c] as f32;
-                }
-            }
-            vec![TransformOp::Matrix(m)]
+            vec![TransformOp::Matrix(
+                self.matrix.map(|row| row.map(|x| x as f32)),
+            )]
         } else {
             self.ops.clone()
         }
@@ -469,7 +679,11 @@ impl Walker<'_, '_> {
                 // first, reversed from file order (the last step listed acts first).
                 let mut ops_list = inner.0;
                 ops_list.extend(chain.ops.iter().cloned());
-                let next = Chain { ops: ops_list, matrix: math::mul(&chain.matrix, &inner.1), has_matrix: chain.has_matrix || inner.2 };
+                let next = Chain {
+                    ops: ops_list,
+                    matrix: math::mul(&chain.matrix, &inner.1),
+                    has_matrix: chain.has_matrix || inner.2,
+                };
                 return self.node(child, &next);
             }
             ObjectKind::Curve(c) => {
@@ -478,14 +692,24 @@ impl Walker<'_, '_> {
                 return Ok(());
             }
             ObjectKind::Sphere { center, radius } => {
-                if !(radius.value > 0.0) {
-                    return Err(Problem::at(radius.span, format!("sphere radius {} must be > 0", radius.value)));
+                if radius.value.is_nan() || radius.value <= 0.0 {
+                    return Err(Problem::at(
+                        radius.span,
+                        format!("sphere radius {} must be > 0", radius.value),
+                    ));
                 }
-                Object::Sphere(Sphere { name: None, material: self.material(node), transform, center: center.value, radius: radius.value })
+                Object::Sphere(Sphere {
+                    name: None,
+                    material: self.material(node),
+                    transform,
+                    center: center.value,
+                    radius: radius.value,
+                })
             }
             ObjectKind::Plane { normal, offset } => {
                 if is_zero(normal.value) {
-                    return Err(Problem::at(normal.span, "plane normal is the zero vector").help("e.g. 0 1 0 for a floor"));
+                    return Err(Problem::at(normal.span, "plane normal is the zero vector")
+                        .help("e.g. 0 1 0 for a floor"));
                 }
                 let l = len(normal.value);
                 if (l - 1.0).abs() > 1e-4 {
@@ -495,22 +719,38 @@ impl Walker<'_, '_> {
                         offset.value
                     ));
                 }
-                Object::Plane(Plane { name: None, material: self.material(node), transform, normal: normal.value, offset: offset.value })
+                Object::Plane(Plane {
+                    name: None,
+                    material: self.material(node),
+                    transform,
+                    normal: normal.value,
+                    offset: offset.value,
+                })
             }
             ObjectKind::Triangle(v) => {
                 let [a, b, c] = [v[0].value, v[1].value, v[2].value];
                 let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
                 let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-                let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+                let n = [
+                    e1[1] * e2[2] - e1[2] * e2[1],
+                    e1[2] * e2[0] - e1[0] * e2[2],
+                    e1[0] * e2[1] - e1[1] * e2[0],
+                ];
                 if is_zero(n) {
-                    self.ctx.warn(node.span, "degenerate triangle (zero area): it is invisible");
+                    self.ctx.warn(
+                        node.span,
+                        "degenerate triangle (zero area): it is invisible",
+                    );
                 }
-                Object::Triangle(Triangle { name: None, material: self.material(node), transform, vertices: [a, b, c] })
+                Object::Triangle(Triangle {
+                    name: None,
+                    material: self.material(node),
+                    transform,
+                    vertices: [a, b, c],
+                })
             }
             ObjectKind::Mesh(file) => {
-                let rel = ctx_file(self.ctx, file, "OBJ mesh")?;
-                let resolved = self.ctx.out_dir.join(&rel);
-                let resolved = if Path::new(&rel).is_absolute() { PathBuf::from(&rel) } else { resolved };
+                let (resolved, rel) = ctx_file(self.ctx, file, "OBJ mesh")?;
                 match crate::obj::scan_file(&resolved) {
                     Ok(summary) => {
                         if summary.polygons > 0 {
@@ -524,10 +764,19 @@ impl Walker<'_, '_> {
                         }
                     }
                     Err(e) => {
-                        return Err(Problem::at(file.span, format!("mesh `{}` is not a usable OBJ file: {e}", file.value)));
+                        return Err(Problem::at(
+                            file.span,
+                            format!("mesh `{}` is not a usable OBJ file: {e}", file.value),
+                        ));
                     }
                 }
-                Object::Mesh(Mesh { name: None, material: self.material(node), transform, source: MeshSource::Obj(rel), smooth: false })
+                Object::Mesh(Mesh {
+                    name: None,
+                    material: self.material(node),
+                    transform,
+                    source: MeshSource::Obj(rel),
+                    smooth: false,
+                })
             }
             ObjectKind::RevSurface(c) => {
                 let profile = curve_profile(c, true)?;
@@ -538,7 +787,12 @@ impl Walker<'_, '_> {
                         c.points.len() - 1
                     ));
                 }
-                Object::Lathe(Lathe { name: None, material: self.material(node), transform, profile })
+                Object::Lathe(Lathe {
+                    name: None,
+                    material: self.material(node),
+                    transform,
+                    profile,
+                })
             }
         };
         self.objects.push(obj);
@@ -555,20 +809,38 @@ fn transform_block(ops: &[Located<Op>]) -> Result<(Vec<TransformOp>, M4, bool), 
         let converted = match op.value {
             Op::Scale(s) => {
                 if s.contains(&0.0) {
-                    return Err(Problem::at(op.span, format!("scale {} has a zero factor, which flattens the object", fmt3(s))));
+                    return Err(Problem::at(
+                        op.span,
+                        format!(
+                            "scale {} has a zero factor, which flattens the object",
+                            fmt3(s)
+                        ),
+                    ));
                 }
                 TransformOp::Scale(Scale::PerAxis(s))
             }
             Op::UniformScale(s) => {
                 if s == 0.0 {
-                    return Err(Problem::at(op.span, "UniformScale 0 shrinks the object to a point"));
+                    return Err(Problem::at(
+                        op.span,
+                        "UniformScale 0 shrinks the object to a point",
+                    ));
                 }
                 TransformOp::Scale(Scale::Uniform(s))
             }
             Op::Translate(t) => TransformOp::Translate(t),
-            Op::XRotate(d) => TransformOp::Rotate(Rotation { axis: [1.0, 0.0, 0.0], degrees: d }),
-            Op::YRotate(d) => TransformOp::Rotate(Rotation { axis: [0.0, 1.0, 0.0], degrees: d }),
-            Op::ZRotate(d) => TransformOp::Rotate(Rotation { axis: [0.0, 0.0, 1.0], degrees: d }),
+            Op::XRotate(d) => TransformOp::Rotate(Rotation {
+                axis: [1.0, 0.0, 0.0],
+                degrees: d,
+            }),
+            Op::YRotate(d) => TransformOp::Rotate(Rotation {
+                axis: [0.0, 1.0, 0.0],
+                degrees: d,
+            }),
+            Op::ZRotate(d) => TransformOp::Rotate(Rotation {
+                axis: [0.0, 0.0, 1.0],
+                degrees: d,
+            }),
             Op::Rotate(axis, d) => {
                 if is_zero(axis) {
                     return Err(Problem::at(op.span, "rotation axis is the zero vector"));
@@ -584,10 +856,14 @@ fn transform_block(ops: &[Located<Op>]) -> Result<(Vec<TransformOp>, M4, bool), 
                     ))
                     .help("the last row must be 0 0 0 1; if you wrote the matrix row by row, transpose it"));
                 }
-                let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                    - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
                     + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
                 if det == 0.0 {
-                    return Err(Problem::at(op.span, "Matrix4f is singular: it flattens the object"));
+                    return Err(Problem::at(
+                        op.span,
+                        "Matrix4f is singular: it flattens the object",
+                    ));
                 }
                 has_matrix = true;
                 continue;
@@ -612,7 +888,11 @@ fn curve_profile(c: &CurveDef, flat: bool) -> Result<Profile, Problem> {
         CurveKind::Bezier => Profile::Bezier(BezierProfile { points }),
         CurveKind::Bspline => {
             let knots = uniform_knots(points.len());
-            Profile::Bspline(BsplineProfile { degree: 3, points, knots: Some(knots) })
+            Profile::Bspline(BsplineProfile {
+                degree: 3,
+                points,
+                knots: Some(knots),
+            })
         }
     })
 }
@@ -621,27 +901,52 @@ fn curve_profile(c: &CurveDef, flat: bool) -> Result<Profile, Problem> {
 /// (N control points, degree 3). lumo traces [knots[3], knots[N]] = [3/(N+3), N/(N+3)], exactly
 /// the legacy parameter range.
 pub fn uniform_knots(n: usize) -> Vec<f32> {
-    (0..n + 4).map(|i| (i as f64 / (n + 3) as f64) as f32).collect()
+    (0..n + 4)
+        .map(|i| (i as f64 / (n + 3) as f64) as f32)
+        .collect()
 }
 
 fn light(l: &LightDef, scene: &Scene, ctx: &mut Context<'_>) -> Result<(Light, Span), Problem> {
     Ok(match l {
-        LightDef::Directional { span, direction, color } => {
+        LightDef::Directional {
+            span,
+            direction,
+            color,
+        } => {
             if is_zero(direction.value) {
-                return Err(Problem::at(direction.span, "light direction is the zero vector").help("give the direction the light travels, e.g. 0 -1 0"));
+                return Err(
+                    Problem::at(direction.span, "light direction is the zero vector")
+                        .help("give the direction the light travels, e.g. 0 -1 0"),
+                );
             }
             check_color(color, "light colour", None)?;
             let irradiance = color.value.map(|c| math::legacy_to_radiometric(c, 1.0));
-            (Light::Directional(schema::DirectionalLight { direction: direction.value, irradiance }), *span)
+            (
+                Light::Directional(schema::DirectionalLight {
+                    direction: direction.value,
+                    irradiance,
+                }),
+                *span,
+            )
         }
-        LightDef::Point { span, position, color } => {
+        LightDef::Point {
+            span,
+            position,
+            color,
+        } => {
             check_color(color, "light colour", None)?;
             let d = math::point_light_reference_distance(scene, position.value);
             let intensity = color.value.map(|c| math::legacy_to_radiometric(c, d * d));
             ctx.warn(*span, format!(
                 "PointLight has no falloff in the legacy format; lumo's point light falls off with the squared distance, so its intensity is set to match the legacy brightness {d:.4} units away (at the centre of the scene's objects)"
             ));
-            (Light::Point(schema::PointLight { position: position.value, intensity }), *span)
+            (
+                Light::Point(schema::PointLight {
+                    position: position.value,
+                    intensity,
+                }),
+                *span,
+            )
         }
     })
 }

@@ -23,7 +23,10 @@ pub struct Span {
 impl Span {
     /// A span covering `self` through `other`.
     pub fn to(self, other: Span) -> Span {
-        Span { end: other.end.max(self.end), ..self }
+        Span {
+            end: other.end.max(self.end),
+            ..self
+        }
     }
 }
 
@@ -61,7 +64,18 @@ pub struct Lexer<'a> {
 impl<'a> Lexer<'a> {
     /// A lexer over `src`.
     pub fn new(src: &'a str) -> Self {
-        Lexer { src, pos: 0, line: 1, col: 1, peeked: None, last: Span { line: 1, col: 1, ..Span::default() } }
+        Lexer {
+            src,
+            pos: 0,
+            line: 1,
+            col: 1,
+            peeked: None,
+            last: Span {
+                line: 1,
+                col: 1,
+                ..Span::default()
+            },
+        }
     }
 
     /// The whole source text.
@@ -132,7 +146,15 @@ impl<'a> Lexer<'a> {
                 self.bump(c);
             }
         }
-        Some(Token { text: &self.src[start..self.pos], span: Span { start, end: self.pos, line, col } })
+        Some(Token {
+            text: &self.src[start..self.pos],
+            span: Span {
+                start,
+                end: self.pos,
+                line,
+                col,
+            },
+        })
     }
 }
 
@@ -208,7 +230,25 @@ mod tests {
     fn splits_brackets_and_tracks_lines_with_crlf() {
         let toks = texts("Material {diffuseColor 1 0 0\r\n\tshininess 20}\r\n[ 1 2 3]");
         let words: Vec<&str> = toks.iter().map(|t| t.0.as_str()).collect();
-        assert_eq!(words, ["Material", "{", "diffuseColor", "1", "0", "0", "shininess", "20", "}", "[", "1", "2", "3", "]"]);
+        assert_eq!(
+            words,
+            [
+                "Material",
+                "{",
+                "diffuseColor",
+                "1",
+                "0",
+                "0",
+                "shininess",
+                "20",
+                "}",
+                "[",
+                "1",
+                "2",
+                "3",
+                "]"
+            ]
+        );
         assert_eq!((toks[6].1, toks[6].2), (2, 2)); // shininess after a tab
         assert_eq!((toks[8].1, toks[8].2), (2, 14)); // the brace split off "20}"
         assert_eq!((toks[9].1, toks[9].2), (3, 1));
@@ -216,10 +256,20 @@ mod tests {
 
     #[test]
     fn c_style_floats() {
-        for (s, v) in [("-1", -1.0), (".5", 0.5), ("-.16", -0.16), ("1e-3", 1e-3), ("0.000000", 0.0), ("1.", 1.0), ("+2E2", 200.0)] {
+        for (s, v) in [
+            ("-1", -1.0),
+            (".5", 0.5),
+            ("-.16", -0.16),
+            ("1e-3", 1e-3),
+            ("0.000000", 0.0),
+            ("1.", 1.0),
+            ("+2E2", 200.0),
+        ] {
             assert_eq!(parse_float(s), Some(v), "{s}");
         }
-        for s in ["", "-", ".", "e3", "1e", "1.2.3", "inf", "nan", "0x10", "20abc", "1e99", "1,5"] {
+        for s in [
+            "", "-", ".", "e3", "1e", "1.2.3", "inf", "nan", "0x10", "20abc", "1e99", "1,5",
+        ] {
             assert_eq!(parse_float(s), None, "{s}");
         }
         assert_eq!(parse_int("-12"), Some(-12));

@@ -114,15 +114,7 @@ pub fn schema_op_matrix(op: &TransformOp) -> M4 {
         TransformOp::Rotate(r) => rotation(v64(r.axis), r.degrees as f64),
         TransformOp::Scale(Scale::Uniform(s)) => scaling([*s as f64; 3]),
         TransformOp::Scale(Scale::PerAxis(s)) => scaling(v64(*s)),
-        TransformOp::Matrix(m) => {
-            let mut out = [[0.0; 4]; 4];
-            for r in 0..4 {
-                for c in 0..4 {
-                    out[r][c] = m[r][c] as f64;
-                }
-            }
-            out
-        }
+        TransformOp::Matrix(m) => m.map(|row| row.map(|x| x as f64)),
     }
 }
 
@@ -154,8 +146,14 @@ pub fn scene_reference_point(scene: &Scene) -> Option<[f64; 3]> {
                     continue;
                 }
                 let r = pts.iter().map(|p| (p[0] as f64).abs()).fold(0.0, f64::max);
-                let y0 = pts.iter().map(|p| p[1] as f64).fold(f64::INFINITY, f64::min);
-                let y1 = pts.iter().map(|p| p[1] as f64).fold(f64::NEG_INFINITY, f64::max);
+                let y0 = pts
+                    .iter()
+                    .map(|p| p[1] as f64)
+                    .fold(f64::INFINITY, f64::min);
+                let y1 = pts
+                    .iter()
+                    .map(|p| p[1] as f64)
+                    .fold(f64::NEG_INFINITY, f64::max);
                 corners([0.0, (y0 + y1) / 2.0, 0.0], [r, (y1 - y0) / 2.0, r])
             }
         };
@@ -170,7 +168,13 @@ pub fn scene_reference_point(scene: &Scene) -> Option<[f64; 3]> {
             }
         }
     }
-    any.then(|| [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0])
+    any.then(|| {
+        [
+            (lo[0] + hi[0]) / 2.0,
+            (lo[1] + hi[1]) / 2.0,
+            (lo[2] + hi[2]) / 2.0,
+        ]
+    })
 }
 
 fn corners(c: [f64; 3], h: [f64; 3]) -> Vec<[f64; 3]> {
@@ -187,7 +191,9 @@ fn corners(c: [f64; 3], h: [f64; 3]) -> Vec<[f64; 3]> {
 /// both coincide with the light.
 pub fn point_light_reference_distance(scene: &Scene, light: [f32; 3]) -> f64 {
     let l = v64(light);
-    let dist = |p: [f64; 3]| ((p[0] - l[0]).powi(2) + (p[1] - l[1]).powi(2) + (p[2] - l[2]).powi(2)).sqrt();
+    let dist = |p: [f64; 3]| {
+        ((p[0] - l[0]).powi(2) + (p[1] - l[1]).powi(2) + (p[2] - l[2]).powi(2)).sqrt()
+    };
     let mut d = scene_reference_point(scene).map(dist).unwrap_or(0.0);
     if !(d > 1e-6 && d.is_finite()) {
         d = dist(v64(scene.camera.position));
@@ -217,7 +223,11 @@ fn step(x: f32, up: bool) -> f32 {
     }
     let bits = x.to_bits();
     let towards_larger_magnitude = up == (x > 0.0);
-    f32::from_bits(if towards_larger_magnitude { bits + 1 } else { bits - 1 })
+    f32::from_bits(if towards_larger_magnitude {
+        bits + 1
+    } else {
+        bits - 1
+    })
 }
 
 /// Finds x near `guess` with `forward(x) == target` exactly (searching up to 256 representable
@@ -273,7 +283,9 @@ mod tests {
     #[test]
     fn matrix4f_is_column_by_column_and_left_multiplied() {
         // A translation by (1, 2, 3) written column by column: the last column comes last.
-        let t = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0];
+        let t = [
+            1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0,
+        ];
         assert_eq!(apply(&matrix4f(&t), [0.0; 3]), [1.0, 2.0, 3.0]);
         // Scale 2 then Matrix4f: M = Mat · (I · S), so the object is scaled first, then moved.
         let m = legacy_block_matrix(&[Op::UniformScale(2.0), Op::Matrix4f(t)]);
@@ -284,11 +296,19 @@ mod tests {
     fn shininess_round_trips_exactly() {
         for s in [0.0f32, 1.0, 10.0, 20.0, 25.0, 100.0, 1000.0, 3.7] {
             let r = shininess_to_roughness(s);
-            assert_eq!(shininess_to_roughness(roughness_to_shininess(r)), r, "s = {s}");
+            assert_eq!(
+                shininess_to_roughness(roughness_to_shininess(r)),
+                r,
+                "s = {s}"
+            );
         }
         assert_eq!(shininess_to_roughness(0.0), 1.0);
         for r in [0.1f32, 0.316_227_77, 0.5, 0.9, 1.0] {
-            assert_eq!(shininess_to_roughness(roughness_to_shininess(r)), r, "r = {r}");
+            assert_eq!(
+                shininess_to_roughness(roughness_to_shininess(r)),
+                r,
+                "r = {r}"
+            );
         }
     }
 }

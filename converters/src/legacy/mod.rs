@@ -63,13 +63,19 @@ pub struct Imported {
 /// in the scene's folder, or first in the folder above it when the scene lives in `testcases/`
 /// (the course programs ran from the project root).
 pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, LegacyError> {
-    let io = |source| LegacyError::Io { path: path.to_path_buf(), source };
+    let io = |source| LegacyError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let meta = std::fs::metadata(path).map_err(io)?;
     if meta.len() > MAX_LEGACY_BYTES {
         return Err(LegacyError::invalid(
             path,
             "",
-            Problem::whole(format!("the file is {} bytes, above the limit of {MAX_LEGACY_BYTES} for a legacy scene", meta.len())),
+            Problem::whole(format!(
+                "the file is {} bytes, above the limit of {MAX_LEGACY_BYTES} for a legacy scene",
+                meta.len()
+            )),
         ));
     }
     let bytes = std::fs::read(path).map_err(io)?;
@@ -86,31 +92,64 @@ fn decode(path: &Path, bytes: &[u8]) -> Result<String, LegacyError> {
             let text = String::from_utf8_lossy(bytes).into_owned();
             let prefix = &bytes[..at];
             let line = prefix.iter().filter(|b| **b == b'\n').count() as u32 + 1;
-            let line_start = prefix.iter().rposition(|b| *b == b'\n').map(|i| i + 1).unwrap_or(0);
-            let col = String::from_utf8_lossy(&prefix[line_start..]).chars().count() as u32 + 1;
+            let line_start = prefix
+                .iter()
+                .rposition(|b| *b == b'\n')
+                .map(|i| i + 1)
+                .unwrap_or(0);
+            let col = String::from_utf8_lossy(&prefix[line_start..])
+                .chars()
+                .count() as u32
+                + 1;
             // Offsets in the lossy text: the valid prefix is unchanged.
-            let span = lexer::Span { start: at, end: (at + 1).min(text.len()), line, col };
-            Err(LegacyError::invalid(path, &text, Problem::at(span, "the file is not valid UTF-8 text").help("legacy scenes are plain ASCII")))
+            let span = lexer::Span {
+                start: at,
+                end: (at + 1).min(text.len()),
+                line,
+                col,
+            };
+            Err(LegacyError::invalid(
+                path,
+                &text,
+                Problem::at(span, "the file is not valid UTF-8 text")
+                    .help("legacy scenes are plain ASCII"),
+            ))
         }
     }
 }
 
 /// Converts legacy scene `text`; `path` names the file in messages and locates relative file
 /// names (it need not exist).
-pub fn import_str(text: &str, path: &Path, options: &ImportOptions) -> Result<Imported, LegacyError> {
+pub fn import_str(
+    text: &str,
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<Imported, LegacyError> {
     let fail = |p: Problem| LegacyError::invalid(path, text, p);
     let doc = parser::parse_document(text).map_err(fail)?;
     let scene_dir = lumo_schema::base_dir_of(path);
     let mut search = vec![scene_dir.clone()];
     if scene_dir.file_name().is_some_and(|n| n == "testcases") {
         if let Some(parent) = scene_dir.parent() {
-            let parent = if parent.as_os_str().is_empty() { PathBuf::from(".") } else { parent.to_path_buf() };
+            let parent = if parent.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                parent.to_path_buf()
+            };
             search.insert(0, parent);
         }
     }
-    let out_dir = options.output_dir.clone().unwrap_or_else(|| scene_dir.clone());
+    let out_dir = options
+        .output_dir
+        .clone()
+        .unwrap_or_else(|| scene_dir.clone());
     let mut raw_warnings = Vec::new();
-    let mut ctx = import::Context { search, out_dir: out_dir.clone(), lights: options.lights, warnings: &mut raw_warnings };
+    let mut ctx = import::Context {
+        search,
+        out_dir: out_dir.clone(),
+        lights: options.lights,
+        warnings: &mut raw_warnings,
+    };
     let (scene, origins) = import::to_scene(&doc, &mut ctx).map_err(fail)?;
 
     // Safety net: the converted scene must pass lumo's own checks; point any failure back at
@@ -120,9 +159,14 @@ pub fn import_str(text: &str, path: &Path, options: &ImportOptions) -> Result<Im
     if let Some(d) = diagnostics.first() {
         let where_ = d.path.to_string();
         let span = locate(&where_, &origins);
-        let mut p = Problem { span, message: format!("the converted scene is invalid at {where_}: {}", d.message), help: d.help.clone() };
+        let mut p = Problem {
+            span,
+            message: format!("the converted scene is invalid at {where_}: {}", d.message),
+            help: d.help.clone(),
+        };
         if diagnostics.len() > 1 {
-            p.message.push_str(&format!(" (and {} more problem(s))", diagnostics.len() - 1));
+            p.message
+                .push_str(&format!(" (and {} more problem(s))", diagnostics.len() - 1));
         }
         return Err(fail(p));
     }
@@ -139,7 +183,11 @@ pub fn import_str(text: &str, path: &Path, options: &ImportOptions) -> Result<Im
 
 /// The legacy span a JSON path of the converted scene came from.
 fn locate(path: &str, o: &import::Origins) -> Option<lexer::Span> {
-    let index = |rest: &str| rest.strip_prefix('[').and_then(|r| r.split(']').next()).and_then(|n| n.parse::<usize>().ok());
+    let index = |rest: &str| {
+        rest.strip_prefix('[')
+            .and_then(|r| r.split(']').next())
+            .and_then(|n| n.parse::<usize>().ok())
+    };
     let path = path.trim_start_matches('$').trim_start_matches('.');
     if let Some(rest) = path.strip_prefix("objects") {
         return index(rest).and_then(|i| o.objects.get(i).copied());

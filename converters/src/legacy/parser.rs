@@ -18,7 +18,15 @@ pub const MAX_COUNT: i64 = 1_000_000;
 /// Most control points in one curve.
 pub const MAX_CONTROL_POINTS: usize = 100_000;
 
-const TOP_BLOCKS: &[&str] = &["PerspectiveCamera", "DepthCamera", "LensCamera", "Background", "Lights", "Materials", "Group"];
+const TOP_BLOCKS: &[&str] = &[
+    "PerspectiveCamera",
+    "DepthCamera",
+    "LensCamera",
+    "Background",
+    "Lights",
+    "Materials",
+    "Group",
+];
 const LIGHT_KINDS: &[&str] = &["DirectionalLight", "PointLight"];
 const MATERIAL_KINDS: &[&str] = &["Material", "PhongMaterial"];
 const MATERIAL_FIELDS: &[&str] = &[
@@ -51,7 +59,16 @@ const OBJECT_KINDS: &[&str] = &[
     "BsplineCurve",
     "RevSurface",
 ];
-const TRANSFORM_OPS: &[&str] = &["Scale", "UniformScale", "Translate", "XRotate", "YRotate", "ZRotate", "Rotate", "Matrix4f"];
+const TRANSFORM_OPS: &[&str] = &[
+    "Scale",
+    "UniformScale",
+    "Translate",
+    "XRotate",
+    "YRotate",
+    "ZRotate",
+    "Rotate",
+    "Matrix4f",
+];
 
 /// Keywords some student dialects added that lumo cannot represent, with the reason.
 fn unsupported(word: &str) -> Option<&'static str> {
@@ -127,8 +144,15 @@ impl<'a> Parser<'a> {
     fn unexpected(&mut self, expected: &str) -> Problem {
         let found = self.lx.peek();
         let span = self.here();
-        let after = if found.is_none() && span.end > span.start { " after this" } else { "" };
-        Problem::at(span, format!("expected {expected}, found {}{after}", describe(found)))
+        let after = if found.is_none() && span.end > span.start {
+            " after this"
+        } else {
+            ""
+        };
+        Problem::at(
+            span,
+            format!("expected {expected}, found {}{after}", describe(found)),
+        )
     }
 
     fn warn(&mut self, span: Span, msg: impl Into<String>) {
@@ -146,7 +170,9 @@ impl<'a> Parser<'a> {
                 let mut p = self.unexpected(&format!("`{word}` {context}"));
                 if let Some(t) = found {
                     if t.text != word && did_you_mean(t.text, [word]).is_some() {
-                        p = p.help(format!("did you mean `{word}`? (keywords are case-sensitive)"));
+                        p = p.help(format!(
+                            "did you mean `{word}`? (keywords are case-sensitive)"
+                        ));
                     }
                 }
                 Err(p)
@@ -167,13 +193,22 @@ impl<'a> Parser<'a> {
             Some(t) => match parse_float(t.text) {
                 Some(v) => {
                     self.lx.next();
-                    Ok(Located { value: v, span: t.span })
+                    Ok(Located {
+                        value: v,
+                        span: t.span,
+                    })
                 }
                 None => {
-                    let mut p = Problem::at(t.span, format!("expected a number ({what}), found `{}`", shorten(t.text)));
+                    let mut p = Problem::at(
+                        t.span,
+                        format!("expected a number ({what}), found `{}`", shorten(t.text)),
+                    );
                     if t.text.contains(',') {
                         p = p.help("numbers are separated by spaces, not commas");
-                    } else if matches!(t.text.to_ascii_lowercase().as_str(), "inf" | "nan" | "infinity" | "-inf") {
+                    } else if matches!(
+                        t.text.to_ascii_lowercase().as_str(),
+                        "inf" | "nan" | "infinity" | "-inf"
+                    ) {
                         p = p.help("write a finite number");
                     }
                     Err(p)
@@ -188,10 +223,16 @@ impl<'a> Parser<'a> {
             Some(t) => match parse_int(t.text) {
                 Some(v) => {
                     self.lx.next();
-                    Ok(Located { value: v, span: t.span })
+                    Ok(Located {
+                        value: v,
+                        span: t.span,
+                    })
                 }
                 None => {
-                    let mut p = Problem::at(t.span, format!("expected an integer ({what}), found `{}`", shorten(t.text)));
+                    let mut p = Problem::at(
+                        t.span,
+                        format!("expected an integer ({what}), found `{}`", shorten(t.text)),
+                    );
                     if parse_float(t.text).is_some() {
                         p = p.help("write a whole number without a decimal point");
                     }
@@ -205,7 +246,10 @@ impl<'a> Parser<'a> {
     fn count(&mut self, what: &str) -> Result<Located<i64>, Problem> {
         let n = self.int(what)?;
         if n.value < 0 || n.value > MAX_COUNT {
-            return Err(Problem::at(n.span, format!("{what} {} is out of range", n.value)).help(format!("use 0 to {MAX_COUNT}")));
+            return Err(
+                Problem::at(n.span, format!("{what} {} is out of range", n.value))
+                    .help(format!("use 0 to {MAX_COUNT}")),
+            );
         }
         Ok(n)
     }
@@ -214,7 +258,10 @@ impl<'a> Parser<'a> {
         let x = self.float(&format!("x of {what}"))?;
         let y = self.float(&format!("y of {what}"))?;
         let z = self.float(&format!("z of {what}"))?;
-        Ok(Located { value: [x.value, y.value, z.value], span: x.span.to(z.span) })
+        Ok(Located {
+            value: [x.value, y.value, z.value],
+            span: x.span.to(z.span),
+        })
     }
 
     /// `keyword Vec3` in a fixed position.
@@ -232,7 +279,10 @@ impl<'a> Parser<'a> {
         match self.lx.peek() {
             Some(t) if !matches!(t.text, "{" | "}" | "[" | "]") => {
                 self.lx.next();
-                Ok(Located { value: t.text.to_string(), span: t.span })
+                Ok(Located {
+                    value: t.text.to_string(),
+                    span: t.span,
+                })
             }
             _ => Err(self.unexpected(&format!("a file name ({what})"))),
         }
@@ -241,7 +291,10 @@ impl<'a> Parser<'a> {
     fn enter(&mut self, span: Span) -> Result<(), Problem> {
         self.depth += 1;
         if self.depth > MAX_DEPTH {
-            return Err(Problem::at(span, format!("nesting deeper than {MAX_DEPTH} levels")).help("flatten the groups and transforms"));
+            return Err(
+                Problem::at(span, format!("nesting deeper than {MAX_DEPTH} levels"))
+                    .help("flatten the groups and transforms"),
+            );
         }
         Ok(())
     }
@@ -255,21 +308,30 @@ impl<'a> Parser<'a> {
             match t.text {
                 "PerspectiveCamera" | "DepthCamera" | "LensCamera" => {
                     if self.doc.camera.is_some() {
-                        self.warn(t.span, "a second camera block replaces the first (later blocks win)");
+                        self.warn(
+                            t.span,
+                            "a second camera block replaces the first (later blocks win)",
+                        );
                     }
                     let cam = self.camera()?;
                     self.doc.camera = Some(cam);
                 }
                 "Background" => {
                     if self.doc.background.is_some() {
-                        self.warn(t.span, "a second Background block replaces the first (later blocks win)");
+                        self.warn(
+                            t.span,
+                            "a second Background block replaces the first (later blocks win)",
+                        );
                     }
                     let bg = self.background()?;
                     self.doc.background = Some(bg);
                 }
                 "Lights" => {
                     if self.doc.lights.is_some() {
-                        self.warn(t.span, "a second Lights block replaces the first (later blocks win)");
+                        self.warn(
+                            t.span,
+                            "a second Lights block replaces the first (later blocks win)",
+                        );
                     }
                     let l = self.lights()?;
                     self.doc.lights = Some(l);
@@ -280,7 +342,10 @@ impl<'a> Parser<'a> {
                             .help("the original keeps pointers into the replaced block; define all materials once, before the first Group"));
                     }
                     if self.doc.materials.is_some() {
-                        self.warn(t.span, "a second Materials block replaces the first (later blocks win)");
+                        self.warn(
+                            t.span,
+                            "a second Materials block replaces the first (later blocks win)",
+                        );
                     }
                     let m = self.materials()?;
                     self.num_materials = Some(m.materials.len());
@@ -310,7 +375,9 @@ impl<'a> Parser<'a> {
     }
 
     fn camera(&mut self) -> Result<CameraDef, Problem> {
-        let Some(kw) = self.lx.next() else { return Err(self.unexpected("a camera")) };
+        let Some(kw) = self.lx.next() else {
+            return Err(self.unexpected("a camera"));
+        };
         let (kind, name) = match kw.text {
             "DepthCamera" => (CameraKind::Depth, "DepthCamera"),
             "LensCamera" => (CameraKind::Lens, "LensCamera"),
@@ -357,7 +424,17 @@ impl<'a> Parser<'a> {
             }
         }
         self.close(name)?;
-        Ok(CameraDef { kind, span: kw.span, center, direction, up, angle, width, height, lens })
+        Ok(CameraDef {
+            kind,
+            span: kw.span,
+            center,
+            direction,
+            up,
+            angle,
+            width,
+            height,
+            lens,
+        })
     }
 
     fn background(&mut self) -> Result<(Option<Located<V3>>, Span), Problem> {
@@ -372,7 +449,13 @@ impl<'a> Parser<'a> {
                     color = Some(self.vec3("background color")?);
                 }
                 Some(t) => {
-                    let mut p = Problem::at(t.span, format!("unknown Background field `{}`: expected `color` or `}}`", shorten(t.text)));
+                    let mut p = Problem::at(
+                        t.span,
+                        format!(
+                            "unknown Background field `{}`: expected `color` or `}}`",
+                            shorten(t.text)
+                        ),
+                    );
                     if let Some(s) = suggestion(t.text, &["color"]) {
                         p = p.help(s);
                     }
@@ -392,7 +475,9 @@ impl<'a> Parser<'a> {
         let n = self.count("numLights")?;
         let mut lights = Vec::new();
         loop {
-            let Some(t) = self.lx.peek() else { return Err(self.unexpected("a light or `}`")) };
+            let Some(t) = self.lx.peek() else {
+                return Err(self.unexpected("a light or `}`"));
+            };
             let span = t.span;
             match t.text {
                 "}" => break,
@@ -402,7 +487,11 @@ impl<'a> Parser<'a> {
                     let direction = self.field_vec3("direction", "DirectionalLight")?;
                     let color = self.field_vec3("color", "DirectionalLight")?;
                     self.close("DirectionalLight")?;
-                    lights.push(LightDef::Directional { span, direction, color });
+                    lights.push(LightDef::Directional {
+                        span,
+                        direction,
+                        color,
+                    });
                 }
                 "PointLight" => {
                     self.lx.next();
@@ -410,10 +499,20 @@ impl<'a> Parser<'a> {
                     let position = self.field_vec3("position", "PointLight")?;
                     let color = self.field_vec3("color", "PointLight")?;
                     self.close("PointLight")?;
-                    lights.push(LightDef::Point { span, position, color });
+                    lights.push(LightDef::Point {
+                        span,
+                        position,
+                        color,
+                    });
                 }
                 word => {
-                    let mut p = Problem::at(span, format!("expected a light (DirectionalLight or PointLight) or `}}`, found `{}`", shorten(word)));
+                    let mut p = Problem::at(
+                        span,
+                        format!(
+                            "expected a light (DirectionalLight or PointLight) or `}}`, found `{}`",
+                            shorten(word)
+                        ),
+                    );
                     if let Some(why) = unsupported(word) {
                         p = p.help(why);
                     } else if let Some(s) = suggestion(word, LIGHT_KINDS) {
@@ -427,8 +526,16 @@ impl<'a> Parser<'a> {
             }
         }
         if lights.len() as i64 != n.value {
-            return Err(Problem::at(n.span, format!("numLights is {} but the block has {} light{}", n.value, lights.len(), plural(lights.len())))
-                .help(format!("write `numLights {}`", lights.len())));
+            return Err(Problem::at(
+                n.span,
+                format!(
+                    "numLights is {} but the block has {} light{}",
+                    n.value,
+                    lights.len(),
+                    plural(lights.len())
+                ),
+            )
+            .help(format!("write `numLights {}`", lights.len())));
         }
         self.close("Lights")?;
         Ok(LightsDef { span: kw, lights })
@@ -441,7 +548,9 @@ impl<'a> Parser<'a> {
         let n = self.count("numMaterials")?;
         let mut materials = Vec::new();
         loop {
-            let Some(t) = self.lx.peek() else { return Err(self.unexpected("a material or `}`")) };
+            let Some(t) = self.lx.peek() else {
+                return Err(self.unexpected("a material or `}`"));
+            };
             match t.text {
                 "}" => break,
                 "Material" | "PhongMaterial" => {
@@ -449,7 +558,13 @@ impl<'a> Parser<'a> {
                     materials.push(m);
                 }
                 word => {
-                    let mut p = Problem::at(t.span, format!("expected a material (Material or PhongMaterial) or `}}`, found `{}`", shorten(word)));
+                    let mut p = Problem::at(
+                        t.span,
+                        format!(
+                            "expected a material (Material or PhongMaterial) or `}}`, found `{}`",
+                            shorten(word)
+                        ),
+                    );
                     if let Some(s) = suggestion(word, MATERIAL_KINDS) {
                         p = p.help(s);
                     }
@@ -457,23 +572,44 @@ impl<'a> Parser<'a> {
                 }
             }
             if materials.len() as i64 > MAX_COUNT {
-                return Err(Problem::at(t.span, format!("more than {MAX_COUNT} materials")));
+                return Err(Problem::at(
+                    t.span,
+                    format!("more than {MAX_COUNT} materials"),
+                ));
             }
         }
         if materials.len() as i64 != n.value {
-            return Err(Problem::at(n.span, format!("numMaterials is {} but the block has {} material{}", n.value, materials.len(), plural(materials.len())))
-                .help(format!("write `numMaterials {}`", materials.len())));
+            return Err(Problem::at(
+                n.span,
+                format!(
+                    "numMaterials is {} but the block has {} material{}",
+                    n.value,
+                    materials.len(),
+                    plural(materials.len())
+                ),
+            )
+            .help(format!("write `numMaterials {}`", materials.len())));
         }
         self.close("Materials")?;
-        Ok(MaterialsDef { span: kw, materials })
+        Ok(MaterialsDef {
+            span: kw,
+            materials,
+        })
     }
 
     fn material(&mut self) -> Result<MaterialDef, Problem> {
-        let Some(kw) = self.lx.next() else { return Err(self.unexpected("a material")) };
+        let Some(kw) = self.lx.next() else {
+            return Err(self.unexpected("a material"));
+        };
         self.open(kw.text)?;
-        let mut m = MaterialDef { span: kw.span, ..MaterialDef::default() };
+        let mut m = MaterialDef {
+            span: kw.span,
+            ..MaterialDef::default()
+        };
         loop {
-            let Some(t) = self.lx.peek() else { return Err(self.unexpected("a material field or `}`")) };
+            let Some(t) = self.lx.peek() else {
+                return Err(self.unexpected("a material field or `}`"));
+            };
             if t.text == "}" {
                 break;
             }
@@ -490,7 +626,10 @@ impl<'a> Parser<'a> {
                 "shininess" => m.shininess = Some(self.float(key)?),
                 "texture" => m.texture = Some(self.path_token("texture image")?),
                 "emission" | "emissionColor" => m.emission = Some(self.vec3(key)?),
-                "type" => m.lobe_weights = Some(self.vec3("lobe weights (diffuse, specular, refraction)")?),
+                "type" => {
+                    m.lobe_weights =
+                        Some(self.vec3("lobe weights (diffuse, specular, refraction)")?)
+                }
                 "refr" | "refractiveIndex" => m.refr = Some(self.float("index of refraction")?),
                 "glossy" => m.glossy = Some(self.float("glossy flag")?),
                 "reflective" => m.reflective = Some(self.float("mirror weight")?),
@@ -499,7 +638,9 @@ impl<'a> Parser<'a> {
                     let ior = self.float("index of refraction")?;
                     m.transmissive = Some((w, ior));
                 }
-                "reflection" => m.reflection = Some(self.int("reflection kind (0 diffuse, 1 mirror, 2 glass)")?),
+                "reflection" => {
+                    m.reflection = Some(self.int("reflection kind (0 diffuse, 1 mirror, 2 glass)")?)
+                }
                 "refractiveColor" => {
                     let c = self.vec3(key)?;
                     if c.value != [1.0, 1.0, 1.0] {
@@ -509,14 +650,20 @@ impl<'a> Parser<'a> {
                 }
                 "reflectIntensity" | "refractIntensity" => {
                     self.float(key)?;
-                    self.warn(t.span, format!("`{key}` is ignored (zhanglbthu's dialect parses it but never uses it)"));
+                    self.warn(
+                        t.span,
+                        format!(
+                            "`{key}` is ignored (zhanglbthu's dialect parses it but never uses it)"
+                        ),
+                    );
                 }
                 "diffusecolor" => {
                     self.vec3(key)?;
                     self.warn(t.span, "`diffusecolor` (lower-case c) is ignored, as in zhanglbthu's dialect; did you mean `diffuseColor`?");
                 }
                 _ => {
-                    let mut p = Problem::at(t.span, format!("unknown material field `{}`", shorten(key)));
+                    let mut p =
+                        Problem::at(t.span, format!("unknown material field `{}`", shorten(key)));
                     if let Some(why) = unsupported(key) {
                         p = p.help(why);
                     } else if let Some(s) = suggestion(key, MATERIAL_FIELDS) {
@@ -534,7 +681,9 @@ impl<'a> Parser<'a> {
 
     /// One object (or a nested Group) at an object position.
     fn object(&mut self) -> Result<ObjectNode, Problem> {
-        let Some(t) = self.lx.peek() else { return Err(self.unexpected("an object")) };
+        let Some(t) = self.lx.peek() else {
+            return Err(self.unexpected("an object"));
+        };
         let span = t.span;
         self.objects += 1;
         if self.objects > MAX_COUNT {
@@ -580,8 +729,14 @@ impl<'a> Parser<'a> {
                 self.expect("obj_file", "in TriangleMesh")?;
                 let file = self.path_token("OBJ mesh")?;
                 if !file.value.ends_with(".obj") {
-                    return Err(Problem::at(file.span, format!("mesh file `{}` does not end in `.obj`", shorten(&file.value)))
-                        .help("the legacy format loads Wavefront OBJ meshes only"));
+                    return Err(Problem::at(
+                        file.span,
+                        format!(
+                            "mesh file `{}` does not end in `.obj`",
+                            shorten(&file.value)
+                        ),
+                    )
+                    .help("the legacy format loads Wavefront OBJ meshes only"));
                 }
                 self.close("TriangleMesh")?;
                 ObjectKind::Mesh(file)
@@ -607,7 +762,8 @@ impl<'a> Parser<'a> {
                 match self.lx.peek() {
                     Some(t) if t.text == "BezierCurve" || t.text == "BsplineCurve" => {}
                     Some(t) => {
-                        let mut p = self.unexpected("a profile curve (BezierCurve or BsplineCurve)");
+                        let mut p =
+                            self.unexpected("a profile curve (BezierCurve or BsplineCurve)");
                         if let Some(s) = suggestion(t.text, &["BezierCurve", "BsplineCurve"]) {
                             p = p.help(s);
                         }
@@ -621,7 +777,10 @@ impl<'a> Parser<'a> {
                 ObjectKind::RevSurface(c)
             }
             word => {
-                let mut p = Problem::at(span, format!("expected an object, found `{}`", shorten(word)));
+                let mut p = Problem::at(
+                    span,
+                    format!("expected an object, found `{}`", shorten(word)),
+                );
                 if let Some(why) = unsupported(word) {
                     p = p.help(why);
                 } else if let Some(s) = suggestion(word, OBJECT_KINDS) {
@@ -632,7 +791,11 @@ impl<'a> Parser<'a> {
                 return Err(p);
             }
         };
-        Ok(ObjectNode { span, material, kind })
+        Ok(ObjectNode {
+            span,
+            material,
+            kind,
+        })
     }
 
     /// After `Group`: `{ numObjects N (MaterialIndex k | object)* }`.
@@ -642,7 +805,9 @@ impl<'a> Parser<'a> {
         let n = self.count("numObjects")?;
         let mut items = Vec::new();
         loop {
-            let Some(t) = self.lx.peek() else { return Err(self.unexpected("an object, `MaterialIndex` or `}`")) };
+            let Some(t) = self.lx.peek() else {
+                return Err(self.unexpected("an object, `MaterialIndex` or `}`"));
+            };
             match t.text {
                 "}" => break,
                 "MaterialIndex" => {
@@ -655,7 +820,16 @@ impl<'a> Parser<'a> {
                         } else {
                             format!("indices are 0-based: use 0 to {}", count.saturating_sub(1))
                         };
-                        return Err(Problem::at(k.span, format!("MaterialIndex {} is out of range: there {} {count} material{}", k.value, if count == 1 { "is" } else { "are" }, plural(count))).help(help));
+                        return Err(Problem::at(
+                            k.span,
+                            format!(
+                                "MaterialIndex {} is out of range: there {} {count} material{}",
+                                k.value,
+                                if count == 1 { "is" } else { "are" },
+                                plural(count)
+                            ),
+                        )
+                        .help(help));
                     }
                     self.material_index_used = true;
                     self.current_material = Some(k.value as usize);
@@ -667,8 +841,19 @@ impl<'a> Parser<'a> {
             }
         }
         if items.len() as i64 != n.value {
-            return Err(Problem::at(n.span, format!("numObjects is {} but the group has {} object{}", n.value, items.len(), plural(items.len())))
-                .help(format!("write `numObjects {}` (MaterialIndex lines are not counted)", items.len())));
+            return Err(Problem::at(
+                n.span,
+                format!(
+                    "numObjects is {} but the group has {} object{}",
+                    n.value,
+                    items.len(),
+                    plural(items.len())
+                ),
+            )
+            .help(format!(
+                "write `numObjects {}` (MaterialIndex lines are not counted)",
+                items.len()
+            )));
         }
         self.close("Group")?;
         Ok(items)
@@ -679,7 +864,9 @@ impl<'a> Parser<'a> {
         self.open("Transform")?;
         let mut ops = Vec::new();
         loop {
-            let Some(t) = self.lx.peek() else { return Err(self.unexpected("a transform step or an object")) };
+            let Some(t) = self.lx.peek() else {
+                return Err(self.unexpected("a transform step or an object"));
+            };
             let span = t.span;
             let op = match t.text {
                 "Scale" => {
@@ -726,10 +913,18 @@ impl<'a> Parser<'a> {
                 }
                 word if OBJECT_KINDS.contains(&word) => break,
                 word => {
-                    let mut p = Problem::at(span, format!("expected a transform step or an object, found `{}`", shorten(word)));
-                    let all: Vec<&'static str> = TRANSFORM_OPS.iter().chain(OBJECT_KINDS).copied().collect();
+                    let mut p = Problem::at(
+                        span,
+                        format!(
+                            "expected a transform step or an object, found `{}`",
+                            shorten(word)
+                        ),
+                    );
+                    let all: Vec<&'static str> =
+                        TRANSFORM_OPS.iter().chain(OBJECT_KINDS).copied().collect();
                     if word == "}" {
-                        p = Problem::at(span, "a Transform needs exactly one object before `}`").help("wrap the object to transform inside the block");
+                        p = Problem::at(span, "a Transform needs exactly one object before `}`")
+                            .help("wrap the object to transform inside the block");
                     } else if let Some(s) = suggestion(word, &all) {
                         p = p.help(s);
                     }
@@ -737,7 +932,10 @@ impl<'a> Parser<'a> {
                 }
             };
             let end = self.lx.last_span();
-            ops.push(Located { value: op, span: span.to(end) });
+            ops.push(Located {
+                value: op,
+                span: span.to(end),
+            });
             if ops.len() > 10_000 {
                 return Err(Problem::at(span, "more than 10000 steps in one Transform"));
             }
@@ -745,7 +943,8 @@ impl<'a> Parser<'a> {
         let child = self.object()?;
         if let Some(t) = self.lx.peek() {
             if t.text != "}" && OBJECT_KINDS.contains(&t.text) {
-                return Err(Problem::at(t.span, "a Transform holds exactly one object").help("wrap several objects in a Group inside the Transform"));
+                return Err(Problem::at(t.span, "a Transform holds exactly one object")
+                    .help("wrap several objects in a Group inside the Transform"));
             }
         }
         self.close("Transform")?;
@@ -754,8 +953,14 @@ impl<'a> Parser<'a> {
 
     /// `BezierCurve|BsplineCurve { controls [ x y z ]* }`.
     fn curve(&mut self) -> Result<CurveDef, Problem> {
-        let Some(kw) = self.lx.next() else { return Err(self.unexpected("a curve")) };
-        let kind = if kw.text == "BezierCurve" { CurveKind::Bezier } else { CurveKind::Bspline };
+        let Some(kw) = self.lx.next() else {
+            return Err(self.unexpected("a curve"));
+        };
+        let kind = if kw.text == "BezierCurve" {
+            CurveKind::Bezier
+        } else {
+            CurveKind::Bspline
+        };
         self.open(kw.text)?;
         self.expect("controls", &format!("in {}", kw.text))?;
         let mut points = Vec::new();
@@ -766,9 +971,15 @@ impl<'a> Parser<'a> {
                     self.lx.next();
                     let p = self.vec3("control point")?;
                     let end = self.expect("]", "to close the control point")?;
-                    points.push(Located { value: p.value, span: t.span.to(end) });
+                    points.push(Located {
+                        value: p.value,
+                        span: t.span.to(end),
+                    });
                     if points.len() > MAX_CONTROL_POINTS {
-                        return Err(Problem::at(t.span, format!("more than {MAX_CONTROL_POINTS} control points")));
+                        return Err(Problem::at(
+                            t.span,
+                            format!("more than {MAX_CONTROL_POINTS} control points"),
+                        ));
                     }
                 }
                 _ => return Err(self.unexpected("a control point `[ x y z ]` or `}`")),
@@ -778,15 +989,25 @@ impl<'a> Parser<'a> {
         let n = points.len();
         match kind {
             CurveKind::Bezier if n < 4 || (n - 1) % 3 != 0 => {
-                return Err(Problem::at(kw.span, format!("a BezierCurve needs 3k+1 control points (4, 7, 10, ...), found {n}"))
-                    .help("the course framework rejects other counts"));
+                return Err(Problem::at(
+                    kw.span,
+                    format!("a BezierCurve needs 3k+1 control points (4, 7, 10, ...), found {n}"),
+                )
+                .help("the course framework rejects other counts"));
             }
             CurveKind::Bspline if n < 4 => {
-                return Err(Problem::at(kw.span, format!("a BsplineCurve needs at least 4 control points, found {n}")));
+                return Err(Problem::at(
+                    kw.span,
+                    format!("a BsplineCurve needs at least 4 control points, found {n}"),
+                ));
             }
             _ => {}
         }
-        Ok(CurveDef { kind, span: kw.span, points })
+        Ok(CurveDef {
+            kind,
+            span: kw.span,
+            points,
+        })
     }
 }
 

@@ -5,7 +5,10 @@ use std::path::{Path, PathBuf};
 
 /// The workspace root (the parent of this crate).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("crate is inside the workspace").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("crate is inside the workspace")
+        .to_path_buf()
 }
 
 /// The shared test data folder: `$LUMO_SHARED`, else `../shared` beside the workspace root.
@@ -20,9 +23,15 @@ pub fn shared_dir() -> Option<PathBuf> {
         return Some(dir);
     }
     if std::env::var("LUMO_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!("shared test data not found at {} (LUMO_REQUIRE_SHARED=1)", dir.display());
+        panic!(
+            "shared test data not found at {} (LUMO_REQUIRE_SHARED=1)",
+            dir.display()
+        );
     }
-    eprintln!("SKIPPED: ../shared not found (looked at {}); set LUMO_SHARED", dir.display());
+    eprintln!(
+        "SKIPPED: ../shared not found (looked at {}); set LUMO_SHARED",
+        dir.display()
+    );
     None
 }
 
@@ -41,7 +50,12 @@ pub fn txt_files(dir: &Path) -> Vec<PathBuf> {
 pub fn shared_legacy_scenes() -> Option<Vec<PathBuf>> {
     let dir = shared_dir()?.join("legacy-scenes");
     let files = txt_files(&dir);
-    assert!(files.len() >= 16, "expected the 16 shared legacy scenes in {}, found {}", dir.display(), files.len());
+    assert!(
+        files.len() >= 16,
+        "expected the 16 shared legacy scenes in {}, found {}",
+        dir.display(),
+        files.len()
+    );
     Some(files)
 }
 
