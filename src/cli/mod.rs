@@ -178,10 +178,8 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
                 println!("{}: ok", f.display());
             }
             Err(e) => {
-                worst = worst.max(if e.code == EXIT_INVALID { EXIT_INVALID } else { EXIT_FAILURE }.max(worst));
-                if e.code == EXIT_FAILURE {
-                    worst = worst.max(EXIT_FAILURE);
-                }
+                // 2 (invalid) outranks 1 (I/O) when files fail in different ways.
+                worst = worst.max(e.code);
                 report.push_str(&e.message);
                 report.push('\n');
             }
@@ -190,7 +188,6 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
     if worst == 0 {
         Ok(())
     } else {
-        // Invalid input wins over I/O trouble only when some file was actually invalid.
         Err(CliError { code: worst, message: report.trim_end().to_string() })
     }
 }
