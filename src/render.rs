@@ -125,7 +125,7 @@ pub fn render_pixel(scene: &Scene, x: u32, y: u32, stats: &mut TraceStats) -> (R
     let mut good = 0u32;
     let mut bad = 0u64;
     for i in 0..s.spp {
-        let mut sampler = Sampler::new(s.seed, pixel, u64::from(i));
+        let mut sampler = Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(i));
         let jitter = sampler.get_2d();
         let film = Vec2::new((x as f32 + jitter.x) / s.width as f32, (y as f32 + jitter.y) / s.height as f32);
         let ray = scene.camera.ray(film, sampler.get_2d());

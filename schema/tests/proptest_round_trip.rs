@@ -131,7 +131,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                 schema: Some("../schema/scene.schema.json".into()),
                 format_version: 1,
                 image: Image { width, height },
-                render: RenderSettings { integrator, spp, max_depth, seed, time_budget_s },
+                render: RenderSettings { integrator, sampler: if seed % 2 == 0 { SamplerKind::Sobol } else { SamplerKind::Independent }, spp, max_depth, seed, time_budget_s },
                 camera: Camera { position, look_at, up, fov_y_deg, aperture_radius, focus_distance },
                 background: Background { color: bg },
                 textures,

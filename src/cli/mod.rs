@@ -65,6 +65,15 @@ pub enum IntegratorArg {
     Raycast,
 }
 
+/// Sampler choice on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SamplerArg {
+    /// Owen-scrambled Sobol.
+    Sobol,
+    /// Independent random numbers.
+    Independent,
+}
+
 /// Tone mapping choice on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ToneMapArg {
@@ -125,6 +134,9 @@ pub struct RenderArgs {
     /// Light-transport algorithm (overrides the scene).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorArg>,
+    /// Sample sequence (overrides the scene).
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
     /// Tone mapping for 8-bit outputs (PNG, BMP); EXR and HDR stay linear.
     #[arg(long, value_enum, default_value = "clamp")]
     pub tonemap: ToneMapArg,
@@ -215,6 +227,12 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
         s.render.integrator = match i {
             IntegratorArg::Path => schema::Integrator::Path,
             IntegratorArg::Raycast => schema::Integrator::Raycast,
+        };
+    }
+    if let Some(k) = args.sampler {
+        s.render.sampler = match k {
+            SamplerArg::Sobol => schema::SamplerKind::Sobol,
+            SamplerArg::Independent => schema::SamplerKind::Independent,
         };
     }
     let pixels = u64::from(s.image.width) * u64::from(s.image.height);
