@@ -40,8 +40,8 @@ fi
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
 # Pinned to versions measured in README.md; bump deliberately.
 "$VENV/bin/python" -m pip install --quiet \
-    "numpy<2.3" \
-    "OpenEXR>=3.3" \
+    "numpy==1.26.4" \
+    "OpenEXR==3.5.3" \
     "mitsuba==3.9.1" \
     "bpy==5.0.1" \
     "embreex==4.4.0.post1"
@@ -49,6 +49,7 @@ fi
 import importlib
 for m in ("numpy", "OpenEXR", "mitsuba", "bpy", "embreex"):
     mod = importlib.import_module(m)
-    print(f"setup: {m} {getattr(mod, '__version__', '?')}")
+    version = getattr(mod, "__version__", None) or mod.app.version_string  # bpy has no __version__
+    print(f"setup: {m} {version}")
 PY
 echo "setup: done; run scripts with $VENV/bin/python"
