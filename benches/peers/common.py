@@ -13,9 +13,11 @@ REPO_ROOT = HERE.parent.parent
 DEFAULT_LADDER = (1, 4, 16, 64, 256)
 REFERENCE_EXR = REPO_ROOT / "tests" / "reference" / "cornell_mitsuba_4096.exr"
 
-#: Columns of every peer's ``timings.csv``. ``exr`` is relative to the CSV's folder.
-#: ``load1`` is the 1-minute load average when the rung finished (the machine is shared).
-TIMING_COLUMNS = ("peer", "spp", "seconds", "samples_per_second", "exr", "load1")
+#: Columns of every peer's ``timings.csv``. ``seconds`` is wall time; ``cpu_seconds`` the CPU
+#: time (user + system, all threads) of the same render, which a busy machine inflates much less
+#: than wall time. ``exr`` is relative to the CSV's folder. ``load1`` is the 1-minute load
+#: average when the rung finished (the machine is shared).
+TIMING_COLUMNS = ("peer", "spp", "seconds", "samples_per_second", "exr", "load1", "cpu_seconds")
 
 
 def parse_ladder(text: str) -> list[int]:
@@ -83,9 +85,11 @@ def write_timings(path: Path, rows: list[dict]) -> None:
             w.writerow({k: r.get(k, "") for k in TIMING_COLUMNS})
 
 
-def timing_row(peer: str, spp: int, seconds: float, exr_name: str) -> dict:
+def timing_row(peer: str, spp: int, seconds: float, exr_name: str,
+               cpu_seconds: float | None = None) -> dict:
     """One CSV row; samples/s counts camera samples (pixels x spp), not rays."""
     return {
+        "cpu_seconds": "" if cpu_seconds is None else f"{cpu_seconds:.4f}",
         "peer": peer,
         "spp": spp,
         "seconds": f"{seconds:.4f}",

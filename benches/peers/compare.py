@@ -3,9 +3,9 @@
     .venv/bin/python compare.py [--runs out/mitsuba-llvm out/cycles out/lumo ...]
                                 [--reference tests/reference/cornell_mitsuba_4096.exr]
 
-A *run* is a folder holding ``timings.csv`` with at least the columns ``peer,spp,seconds`` (and
-optionally ``samples_per_second,exr,load1``) plus the EXRs it names: column ``exr`` relative to
-the folder, or, when that column is missing or empty, ``<peer>_<spp>spp.exr``. Any renderer can
+A *run* is a folder holding ``timings.csv`` with at least the columns ``peer,spp,seconds``
+(optionally ``samples_per_second,exr,load1,cpu_seconds``) plus the EXRs it names: column ``exr``
+relative to the folder, or, when that column is missing or empty, ``<peer>_<spp>spp.exr``. Any renderer can
 be added this way (see ``lumo_cornell.py`` for lumo). By default every folder under ``out/``
 that has a ``timings.csv`` is a run.
 
@@ -19,7 +19,11 @@ log(time)-log(RMSE) between the two ladder rungs that bracket it (Monte Carlo er
 t^-1/2, a straight line in log-log); outside the ladder it is extrapolated from the nearest two
 rungs and marked with '*'.
 
-Writes ``results.csv`` (one row per run and rung) and prints both tables as Markdown.
+The same table is printed for CPU time (user + system of all threads) when every run has a
+``cpu_seconds`` column: on a machine shared with other jobs it is far less inflated than wall
+time (the peers' wall times assume they have all cores to themselves).
+
+Writes ``results.csv`` (one row per run and rung) and prints the tables as Markdown.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ class Rung:
     samples_per_second: float
     load1: str
     exr: Path
+    cpu_seconds: float = math.nan
     rmse: float = math.nan
     rel_mse: float = math.nan
 
@@ -72,9 +77,11 @@ def load_run(folder: Path) -> list[Rung]:
             peer = row["peer"].strip()
             exr = (row.get("exr") or "").strip() or f"{peer}_{spp}spp.exr"
             sps = row.get("samples_per_second") or ""
+            cpu = (row.get("cpu_seconds") or "").strip()
             rungs.append(Rung(peer, spp, seconds,
                               float(sps) if sps else common.WIDTH_HEIGHT * spp / seconds,
-                              (row.get("load1") or "").strip(), folder / exr))
+                              (row.get("load1") or "").strip(), folder / exr,
+                              float(cpu) if cpu else math.nan))
     if not rungs:
         raise SystemExit(f"{path}: no rows")
     return rungs
@@ -91,9 +98,10 @@ def errors(img: np.ndarray, ref: np.ndarray, where: Path) -> tuple[float, float]
     return float(np.sqrt(d2.mean())), float((d2 / (ref * ref + 0.01)).mean())
 
 
-def time_to_error(rungs: list[Rung], target: float) -> tuple[float, bool]:
-    """Seconds to reach RMSE ``target`` (log-log interpolation); flag True if extrapolated."""
-    pts = sorted((r.seconds, r.rmse) for r in rungs)
+def time_to_error(rungs: list[Rung], target: float, cpu: bool = False) -> tuple[float, bool]:
+    """Seconds (wall, or CPU if ``cpu``) to reach RMSE ``target`` by log-log interpolation;
+    the flag is True if extrapolated."""
+    pts = sorted(((r.cpu_seconds if cpu else r.seconds), r.rmse) for r in rungs)
     if len(pts) == 1:  # single rung: assume the Monte Carlo rate, error ~ t^-1/2
         t, e = pts[0]
         return t * (e / target) ** 2, True
@@ -140,36 +148,43 @@ def main() -> None:
 
     with open(args.results, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["peer", "spp", "seconds", "samples_per_second", "rmse", "rel_mse", "load1"])
+        w.writerow(["peer", "spp", "seconds", "samples_per_second", "rmse", "rel_mse", "load1",
+                    "cpu_seconds"])
         for peer, rungs in peers.items():
             for r in sorted(rungs, key=lambda r: r.spp):
                 w.writerow([peer, r.spp, f"{r.seconds:.4f}", f"{r.samples_per_second:.1f}",
-                            f"{r.rmse:.6f}", f"{r.rel_mse:.6f}", r.load1])
+                            f"{r.rmse:.6f}", f"{r.rel_mse:.6f}", r.load1,
+                            "" if math.isnan(r.cpu_seconds) else f"{r.cpu_seconds:.4f}"])
 
     print(f"reference: {args.reference}\n")
     print("Equal spp (RMSE of linear radiance vs the reference)\n")
-    print("| peer | spp | seconds | M samples/s | RMSE | relMSE | load |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+    print("| peer | spp | seconds | M samples/s | RMSE | relMSE | CPU s | load |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for peer, rungs in peers.items():
         for r in sorted(rungs, key=lambda r: r.spp):
             print(f"| {peer} | {r.spp} | {r.seconds:.3f} | {r.samples_per_second / 1e6:.2f} | "
-                  f"{r.rmse:.5f} | {r.rel_mse:.6f} | {r.load1} |")
+                  f"{r.rmse:.5f} | {r.rel_mse:.6f} | {r.cpu_seconds:.3f} | {r.load1} |")
 
     target_rungs = [r for r in peers.get(args.target_peer, []) if r.spp == args.target_spp]
     if not target_rungs:
         print(f"\n(no {args.target_peer} run at {args.target_spp} spp: no equal-error table)")
         return
     target = target_rungs[0].rmse
-    times = {peer: time_to_error(rungs, target) for peer, rungs in peers.items()}
     names = list(peers)
-    print(f"\nEqual error: time to reach RMSE {target:.5f} "
-          f"({args.target_peer} at {args.target_spp} spp); * = extrapolated beyond the ladder\n")
-    print("| peer | seconds | " + " | ".join(f"time ratio vs {n}" for n in names) + " |")
-    print("|---|---:|" + "---:|" * len(names))
-    for peer in names:
-        t, extra = times[peer]
-        ratios = " | ".join(f"{t / times[n][0]:.2f}" for n in names)
-        print(f"| {peer} | {t:.3f}{'*' if extra else ''} | {ratios} |")
+    clocks = [("wall", False)]
+    if all(not math.isnan(r.cpu_seconds) for rungs in peers.values() for r in rungs):
+        clocks.append(("CPU (all threads)", True))
+    for clock, cpu in clocks:
+        times = {peer: time_to_error(rungs, target, cpu) for peer, rungs in peers.items()}
+        print(f"\nEqual error, {clock} time: seconds to reach RMSE {target:.5f} "
+              f"({args.target_peer} at {args.target_spp} spp); * = extrapolated beyond the "
+              "ladder\n")
+        print("| peer | seconds | " + " | ".join(f"time ratio vs {n}" for n in names) + " |")
+        print("|---|---:|" + "---:|" * len(names))
+        for peer in names:
+            t, extra = times[peer]
+            ratios = " | ".join(f"{t / times[n][0]:.2f}" for n in names)
+            print(f"| {peer} | {t:.3f}{'*' if extra else ''} | {ratios} |")
     print(f"\nwrote {args.results}")
 
 

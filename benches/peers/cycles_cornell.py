@@ -25,7 +25,8 @@ Blender's ``render_pre`` to ``render_post`` handlers, i.e. scene sync (24 quads:
 path tracing, without writing the EXR. Each rung is timed --repeats times (default 3, same seed,
 identical image) and the fastest is kept, since the machine is shared.
 
-Output: ``out/cycles/cycles_<spp>spp.exr`` (linear float32 RGB) and ``timings.csv``.
+Output: ``out/cycles/cycles_<spp>spp.exr`` (linear float32 RGB) and ``timings.csv`` (wall and
+CPU seconds of all threads between the handlers).
 """
 
 from __future__ import annotations
@@ -199,21 +200,22 @@ class Timer:
     """Times render_pre -> render_post (excludes the EXR write and Python overhead)."""
 
     def __init__(self, bpy):
-        self.t0 = self.t1 = None
+        self.t0 = self.t1 = self.c0 = self.c1 = None
         bpy.app.handlers.render_pre.append(self._pre)
         bpy.app.handlers.render_post.append(self._post)
 
     def _pre(self, *_):
-        self.t0 = time.perf_counter()
+        self.c0, self.t0 = time.process_time(), time.perf_counter()
 
     def _post(self, *_):
-        self.t1 = time.perf_counter()
+        self.c1, self.t1 = time.process_time(), time.perf_counter()
 
-    def seconds(self) -> float:
-        return self.t1 - self.t0
+    def seconds(self) -> tuple[float, float]:
+        """(wall, CPU of all threads) between the two handlers."""
+        return self.t1 - self.t0, self.c1 - self.c0
 
 
-def render(bpy, scene, timer: Timer, spp: int, seed: int, path: Path) -> float:
+def render(bpy, scene, timer: Timer, spp: int, seed: int, path: Path) -> tuple[float, float]:
     scene.cycles.samples = spp
     scene.cycles.seed = seed
     scene.render.filepath = str(path)
@@ -221,10 +223,10 @@ def render(bpy, scene, timer: Timer, spp: int, seed: int, path: Path) -> float:
     wall0 = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     wall = time.perf_counter() - wall0
-    dt = timer.seconds()
+    dt, cpu = timer.seconds()
     if not (0 < dt <= wall):
         raise RuntimeError(f"render handlers gave {dt} s for a {wall} s call")
-    return dt
+    return dt, cpu
 
 
 def check_light_pixels(img: np.ndarray) -> None:
@@ -262,7 +264,7 @@ def main() -> None:
           f"max bounces {c.max_bounces}")
 
     warm = folder / "warmup.exr"
-    dt = render(bpy, scene, timer, 1, 999_983, warm)
+    dt, _ = render(bpy, scene, timer, 1, 999_983, warm)
     check_light_pixels(common.read_exr(warm))
     warm.unlink()
     print(f"warm-up render (1 spp, not counted): {dt:.2f} s; light pixels read the spec radiance")
@@ -270,12 +272,13 @@ def main() -> None:
     rows = []
     for spp in ladder:
         name = f"{PEER}_{spp}spp.exr"
-        dt = render(bpy, scene, timer, spp, spp, folder / name)
+        dt, cpu = render(bpy, scene, timer, spp, spp, folder / name)
         for _ in range(args.repeats - 1):  # same seed: same image, only the time varies
-            dt = min(dt, render(bpy, scene, timer, spp, spp, folder / name))
-        rows.append(common.timing_row(PEER, spp, dt, name))
+            dt2, cpu2 = render(bpy, scene, timer, spp, spp, folder / name)
+            dt, cpu = min(dt, dt2), min(cpu, cpu2)
+        rows.append(common.timing_row(PEER, spp, dt, name, cpu))
         print(f"{PEER}: {spp:5d} spp  {dt:8.3f} s  {common.WIDTH_HEIGHT * spp / dt / 1e6:6.2f} "
-              f"M samples/s  (load {common.load1():.2f})", flush=True)
+              f"M samples/s  cpu {cpu:8.3f} s  (load {common.load1():.2f})", flush=True)
     common.write_timings(folder / "timings.csv", rows)
     print(f"wrote {folder / 'timings.csv'}")
 

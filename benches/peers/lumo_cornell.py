@@ -13,13 +13,17 @@ untimed warm-up run at 1 spp. The time recorded is
   loading, i.e. slightly favours the peers. The CSV does not record which of the two was used:
   say so when quoting the numbers.
 
-Output: ``out/lumo/timings.csv`` (peer,spp,seconds,samples_per_second,exr,load1) + the EXRs.
+The CPU time recorded (``cpu_seconds``) is always that of the whole lumo process.
+
+Output: ``out/lumo/timings.csv`` (peer,spp,seconds,samples_per_second,exr,load1,cpu_seconds) +
+the EXRs.
 """
 
 from __future__ import annotations
 
 import argparse
 import re
+import resource
 import shlex
 import subprocess
 import sys
@@ -29,14 +33,21 @@ from pathlib import Path
 import common
 
 
-def run(cmd: list[str]) -> tuple[float, str]:
-    t0 = time.perf_counter()
+def _children_cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def run(cmd: list[str]) -> tuple[float, float, str]:
+    """Runs lumo; returns (wall seconds, CPU seconds of the child, its stdout+stderr)."""
+    c0, t0 = _children_cpu(), time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    cpu = _children_cpu() - c0
     out = proc.stdout + proc.stderr
     if proc.returncode != 0:
         raise SystemExit(f"`{shlex.join(cmd)}` failed with exit code {proc.returncode}:\n{out}")
-    return wall, out
+    return wall, cpu, out
 
 
 def main() -> None:
@@ -60,14 +71,14 @@ def main() -> None:
                                                out=shlex.quote(str(out)), spp=spp))
 
     warm = folder / "warmup.exr"
-    wall, _ = run(command(1, warm))
+    wall, _, _ = run(command(1, warm))
     warm.unlink(missing_ok=True)
     print(f"warm-up (1 spp, not counted): {wall:.2f} s wall")
 
     rows = []
     for spp in ladder:
         name = f"{args.peer}_{spp}spp.exr"
-        wall, text = run(command(spp, folder / name))
+        wall, cpu, text = run(command(spp, folder / name))
         seconds = wall
         if pattern:
             m = pattern.search(text)
@@ -75,7 +86,7 @@ def main() -> None:
                 raise SystemExit(f"--time-regex {args.time_regex!r} matched nothing in lumo's "
                                  f"output:\n{text}")
             seconds = float(m.group(1))
-        rows.append(common.timing_row(args.peer, spp, seconds, name))
+        rows.append(common.timing_row(args.peer, spp, seconds, name, cpu))
         print(f"{args.peer}: {spp:5d} spp  {seconds:8.3f} s "
               f"({'reported' if pattern else 'wall'}; load {common.load1():.2f})", flush=True)
     common.write_timings(folder / "timings.csv", rows)

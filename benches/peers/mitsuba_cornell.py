@@ -18,7 +18,8 @@ Every rung uses its own seed (= its spp), distinct from the reference's seeds, s
 rung and of the reference are independent.
 
 Output: ``out/mitsuba-<variant>/mitsuba-<variant>_<spp>spp.exr`` (linear float32 RGB) and
-``timings.csv`` with columns ``peer,spp,seconds,samples_per_second,exr,load1``.
+``timings.csv`` with columns ``peer,spp,seconds,samples_per_second,exr,load1,cpu_seconds``
+(CPU time of the process, all threads, over the same interval).
 """
 
 from __future__ import annotations
@@ -161,12 +162,12 @@ def verify_against_spec(mi, scene) -> int:
     return len(origins)
 
 
-def render(mi, scene, spp: int, seed: int) -> tuple[np.ndarray, float]:
-    """Renders and returns (HxWx3 float32 linear RGB, seconds)."""
-    t0 = time.perf_counter()
+def render(mi, scene, spp: int, seed: int) -> tuple[np.ndarray, float, float]:
+    """Renders and returns (HxWx3 float32 linear RGB, wall seconds, CPU seconds)."""
+    c0, t0 = time.process_time(), time.perf_counter()
     img = mi.render(scene, spp=spp, seed=seed)
     arr = np.array(img, dtype=np.float32)  # forces evaluation in the LLVM variants
-    return arr, time.perf_counter() - t0
+    return arr, time.perf_counter() - t0, time.process_time() - c0
 
 
 def main() -> None:
@@ -198,7 +199,7 @@ def main() -> None:
     print(f"mitsuba {mi.__version__} (drjit {dr.__version__}), variant {variant}, "
           f"scene {args.scene}: {checked} triangles match shared/cornell.md")
 
-    _, t_warm = render(mi, scene, 1, WARMUP_SEED)
+    _, t_warm, _ = render(mi, scene, 1, WARMUP_SEED)
     print(f"warm-up render (1 spp, not counted): {t_warm:.2f} s")
 
     if args.reference:
@@ -208,7 +209,7 @@ def main() -> None:
         acc = np.zeros((cs.HEIGHT, cs.WIDTH, 3), dtype=np.float64)
         total = 0.0
         for p in range(passes):
-            img, dt = render(mi, scene, args.pass_spp, REFERENCE_SEED_BASE + p)
+            img, dt, _ = render(mi, scene, args.pass_spp, REFERENCE_SEED_BASE + p)
             acc += img
             total += dt
             print(f"  reference pass {p + 1}/{passes}: {dt:.2f} s (load {common.load1():.2f})",
@@ -223,14 +224,15 @@ def main() -> None:
     folder = args.out / peer
     rows = []
     for spp in ladder:
-        img, dt = render(mi, scene, spp, seed=spp)
+        img, dt, cpu = render(mi, scene, spp, seed=spp)
         for _ in range(args.repeats - 1):  # same seed: same image, only the time varies
-            dt = min(dt, render(mi, scene, spp, seed=spp)[1])
+            _, dt2, cpu2 = render(mi, scene, spp, seed=spp)
+            dt, cpu = min(dt, dt2), min(cpu, cpu2)
         name = f"{peer}_{spp}spp.exr"
         common.write_exr(folder / name, img)
-        rows.append(common.timing_row(peer, spp, dt, name))
+        rows.append(common.timing_row(peer, spp, dt, name, cpu))
         print(f"{peer}: {spp:5d} spp  {dt:8.3f} s  {common.WIDTH_HEIGHT * spp / dt / 1e6:6.2f} "
-              f"M samples/s  (load {common.load1():.2f})", flush=True)
+              f"M samples/s  cpu {cpu:8.3f} s  (load {common.load1():.2f})", flush=True)
     common.write_timings(folder / "timings.csv", rows)
     print(f"wrote {folder / 'timings.csv'}")
 
