@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use lumo_converters::legacy;
 use lumo_schema as schema;
 
 use super::CliError;
@@ -21,6 +22,15 @@ pub struct Input {
 pub enum InputKind {
     /// lumo scene JSON.
     Json,
+    /// The course's legacy text scene format (`.txt`), converted on the fly.
+    Legacy,
+}
+
+/// Choices that only some input kinds use.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LoadOptions {
+    /// Legacy scenes: keep, drop, or decide per scene whether to use the `Lights` block.
+    pub lights: legacy::LightsPolicy,
 }
 
 /// The input kind of a path, by extension.
@@ -28,8 +38,9 @@ pub fn kind_of(path: &Path) -> Result<InputKind, CliError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     match ext.as_str() {
         "json" => Ok(InputKind::Json),
+        "txt" => Ok(InputKind::Legacy),
         _ => Err(CliError::invalid(format!(
-            "{}: cannot tell the input kind from the extension `{ext}` (expected .json)",
+            "{}: cannot tell the input kind from the extension `{ext}` (expected .json or .txt)",
             path.display()
         ))),
     }
@@ -37,10 +48,32 @@ pub fn kind_of(path: &Path) -> Result<InputKind, CliError> {
 
 /// Reads and validates a scene from `path`.
 pub fn load(path: &Path) -> Result<Input, CliError> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// Reads and validates a scene from `path` with input-specific options.
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Input, CliError> {
     match kind_of(path)? {
         InputKind::Json => {
             let scene = schema::load_scene_file(path).map_err(CliError::from_load)?;
             Ok(Input { scene, base_dir: schema::base_dir_of(path), warnings: Vec::new() })
+        }
+        InputKind::Legacy => {
+            // Paths in the converted scene stay relative to the legacy file's folder.
+            let opts = legacy::ImportOptions { lights: options.lights, output_dir: None };
+            let imported = legacy::import(path, &opts).map_err(|e| match e {
+                legacy::LegacyError::Io { .. } => CliError::failure(e.to_string()),
+                legacy::LegacyError::Invalid { .. } => CliError::invalid(e.to_string()),
+            })?;
+            // The importer's warnings read `file:line:col: warning: …`; the CLI adds
+            // `warning: file:` itself, so keep only `line:col: …`.
+            let prefix = format!("{}:", path.display());
+            let warnings = imported
+                .warnings
+                .iter()
+                .map(|w| w.strip_prefix(&prefix).unwrap_or(w).replacen(" warning: ", " ", 1).trim_start().to_string())
+                .collect();
+            Ok(Input { scene: imported.scene, base_dir: schema::base_dir_of(path), warnings })
         }
     }
 }

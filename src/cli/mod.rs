@@ -74,6 +74,27 @@ pub enum SamplerArg {
     Independent,
 }
 
+/// What to do with a legacy scene's `Lights` block.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum LightsArg {
+    /// Keep the punctual lights.
+    Keep,
+    /// Drop them: light the scene by emissive materials only.
+    Drop,
+    /// Keep them only when no object emits light (the original ray caster); drop them otherwise.
+    Auto,
+}
+
+impl From<LightsArg> for lumo_converters::legacy::LightsPolicy {
+    fn from(a: LightsArg) -> Self {
+        match a {
+            LightsArg::Keep => Self::Keep,
+            LightsArg::Drop => Self::Drop,
+            LightsArg::Auto => Self::Auto,
+        }
+    }
+}
+
 /// Tone mapping choice on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ToneMapArg {
@@ -140,6 +161,10 @@ pub struct RenderArgs {
     /// Tone mapping for 8-bit outputs (PNG, BMP); EXR and HDR stay linear.
     #[arg(long, value_enum, default_value = "clamp")]
     pub tonemap: ToneMapArg,
+    /// Legacy `.txt` scenes: keep, drop, or decide per scene (keep when nothing emits) whether
+    /// to use the file's Lights block.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub lights: LightsArg,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -206,7 +231,7 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
 
 fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliError> {
     crate::output::format_of(&args.output).map_err(|e| CliError::invalid(e.to_string()))?;
-    let mut inp = input::load(&args.scene)?;
+    let mut inp = input::load_with(&args.scene, &input::LoadOptions { lights: args.lights.into() })?;
     let s = &mut inp.scene;
     if let Some(v) = args.spp {
         s.render.spp = v;

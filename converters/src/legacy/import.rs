@@ -162,6 +162,8 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
         lights: Vec::new(),
     };
 
+    drop_black_planes_behind_camera(&mut scene, &mut origins, ctx);
+
     // Lights: the path-tracing dialects light the scene with emissive materials and ignore the
     // Lights block; the original ray caster uses it. Auto keeps it only when no object emits.
     let emitters = scene
@@ -214,6 +216,52 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
         schema::Integrator::Path
     };
     Ok((scene, origins))
+}
+
+/// Some dialects' planes are one-sided: zhanglbthu's intersect only rays arriving from the
+/// front (dot(n, d) < 0), and smallpt-style cameras start their rays well inside the room. A
+/// smallpt "front wall" with the camera on its back side is then invisible to the camera, while
+/// lumo's two-sided plane would hide the whole scene. When such a plane is also perfectly black
+/// (black base colour, no transmission, no emission, no texture) and the background is black,
+/// it absorbs exactly what open space would, so leaving it out is exact: do that, with a
+/// warning. Any other plane with the camera behind it is kept, with a warning.
+fn drop_black_planes_behind_camera(
+    scene: &mut Scene,
+    origins: &mut Origins,
+    ctx: &mut Context<'_>,
+) {
+    let c = scene.camera.position.map(|x| x as f64);
+    let black_background = is_zero(scene.background.color);
+    let mut i = 0;
+    while i < scene.objects.len() {
+        let Object::Plane(p) = &scene.objects[i] else {
+            i += 1;
+            continue;
+        };
+        let n = p.normal.map(|x| x as f64);
+        let l = len(p.normal);
+        let side = (n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) / l - p.offset as f64;
+        if !p.transform.is_empty() || side >= 0.0 {
+            i += 1;
+            continue;
+        }
+        let span = origins.objects[i];
+        let black = scene.materials.get(&p.material).is_some_and(|m| {
+            is_zero(m.base_color)
+                && m.transmission == 0.0
+                && is_zero(m.emission)
+                && m.base_color_texture.is_none()
+                && m.emission_texture.is_none()
+        });
+        if black && black_background {
+            ctx.warn(span, "the camera is behind this black plane (on the side its normal points away from); the dialects' planes are one-sided, so it is invisible from the camera and absorbs like open space: left out");
+            scene.objects.remove(i);
+            origins.objects.remove(i);
+        } else {
+            ctx.warn(span, "the camera is behind this plane (on the side its normal points away from): lumo's planes are two-sided, so it may hide the scene (the dialects' planes are one-sided)");
+            i += 1;
+        }
+    }
 }
 
 /// Name of the material with legacy index `i`.
