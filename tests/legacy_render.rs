@@ -101,3 +101,30 @@ fn legacy_contact_sheet() {
     lumo::output::write_image(&sheet, &out, lumo::output::ToneMap::Aces).unwrap();
     eprintln!("contact sheet: {}", out.display());
 }
+
+#[test]
+fn cli_renders_a_legacy_scene_and_reports_legacy_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cornell.png");
+    let scene = common::root().join("scenes").join("legacy").join("cornell_box.txt");
+    let ok = assert_cmd::Command::cargo_bin("lumo")
+        .unwrap()
+        .args(["render", "-q", "--spp", "1", "--width", "16", "--height", "16", "--lights", "auto"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(out.is_file());
+    // The importer's warnings reach the user with their legacy line:column.
+    let stderr = String::from_utf8_lossy(&ok.stderr);
+    assert!(stderr.contains("cornell_box.txt: 10:1: dropping the Lights block"), "{stderr}");
+
+    let bad = common::root().join("converters").join("tests").join("legacy-invalid").join("misspelt_material_field.txt");
+    let fail = assert_cmd::Command::cargo_bin("lumo").unwrap().arg("render").arg(&bad).arg("-o").arg(&out).output().unwrap();
+    assert_eq!(fail.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&fail.stderr);
+    assert!(stderr.contains("misspelt_material_field.txt:3:16: error: unknown material field `diffuseColour`"), "{stderr}");
+    assert!(stderr.contains("did you mean `diffuseColor`?"), "{stderr}");
+}
