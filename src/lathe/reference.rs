@@ -164,19 +164,78 @@ impl Reference {
                 continue;
             }
             if (r2 - r1).abs() > (p2.y - p1.y).abs() {
-                // A flat-ish chord: height as a function of radius, y = γ + δ r (|δ| < 1), so
-                // (o_y − γ + s d_y)² = δ² ρ²(s) with o_y − γ + s d_y having the sign of δ.
+                // A flat-ish chord: height as a function of radius, y = γ + δ r (|δ| < 1). The ray
+                // is within the chord's radii on at most two s-intervals (from ρ(s) = r₁, r₂);
+                // on each, φ(s) = o_y + s d_y − γ − δ ρ(s) is bisected where it changes sign. No
+                // squaring, so no cancellation.
                 let delta = (p2.y - p1.y) / (r2 - r1);
                 let gamma = p1.y - delta * r1;
-                let e = o.y - gamma;
-                let qa = d.y * d.y - delta * delta * a;
-                let qb = e * d.y - delta * delta * b;
-                let qc = e * e - delta * delta * c;
-                for s in solve_quadratic(qa, qb, qc, d.y * d.y + delta * delta * a) {
-                    let rho = (a * s * s + 2.0 * b * s + c).max(0.0).sqrt();
-                    if (e + s * d.y) * delta >= 0.0 {
-                        consider(s, (rho - r1) / (r2 - r1));
+                let rho = |s: f64| (a * s * s + 2.0 * b * s + c).max(0.0).sqrt();
+                let phi = |s: f64| o.y + s * d.y - gamma - delta * rho(s);
+                let (rmin, rmax) = (r1.min(r2), r1.max(r2));
+                let intervals: Vec<(f64, f64)> = if a < 1e-24 {
+                    let r = c.sqrt();
+                    if r >= rmin && r <= rmax && d.y != 0.0 {
+                        let s = (gamma + delta * r - o.y) / d.y;
+                        consider(s, (r - r1) / (r2 - r1));
                     }
+                    Vec::new()
+                } else {
+                    let s0 = -b / a;
+                    let cross = o.x * d.z - o.z * d.x;
+                    let rho0sq = cross * cross / a;
+                    let h = |r: f64| if r * r >= rho0sq { Some(((r * r - rho0sq) / a).sqrt()) } else { None };
+                    match (h(rmin), h(rmax)) {
+                        (_, None) => Vec::new(),
+                        (None, Some(hx)) => vec![(s0 - hx, s0 + hx)],
+                        (Some(hn), Some(hx)) => vec![(s0 - hx, s0 - hn), (s0 + hn, s0 + hx)],
+                    }
+                };
+                // φ is concave or convex (ρ is convex), so its one extremum splits each interval
+                // into monotone parts: φ′ = 0 where d_y ρ(s) = δ a (s − s₀).
+                let extremum = if a >= 1e-24 && delta * delta * a > d.y * d.y {
+                    let s0 = -b / a;
+                    let cross = o.x * d.z - o.z * d.x;
+                    let rho0sq = cross * cross / a;
+                    let w = (d.y * d.y * rho0sq / (a * (delta * delta * a - d.y * d.y))).sqrt();
+                    Some(s0 + w.copysign(d.y * delta))
+                } else {
+                    None
+                };
+                let mut pieces: Vec<(f64, f64)> = Vec::new();
+                for (l, r) in intervals {
+                    match extremum {
+                        Some(e) if e > l && e < r => {
+                            pieces.push((l, e));
+                            pieces.push((e, r));
+                        }
+                        _ => pieces.push((l, r)),
+                    }
+                }
+                for (mut l, mut r) in pieces {
+                    let (mut fl, fr) = (phi(l), phi(r));
+                    if fl == 0.0 {
+                        consider(l, (rho(l) - r1) / (r2 - r1));
+                        continue;
+                    }
+                    if fl * fr > 0.0 {
+                        continue;
+                    }
+                    for _ in 0..200 {
+                        let m = 0.5 * (l + r);
+                        if m <= l || m >= r {
+                            break;
+                        }
+                        let fm = phi(m);
+                        if (fm < 0.0) == (fl < 0.0) {
+                            l = m;
+                            fl = fm;
+                        } else {
+                            r = m;
+                        }
+                    }
+                    let s = 0.5 * (l + r);
+                    consider(s, (rho(s) - r1) / (r2 - r1));
                 }
                 continue;
             }

@@ -286,3 +286,90 @@ fn exact_intersection_agrees_with_the_reference_on_hard_cases() {
     assert!(total.ambiguous * 20 < total.rays, "too many ambiguous rays: {} of {}", total.ambiguous, total.rays);
 }
 
+
+/// A ray through the axis that crosses the vase's nearly flat bottom (y ∝ u³ near the pole)
+/// at radius 0.0054: found in the benchmark, where an earlier reference lost the hit.
+#[test]
+fn ray_through_the_axis_hits_the_nearly_flat_bottom() {
+    let case = cases()[6].clone();
+    let lathe = case.lathe();
+    let r = Reference::new(case.curve.clone(), 6000);
+    let o = DVec3::new(2.927019455064807, -4.976013451328282, 3.1891141811114836);
+    let d = DVec3::new(-0.44348779622194046, 0.7548756100363636, -0.4831991183502247);
+    let got = lathe.intersect(o, d, 0.0, f64::INFINITY).expect("hits the bottom");
+    let want = r.intersect(o, d, 0.0, f64::INFINITY).expect("reference hits the bottom");
+    assert!((got.s - want.s).abs() <= 1e-9 * want.s, "{} vs {}", got.s, want.s);
+    assert!(got.uv.y < 1e-3 && got.normal.y < -0.999, "{got:?}");
+}
+
+#[test]
+fn tessellation_lies_on_the_surface_and_faces_out() {
+    for case in cases() {
+        let lathe = case.lathe();
+        let t = lathe.tessellate(24, 40);
+        assert_eq!(t.positions.len(), 25 * 40);
+        assert_eq!(t.indices.len(), 2 * 24 * 39);
+        for (k, p) in t.positions.iter().enumerate() {
+            let (c, _) = lathe.profile().eval(t.uvs[k].y);
+            assert!(((p.x * p.x + p.z * p.z).sqrt() - c.x.abs()).abs() < 1e-12 && (p.y - c.y).abs() < 1e-12);
+            assert!((t.normals[k].length() - 1.0).abs() < 1e-9, "{}: normal {k}", case.name);
+        }
+        // Front faces agree with the vertex normals wherever the triangle is not degenerate.
+        let mut agree = 0;
+        let mut total = 0;
+        for tri in &t.indices {
+            let [a, b, c] = tri.map(|i| t.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            if n.length() < 1e-9 {
+                continue;
+            }
+            total += 1;
+            let vn = tri.iter().map(|&i| t.normals[i as usize]).fold(DVec3::ZERO, |s, v| s + v);
+            if n.dot(vn) > 0.0 {
+                agree += 1;
+            }
+        }
+        assert!(agree * 100 >= total * 97, "{}: {agree} of {total} faces agree", case.name);
+    }
+}
+
+#[test]
+fn invalid_profiles_are_rejected_with_reasons() {
+    use super::LatheError;
+    assert!(matches!(Profile::bezier(&[[0.0, 0.0]]), Err(LatheError::TooFewPoints { .. })));
+    assert!(matches!(Profile::bezier(&[[1.0, 0.0], [1.0, 0.0]]), Err(LatheError::Degenerate)));
+    assert!(matches!(Profile::bezier(&[[f64::NAN, 0.0], [1.0, 1.0]]), Err(LatheError::NotFinite { index: 0, .. })));
+    let pts = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    assert!(matches!(Profile::bspline(3, &pts, Some(&[0.0; 3])), Err(LatheError::KnotCount { need: 8, .. })));
+    assert!(matches!(
+        Profile::bspline(1, &pts, Some(&[0.0, 0.0, 0.5, 0.4, 1.0, 1.0])),
+        Err(LatheError::KnotsDecrease { index: 3, .. })
+    ));
+    assert!(matches!(Profile::bspline(1, &pts, Some(&[0.0, 0.5, 0.5, 0.5, 0.5, 1.0])), Err(LatheError::EmptyDomain(_))));
+    assert!(matches!(Profile::bspline(0, &pts, None), Err(LatheError::BadDegree(0))));
+    let msg = Profile::bspline(5, &pts, None).unwrap_err().to_string();
+    assert!(msg.contains("at least 6"), "{msg}");
+}
+
+#[test]
+fn uv_and_orientation_follow_the_schema_rule() {
+    // A unit cylinder wall traversed upwards faces outwards; v runs with the curve.
+    let lathe = Lathe::new(Profile::bezier(&[[1.0, 0.0], [1.0, 1.0]]).unwrap());
+    let h = lathe.intersect(DVec3::new(5.0, 0.25, 0.0), DVec3::new(-1.0, 0.0, 0.0), 0.0, f64::INFINITY).unwrap();
+    assert!((h.s - 4.0).abs() < 1e-12 && h.normal.abs_diff_eq(DVec3::X, 1e-12), "{h:?}");
+    assert!(h.uv.abs_diff_eq(DVec2::new(0.0, 0.25), 1e-12), "{h:?}");
+    // θ = 90° is the −z direction: u = 1/4. ∂p/∂u and ∂p/∂v point along increasing u and v.
+    let h = lathe.intersect(DVec3::new(0.0, 0.5, -5.0), DVec3::new(0.0, 0.0, 1.0), 0.0, f64::INFINITY).unwrap();
+    assert!((h.uv.x - 0.25).abs() < 1e-12, "{h:?}");
+    assert!(h.dpdv.abs_diff_eq(DVec3::Y, 1e-12) && h.dpdu.abs_diff_eq(DVec3::new(-std::f64::consts::TAU, 0.0, 0.0), 1e-9), "{h:?}");
+    // Traversed downwards, the same wall faces the axis; mirrored (x < 0) profiles agree.
+    let down = Lathe::new(Profile::bezier(&[[1.0, 1.0], [1.0, 0.0]]).unwrap());
+    let mirror = Lathe::new(Profile::bezier(&[[-1.0, 1.0], [-1.0, 0.0]]).unwrap());
+    for l in [&down, &mirror] {
+        let h = l.intersect(DVec3::new(5.0, 0.25, 0.0), DVec3::new(-1.0, 0.0, 0.0), 0.0, f64::INFINITY).unwrap();
+        assert!(h.normal.abs_diff_eq(-DVec3::X, 1e-12), "{h:?}");
+    }
+    // u of the mirrored profile is measured from θ + π.
+    let h = mirror.intersect(DVec3::new(5.0, 0.25, 0.0), DVec3::new(-1.0, 0.0, 0.0), 0.0, f64::INFINITY).unwrap();
+    assert!((h.uv.x - 0.5).abs() < 1e-12, "{h:?}");
+}
