@@ -58,6 +58,14 @@ const EPS: f64 = f64::EPSILON;
 const MAX_DEPTH: u32 = 40;
 /// Safety cap on nodes per piece and factor (only reached by rays lying in the surface).
 const NODE_BUDGET: u32 = 4096;
+/// Lathes with at most this many pieces visit them sorted by entry distance (no allocation);
+/// larger ones (rare, and then usually inside a BVH per piece) visit them in order.
+const SMALL: usize = 64;
+
+thread_local! {
+    /// Reused node stack of the subdivision search (no allocation per ray).
+    static STACK: std::cell::RefCell<Vec<Node>> = const { std::cell::RefCell::new(Vec::new()) };
+}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Mode {
@@ -235,15 +243,24 @@ impl Lathe {
         f.annulus(0.0, r, lo.y, hi.y, f.s_max)?;
         // Visit pieces in the order the ray enters their annuli; stop once that entry is
         // beyond the best hit.
-        let mut order: Vec<(f64, usize)> = Vec::with_capacity(self.pieces.len());
+        let mut best: Option<Best> = None;
+        if self.pieces.len() > SMALL {
+            for i in 0..self.pieces.len() {
+                self.piece_hits(i, &f, &mut best);
+            }
+            return best.map(|b| self.hit_record(&f, b));
+        }
+        let mut order = [(0.0f64, 0usize); SMALL];
+        let mut count = 0;
         for (i, p) in self.pieces.iter().enumerate() {
             if let Some((s_lo, _)) = f.annulus(p.r_lo, p.r_hi, p.y_lo, p.y_hi, f.s_max) {
-                order.push((s_lo, i));
+                order[count] = (s_lo, i);
+                count += 1;
             }
         }
-        order.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut best: Option<Best> = None;
-        for (s_lo, i) in order {
+        let order = &mut order[..count];
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        for &(s_lo, i) in order.iter() {
             if best.is_some_and(|b| s_lo >= b.s) {
                 break;
             }
@@ -293,14 +310,18 @@ impl Lathe {
             return;
         }
         let r = f.rho_sq(s).sqrt();
-        let xs: Vec<f64> = piece.points.iter().map(|p| p.x - r).collect();
+        let mut buf = [0.0; MAX_POINTS];
+        for (b, p) in buf.iter_mut().zip(&piece.points) {
+            *b = p.x - r;
+        }
+        let xs = &buf[..piece.points.len()];
         let (x0, x1) = (xs[0], xs[xs.len() - 1]);
         let slack = f.tol;
         if x0.min(x1) > slack || x0.max(x1) < -slack {
             return;
         }
         let t = if x0 * x1 <= 0.0 {
-            solve_bracketed(|t| eval_with_derivative(&xs, t), 0.0, 1.0)
+            solve_bracketed(|t| eval_with_derivative(xs, t), 0.0, 1.0)
         } else if x0.abs() < x1.abs() {
             0.0
         } else {
@@ -331,13 +352,17 @@ impl Lathe {
                 continue;
             }
             let y = f.o.y + s * f.d.y;
-            let ys: Vec<f64> = piece.points.iter().map(|p| p.y - y).collect();
+            let mut buf = [0.0; MAX_POINTS];
+            for (b, p) in buf.iter_mut().zip(&piece.points) {
+                *b = p.y - y;
+            }
+            let ys = &buf[..piece.points.len()];
             let (y0, y1) = (ys[0], ys[ys.len() - 1]);
             if y0.min(y1) > f.tol || y0.max(y1) < -f.tol {
                 continue;
             }
             let t = if y0 * y1 <= 0.0 {
-                solve_bracketed(|t| eval_with_derivative(&ys, t), 0.0, 1.0)
+                solve_bracketed(|t| eval_with_derivative(ys, t), 0.0, 1.0)
             } else if y0.abs() < y1.abs() {
                 0.0
             } else {
@@ -413,8 +438,16 @@ impl Lathe {
         let np = piece.points.len();
         let mut root = Node { pts: [DVec2::ZERO; MAX_POINTS], a: 0.0, w: 1.0, depth: 0, s_lo };
         root.pts[..np].copy_from_slice(&piece.points);
-        let mut stack: Vec<Node> = Vec::with_capacity(2 * MAX_DEPTH as usize + 2);
-        stack.push(root);
+        STACK.with(|cell| {
+            let mut stack = cell.borrow_mut();
+            stack.clear();
+            stack.push(root);
+            self.search_nodes(i, f, eq, &mut stack, best);
+        });
+    }
+
+    fn search_nodes(&self, i: usize, f: &Frame, eq: Equation, stack: &mut Vec<Node>, best: &mut Option<Best>) {
+        let np = self.pieces[i].points.len();
         let mut c = [0.0; MAX_COEFFS];
         let mut e = [0.0; MAX_COEFFS];
         let mut budget = NODE_BUDGET;
