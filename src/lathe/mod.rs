@@ -301,6 +301,24 @@ impl Lathe {
         (DVec3::new(-p.r_hi, p.y_lo, -p.r_hi), DVec3::new(p.r_hi, p.y_hi, p.r_hi))
     }
 
+    /// The unit normal (orientation rule above) at profile parameter `v` for the surface point
+    /// `point` (whose azimuth picks the direction); used to finish hits stored compactly.
+    pub fn normal_at(&self, v: f64, point: DVec3) -> DVec3 {
+        let (p, dp) = self.profile.eval(v);
+        let r = (point.x * point.x + point.z * point.z).sqrt();
+        let e_r = if r > 0.0 { DVec3::new(point.x / r, 0.0, point.z / r) } else { DVec3::X };
+        // n ∝ x·(y′ cos θ, −x′, −y′ sin θ); with θ from the point (θ + π for x < 0) this is
+        // y′ e_r − x′ ŷ for x > 0 and y′ e_r + x′ ŷ for x < 0.
+        let xs = if p.x != 0.0 { p.x.signum() } else if dp.x != 0.0 { if v < 0.5 { dp.x.signum() } else { -dp.x.signum() } } else { 1.0 };
+        let n = if r > 1e-12 * self.scale { dp.y * e_r - xs * dp.x * DVec3::Y } else { DVec3::ZERO };
+        if n.length_squared() > 0.0 {
+            n.normalize()
+        } else {
+            // On the axis: the limit along it, −sign(x·x′)·ŷ.
+            if xs * dp.x > 0.0 { -DVec3::Y } else { DVec3::Y }
+        }
+    }
+
     /// The annulus bounding piece `i`: (radius range, height range).
     pub fn segment_annulus(&self, i: usize) -> ((f64, f64), (f64, f64)) {
         let p = &self.pieces[i];
