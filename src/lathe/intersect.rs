@@ -643,7 +643,8 @@ fn polish(piece: &Piece, f: &Frame, mut s: f64, mut t: f64) -> (f64, f64) {
         let step_t = (j[0][0] * r2 - r1 * j[1][0]) / det;
         let (ns, nt) = (s - step_s, (t - step_t).clamp(0.0, 1.0));
         let (n1, n2, np, ndp, nk) = resid(ns, nt);
-        if !(n1.abs() + n2.abs() < norm) {
+        let improved = n1.abs() + n2.abs() < norm; // false for NaN too
+        if !improved {
             break;
         }
         (s, t, r1, r2, p, dp, k) = (ns, nt, n1, n2, np, ndp, nk);
