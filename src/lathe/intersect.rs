@@ -24,8 +24,10 @@
 //! # Root isolation
 //! Every node carries a rigorous bound on the rounding error of each coefficient. A node is
 //! discarded when all coefficients are beyond their error bound with one sign (the convex-hull
-//! property: no root), accepted as holding exactly one root when the coefficient differences
-//! (the derivative's coefficients) all have one sign and the end values do not share a sign,
+//! property: no root), accepted as holding exactly one root when the signs of its coefficients
+//! are certain and vary exactly once (Descartes' rule of signs holds for the Bernstein basis) or
+//! when the coefficient differences (the derivative's coefficients) all have one sign and the
+//! end values do not share a sign,
 //! and otherwise split at its midpoint by de Casteljau (Lane & Riesenfeld 1981; the same hull
 //! test as Bézier clipping, Nishita, Sederberg & Kakimoto 1990). Nodes are visited nearest
 //! first (by the entry distance of the ray into the node's bounding annulus) and nodes farther
@@ -464,6 +466,16 @@ impl Lathe {
             let (cs, es) = (&c[..=m], &e[..=m]);
             if cs.iter().zip(es).all(|(v, e)| *v > *e) || cs.iter().zip(es).all(|(v, e)| *v < -*e) {
                 continue;
+            }
+            // Descartes' rule of signs in the Bernstein basis: with every coefficient's sign
+            // certain, exactly one sign variation means exactly one root in the node.
+            if cs.iter().zip(es).all(|(v, e)| v.abs() > *e) {
+                let variations = cs.windows(2).filter(|w| (w[0] < 0.0) != (w[1] < 0.0)).count();
+                if variations == 1 {
+                    let tau = solve_bracketed(|t| eval_with_derivative(cs, t), 0.0, 1.0);
+                    self.candidate(i, f, eq, node.a + tau * node.w, best);
+                    continue;
+                }
             }
             let inc = (0..m).all(|j| c[j + 1] - c[j] > e[j] + e[j + 1]);
             let dec = (0..m).all(|j| c[j + 1] - c[j] < -(e[j] + e[j + 1]));
