@@ -32,9 +32,7 @@ fn txt_files(dir: &Path) -> Vec<PathBuf> {
 }
 
 /// Loads a legacy scene like `lumo render` does, overrides size and samples, builds and renders.
-/// `None` when the renderer cannot build the scene for a reason outside the converter's reach
-/// (printed loudly).
-fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, spp: u32) -> Option<Image> {
+fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, spp: u32) -> Image {
     let mut input = load_with(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.message));
     let s = &mut input.scene;
     s.image.width = w;
@@ -46,16 +44,12 @@ fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, sp
     }
     let built = match lumo::scene::build(&input.scene, &input.base_dir, &lumo::scene::build::NoExternalData) {
         Ok((scene, _)) => scene,
-        Err(e) if e.to_string().contains("not supported by this renderer yet") => {
-            eprintln!("=== SKIPPED {}: {e} ===", path.display());
-            return None;
-        }
         Err(e) => panic!("{}: {e}", path.display()),
     };
     let (img, stats) = render(&built, &RenderOptions { progress: None });
     assert_eq!(stats.nan_samples, 0, "{}: {} NaN/Inf samples ({integrator:?})", path.display(), stats.nan_samples);
     assert!(img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0), "{}: non-finite or negative pixel", path.display());
-    Some(img)
+    img
 }
 
 #[test]
@@ -74,14 +68,11 @@ fn legacy_contact_sheet() {
     let cols = 6u32;
     let rows = (scenes.len() as u32).div_ceil(cols);
     let mut sheet = Image { width: cols * T, height: rows * T, pixels: vec![lumo::math::Vec3::ZERO; (cols * T * rows * T) as usize] };
-    let (mut lit, mut skipped) = (0, 0);
+    let mut lit = 0;
     for (i, path) in scenes.iter().enumerate() {
         eprintln!("contact sheet cell {i}: {}", path.display());
         // The scene's own integrator: raycast for the original ray caster, path otherwise.
-        let Some(img) = render_legacy(path, None, T, T, 8) else {
-            skipped += 1;
-            continue;
-        };
+        let img = render_legacy(path, None, T, T, 8);
         eprintln!("  mean {:?}", img.mean());
         if img.mean().max_element() > 1e-3 {
             lit += 1;
@@ -96,7 +87,7 @@ fn legacy_contact_sheet() {
     // Every scene except the curves-only one (scene08_core: nothing to render) shows something.
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("legacy-contact-sheet.png");
     lumo::output::write_image(&sheet, &out, lumo::output::ToneMap::Aces).unwrap();
-    assert!(lit + skipped + 1 >= scenes.len(), "only {lit} of {} thumbnails are not black ({skipped} skipped)", scenes.len());
+    assert!(lit + 1 >= scenes.len(), "only {lit} of {} thumbnails are not black", scenes.len());
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("legacy-contact-sheet.png");
     lumo::output::write_image(&sheet, &out, lumo::output::ToneMap::Aces).unwrap();
     eprintln!("contact sheet: {}", out.display());
