@@ -11,6 +11,8 @@
 //! Large builds run the two halves of every big node in parallel (`rayon::join`); the result is
 //! identical to the sequential build.
 
+use std::mem::MaybeUninit;
+
 use glam::{Vec3A, Vec4};
 
 use crate::math::{Aabb, Vec3};
@@ -182,7 +184,9 @@ impl Bvh {
         let nodes = &self.nodes[..];
         // Entries are (node, entry distance): a popped node farther than the current closest
         // hit is skipped without retesting its box.
-        let mut stack = [(0u32, 0.0f32); STACK];
+        // Left uninitialised: zeroing 512 bytes per query cost 2% of a Cornell-box render.
+        // Only entries below `sp` are ever read, and each was written before.
+        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK];
         let mut sp = 0usize;
         let mut node = 0usize;
         if nodes[0].hit::<ROBUST>(ray, t_min, *t_max) == f32::INFINITY {
@@ -213,7 +217,7 @@ impl Bvh {
                     }
                     let (near, far, t_far) = if ta <= tb { (a, a + 1, tb) } else { (a + 1, a, ta) };
                     if sp < STACK {
-                        stack[sp] = (far as u32, t_far);
+                        stack[sp] = MaybeUninit::new((far as u32, t_far));
                         sp += 1;
                     } else if self.sub_traverse::<ROBUST>(far, ray, t_min, t_max, &mut leaf) {
                         // Stack full (degenerate trees deeper than STACK): recurse instead.
@@ -229,7 +233,8 @@ impl Bvh {
                     return false;
                 }
                 sp -= 1;
-                let (next, t) = stack[sp];
+                // SAFETY: entries 0..sp were written by the push above before sp passed them.
+                let (next, t) = unsafe { stack[sp].assume_init() };
                 if t <= *t_max {
                     node = next as usize;
                     break;
