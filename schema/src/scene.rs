@@ -93,6 +93,17 @@ pub enum Integrator {
     Raycast,
 }
 
+/// The sequence of sample points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SamplerKind {
+    /// Owen-scrambled Sobol points: lower error at equal sample counts.
+    #[default]
+    Sobol,
+    /// Independent uniform random numbers (for comparison).
+    Independent,
+}
+
 /// How the image is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -100,6 +111,9 @@ pub struct RenderSettings {
     /// The light-transport algorithm. Default `path`.
     #[serde(default)]
     pub integrator: Integrator,
+    /// The sequence of sample points. Default `sobol`.
+    #[serde(default, skip_serializing_if = "is_default_sampler")]
+    pub sampler: SamplerKind,
     /// Samples per pixel. Default 64.
     #[serde(default = "default_spp")]
     #[schemars(range(min = 1))]
@@ -113,10 +127,16 @@ pub struct RenderSettings {
     /// whatever the thread count. Default 0.
     #[serde(default)]
     pub seed: u64,
-    /// Optional wall-clock budget in seconds: rendering stops after the pass that exceeds it.
+    /// Optional wall-clock budget in seconds: samples are taken in progressive passes of
+    /// doubling size until the budget is spent or `spp` samples are reached, whichever comes
+    /// first (the pass that crosses the budget is finished).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub time_budget_s: Option<f32>,
+}
+
+fn is_default_sampler(s: &SamplerKind) -> bool {
+    *s == SamplerKind::Sobol
 }
 
 fn default_spp() -> u32 {
@@ -130,6 +150,7 @@ impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
             integrator: Integrator::default(),
+            sampler: SamplerKind::default(),
             spp: default_spp(),
             max_depth: default_max_depth(),
             seed: 0,

@@ -65,6 +65,15 @@ pub enum IntegratorArg {
     Raycast,
 }
 
+/// Sampler choice on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SamplerArg {
+    /// Owen-scrambled Sobol.
+    Sobol,
+    /// Independent random numbers.
+    Independent,
+}
+
 /// Tone mapping choice on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ToneMapArg {
@@ -125,6 +134,9 @@ pub struct RenderArgs {
     /// Light-transport algorithm (overrides the scene).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorArg>,
+    /// Sample sequence (overrides the scene).
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
     /// Tone mapping for 8-bit outputs (PNG, BMP); EXR and HDR stay linear.
     #[arg(long, value_enum, default_value = "clamp")]
     pub tonemap: ToneMapArg,
@@ -178,10 +190,8 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
                 println!("{}: ok", f.display());
             }
             Err(e) => {
-                worst = worst.max(if e.code == EXIT_INVALID { EXIT_INVALID } else { EXIT_FAILURE }.max(worst));
-                if e.code == EXIT_FAILURE {
-                    worst = worst.max(EXIT_FAILURE);
-                }
+                // 2 (invalid) outranks 1 (I/O) when files fail in different ways.
+                worst = worst.max(e.code);
                 report.push_str(&e.message);
                 report.push('\n');
             }
@@ -190,7 +200,6 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
     if worst == 0 {
         Ok(())
     } else {
-        // Invalid input wins over I/O trouble only when some file was actually invalid.
         Err(CliError { code: worst, message: report.trim_end().to_string() })
     }
 }
@@ -218,6 +227,12 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
         s.render.integrator = match i {
             IntegratorArg::Path => schema::Integrator::Path,
             IntegratorArg::Raycast => schema::Integrator::Raycast,
+        };
+    }
+    if let Some(k) = args.sampler {
+        s.render.sampler = match k {
+            SamplerArg::Sobol => schema::SamplerKind::Sobol,
+            SamplerArg::Independent => schema::SamplerKind::Independent,
         };
     }
     let pixels = u64::from(s.image.width) * u64::from(s.image.height);

@@ -266,6 +266,10 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
             schema::Integrator::Path => IntegratorKind::Path,
             schema::Integrator::Raycast => IntegratorKind::Raycast,
         },
+        sampler: match r.sampler {
+            schema::SamplerKind::Sobol => crate::sampler::SamplerKind::Sobol,
+            schema::SamplerKind::Independent => crate::sampler::SamplerKind::Independent,
+        },
         time_budget_s: r.time_budget_s,
     };
     let scene = Scene { camera, background: Vec3::from(desc.background.color), geometry, materials, textures, lights, light_sampler, settings };

@@ -37,6 +37,8 @@ pub struct Settings {
     pub seed: u64,
     /// Algorithm.
     pub integrator: IntegratorKind,
+    /// Sample sequence.
+    pub sampler: crate::sampler::SamplerKind,
     /// Optional wall-clock budget in seconds.
     pub time_budget_s: Option<f32>,
 }

@@ -1,0 +1,10 @@
+//! Converters between lumo's scene description ([`lumo_schema::Scene`]) and other formats.
+//!
+//! - [`legacy`]: the Tsinghua / MIT 6.837 course ray tracer's text scenes (`.txt`) and the
+//!   path-tracing dialects students added to them, in both directions.
+//! - [`obj`]: the checks the legacy importer runs on the Wavefront OBJ files a scene references.
+//!
+//! This crate depends on `lumo-schema` only, never on the renderer.
+
+pub mod legacy;
+pub mod obj;

@@ -1,0 +1,65 @@
+//! Helpers shared by the converter tests.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+/// The workspace root (the parent of this crate).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("crate is inside the workspace")
+        .to_path_buf()
+}
+
+/// The shared test data folder: `$LUMO_SHARED`, else `../shared` beside the workspace root.
+/// When it is missing: panics if `LUMO_REQUIRE_SHARED=1`, otherwise prints a loud SKIPPED
+/// message and returns `None`.
+pub fn shared_dir() -> Option<PathBuf> {
+    let dir = match std::env::var_os("LUMO_SHARED") {
+        Some(d) => PathBuf::from(d),
+        None => workspace_root().join("..").join("shared"),
+    };
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    if std::env::var("LUMO_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+        panic!(
+            "shared test data not found at {} (LUMO_REQUIRE_SHARED=1)",
+            dir.display()
+        );
+    }
+    eprintln!(
+        "SKIPPED: ../shared not found (looked at {}); set LUMO_SHARED",
+        dir.display()
+    );
+    None
+}
+
+/// The `.txt` files of a folder, sorted.
+pub fn txt_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "txt"))
+        .collect();
+    v.sort();
+    v
+}
+
+/// The shared legacy scenes (None when shared data is missing and not required).
+pub fn shared_legacy_scenes() -> Option<Vec<PathBuf>> {
+    let dir = shared_dir()?.join("legacy-scenes");
+    let files = txt_files(&dir);
+    assert!(
+        files.len() >= 16,
+        "expected the 16 shared legacy scenes in {}, found {}",
+        dir.display(),
+        files.len()
+    );
+    Some(files)
+}
+
+/// Our own example legacy scenes in `scenes/legacy/`.
+pub fn own_legacy_scenes() -> Vec<PathBuf> {
+    txt_files(&workspace_root().join("scenes").join("legacy"))
+}
