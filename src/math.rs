@@ -93,14 +93,24 @@ impl Aabb {
     }
 
     /// Slab test: the entry distance if the ray meets the box within (t_min, t_max).
+    ///
+    /// A ray lying in the plane of a slab's face (zero direction component, origin on the
+    /// face) gives 0·∞ = NaN there; that slab then does not limit the interval (the origin is
+    /// inside it), as in pbrt's scalar test.
     #[inline]
     pub fn hit(&self, o: Vec3, inv_d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
         let t0 = (self.min - o) * inv_d;
         let t1 = (self.max - o) * inv_d;
-        // min/max with NaN (0 * inf) fall back to the other operand, which keeps the test
-        // conservative for rays lying in a slab's plane.
-        let near = t0.min(t1).max_element().max(t_min);
-        let far = t0.max(t1).min_element().min(t_max);
+        let mut near = t_min;
+        let mut far = t_max;
+        for k in 0..3 {
+            let (a, b) = (t0[k], t1[k]);
+            if a.is_nan() || b.is_nan() {
+                continue;
+            }
+            near = near.max(a.min(b));
+            far = far.min(a.max(b));
+        }
         // Scale `far` up by 1 + 2γ₃ (pbrt-v4 §6.8.2) so rounding never culls a box the ray touches.
         (near <= far * 1.000_000_4).then_some(near)
     }

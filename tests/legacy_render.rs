@@ -46,7 +46,7 @@ fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, sp
         Ok((scene, _)) => scene,
         Err(e) => panic!("{}: {e}", path.display()),
     };
-    let (img, stats) = render(&built, &RenderOptions { progress: None });
+    let (img, stats) = render(&built, &RenderOptions { progress: None, target_rel_error: None, adaptive: false });
     assert_eq!(stats.nan_samples, 0, "{}: {} NaN/Inf samples ({integrator:?})", path.display(), stats.nan_samples);
     assert!(img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0), "{}: non-finite or negative pixel", path.display());
     img

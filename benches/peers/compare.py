@@ -23,6 +23,9 @@ The same table is printed for CPU time (user + system of all threads) when every
 ``cpu_seconds`` column: on a machine shared with other jobs it is far less inflated than wall
 time (the peers' wall times assume they have all cores to themselves).
 
+Equal-time table: the RMSE each peer reaches within the time budgets of --budgets, by the same
+log-log interpolation along the ladder.
+
 Writes ``results.csv`` (one row per run and rung) and prints the tables as Markdown.
 """
 
@@ -113,6 +116,19 @@ def time_to_error(rungs: list[Rung], target: float, cpu: bool = False) -> tuple[
     return _loglog(t0, e0, t1, e1, target), True
 
 
+def error_at_time(rungs: list[Rung], budget: float, cpu: bool = False) -> tuple[float, bool]:
+    """RMSE reached after ``budget`` seconds (log-log interpolation); True if extrapolated."""
+    pts = sorted(((r.cpu_seconds if cpu else r.seconds), r.rmse) for r in rungs)
+    if len(pts) == 1:
+        t, e = pts[0]
+        return e * math.sqrt(t / budget), True
+    for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
+        if t0 <= budget <= t1:
+            return _loglog(e0, t0, e1, t1, budget), False
+    (t0, e0), (t1, e1) = (pts[-2], pts[-1]) if budget > pts[-1][0] else (pts[0], pts[1])
+    return _loglog(e0, t0, e1, t1, budget), True
+
+
 def _loglog(t0, e0, t1, e1, target) -> float:
     if e0 == e1:
         return t0
@@ -127,9 +143,17 @@ def main() -> None:
     ap.add_argument("--reference", type=Path, default=common.REFERENCE_EXR)
     ap.add_argument("--target-peer", default="mitsuba-llvm")
     ap.add_argument("--target-spp", type=int, default=64)
+    ap.add_argument("--budgets", default="0.5,2,8",
+                    help="time budgets in seconds for the equal-time table (default 0.5,2,8)")
     ap.add_argument("--results", type=Path, default=common.HERE / "results.csv")
     args = ap.parse_args()
 
+    try:
+        budgets = [float(b) for b in args.budgets.split(",") if b.strip()]
+    except ValueError as e:
+        raise SystemExit(f"--budgets: expected comma-separated seconds, got {args.budgets!r}") from e
+    if not budgets or any(b <= 0 for b in budgets):
+        raise SystemExit(f"--budgets: every budget must be positive, got {args.budgets!r}")
     runs = args.runs
     if not runs:
         out = common.HERE / "out"
@@ -165,15 +189,26 @@ def main() -> None:
             print(f"| {peer} | {r.spp} | {r.seconds:.3f} | {r.samples_per_second / 1e6:.2f} | "
                   f"{r.rmse:.5f} | {r.rel_mse:.6f} | {r.cpu_seconds:.3f} | {r.load1} |")
 
+    clocks = [("wall", False)]
+    if all(not math.isnan(r.cpu_seconds) for rungs in peers.values() for r in rungs):
+        clocks.append(("CPU (all threads)", True))
+    for clock, cpu in clocks:
+        print(f"\nEqual time, {clock}: RMSE reached within each budget; * = extrapolated\n")
+        print("| peer | " + " | ".join(f"RMSE at {b:g} s" for b in budgets) + " |")
+        print("|---|" + "---:|" * len(budgets))
+        for peer, rungs in peers.items():
+            cells = []
+            for b in budgets:
+                e, extra = error_at_time(rungs, b, cpu)
+                cells.append(f"{e:.5f}{'*' if extra else ''}")
+            print(f"| {peer} | " + " | ".join(cells) + " |")
+
     target_rungs = [r for r in peers.get(args.target_peer, []) if r.spp == args.target_spp]
     if not target_rungs:
         print(f"\n(no {args.target_peer} run at {args.target_spp} spp: no equal-error table)")
         return
     target = target_rungs[0].rmse
     names = list(peers)
-    clocks = [("wall", False)]
-    if all(not math.isnan(r.cpu_seconds) for rungs in peers.values() for r in rungs):
-        clocks.append(("CPU (all threads)", True))
     for clock, cpu in clocks:
         times = {peer: time_to_error(rungs, target, cpu) for peer, rungs in peers.items()}
         print(f"\nEqual error, {clock} time: seconds to reach RMSE {target:.5f} "

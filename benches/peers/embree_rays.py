@@ -36,7 +36,7 @@ Measurement: closest-hit queries (``EmbreeScene.run(..., output=1)``: t, u, v, N
 ray), BVH build excluded. "1 thread" = one call on all N rays. "all cores" = the rays split into
 4 contiguous chunks per core, traced by a pool of one Python thread per core on one shared scene.
 This scales because embreex 4.4's compiled ``run`` loop does not hold the GIL (measured: the
-incoherent sets run ~2x faster on 2 threads; the script warns if a set gains < 1.3x). Results
+incoherent sets run ~1.7x faster on 2 idle cores; the script warns if a set gains < 1.3x). Results
 of the threaded run are checked to equal the single-threaded ones ray by ray. Reported: the best
 of --repeats runs (the machine is shared).
 Results: ``embree_results.csv`` (mesh, kind, rays, hits, threads, seconds, mrays_per_s, load1,

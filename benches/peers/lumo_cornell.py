@@ -1,14 +1,17 @@
 """Runs lumo over the spp ladder and writes a run folder that compare.py reads like any peer's.
 
     .venv/bin/python lumo_cornell.py [--lumo target/release/lumo] [--scene scenes/cornell.json]
-        [--spp 1,4,16,64,256] [--time-regex 'render time: ([0-9.]+) s']
+        [--spp 1,4,16,64,256] [--time-regex 'spp in ([0-9.]+) s']
 
 For each rung it runs ``<lumo> render <scene> -o out/lumo/lumo_<spp>spp.exr --spp <spp>`` (the
 command can be changed with --command, a template with {lumo}, {scene}, {out}, {spp}), after one
-untimed warm-up run at 1 spp. The time recorded is
+untimed warm-up run at 1 spp; each rung runs --repeats times (default 3, same seed) and the
+fastest is kept. The time recorded is
 
 - with --time-regex: the number captured by the regex's first group in lumo's stdout+stderr
-  (use this when lumo prints its pure render time, comparable to the peers' render-only times);
+  (use this when lumo prints its pure render time, comparable to the peers' render-only times;
+  lumo's summary line reads "rendered 256x256 at N spp in T s: ...", so
+  ``--time-regex 'spp in ([0-9.]+) s'``);
 - otherwise the wall time of the whole process, which also counts process start-up and scene
   loading, i.e. slightly favours the peers. The CSV does not record which of the two was used:
   say so when quoting the numbers.
@@ -57,6 +60,8 @@ def main() -> None:
     ap.add_argument("--command", default="{lumo} render {scene} -o {out} --spp {spp}")
     ap.add_argument("--spp", default=",".join(map(str, common.DEFAULT_LADDER)))
     ap.add_argument("--time-regex", help="regex whose group 1 is lumo's render time in seconds")
+    ap.add_argument("--repeats", type=int, default=3,
+                    help="run each rung this many times (same seed) and keep the fastest")
     ap.add_argument("--peer", default="lumo")
     ap.add_argument("--out", type=Path, default=common.HERE / "out")
     args = ap.parse_args()
@@ -78,14 +83,16 @@ def main() -> None:
     rows = []
     for spp in ladder:
         name = f"{args.peer}_{spp}spp.exr"
-        wall, cpu, text = run(command(spp, folder / name))
-        seconds = wall
-        if pattern:
-            m = pattern.search(text)
-            if not m:
-                raise SystemExit(f"--time-regex {args.time_regex!r} matched nothing in lumo's "
-                                 f"output:\n{text}")
-            seconds = float(m.group(1))
+        seconds = cpu = float("inf")
+        for _ in range(args.repeats):
+            wall, cpu1, text = run(command(spp, folder / name))
+            if pattern:
+                m = pattern.search(text)
+                if not m:
+                    raise SystemExit(f"--time-regex {args.time_regex!r} matched nothing in "
+                                     f"lumo's output:\n{text}")
+                wall = float(m.group(1))
+            seconds, cpu = min(seconds, wall), min(cpu, cpu1)
         rows.append(common.timing_row(args.peer, spp, seconds, name, cpu))
         print(f"{args.peer}: {spp:5d} spp  {seconds:8.3f} s "
               f"({'reported' if pattern else 'wall'}; load {common.load1():.2f})", flush=True)

@@ -1,5 +1,6 @@
 //! The command-line interface: argument parsing and the subcommands.
 
+pub mod converge;
 pub mod input;
 
 use std::path::{Path, PathBuf};
@@ -10,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lumo_schema as schema;
 
 use crate::output::{write_image, ToneMap};
-use crate::render::{render, RenderOptions};
+use crate::render::{render_with_error, RenderOptions};
 use crate::scene::build::{build, ExternalData, NoExternalData};
 
 /// Exit code for invalid input.
@@ -95,6 +96,15 @@ impl From<LightsArg> for lumo_converters::legacy::LightsPolicy {
     }
 }
 
+impl From<SamplerArg> for schema::SamplerKind {
+    fn from(a: SamplerArg) -> Self {
+        match a {
+            SamplerArg::Sobol => schema::SamplerKind::Sobol,
+            SamplerArg::Independent => schema::SamplerKind::Independent,
+        }
+    }
+}
+
 /// Tone mapping choice on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ToneMapArg {
@@ -117,6 +127,9 @@ pub enum Command {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
+    /// Render at a ladder of sample counts and report error against time (CSV and log-log plot).
+    #[command(after_help = "Example:\n  lumo converge scenes/cornell.json --reference tests/reference/cornell_mitsuba_4096.exr --spp 1,4,16,64,256 -o converge")]
+    Converge(converge::ConvergeArgs),
     /// Print the JSON Schema of scene files (draft 2020-12).
     #[command(after_help = "Example:\n  lumo schema -o schema/scene.schema.json")]
     Schema {
@@ -165,9 +178,45 @@ pub struct RenderArgs {
     /// to use the file's Lights block.
     #[arg(long, value_enum, default_value = "auto")]
     pub lights: LightsArg,
+    /// Render progressive passes for this long (e.g. `30s`, `2m`, `500ms`); `--spp`, when
+    /// given, still caps the samples.
+    #[arg(long, value_parser = parse_duration)]
+    pub time: Option<f32>,
+    /// Stop when the estimated relative error (from the samples' variance) falls below this.
+    #[arg(long)]
+    pub target_error: Option<f64>,
+    /// Distribute samples by per-pixel error estimates.
+    #[arg(long)]
+    pub adaptive: bool,
+    /// Print RMSE and relative MSE against this reference image (linear EXR/HDR).
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Also write the per-pixel standard-error image (linear, EXR/HDR by extension).
+    #[arg(long)]
+    pub error_image: Option<PathBuf>,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// Parses `30s`, `2m`, `1.5h`, `500ms` or a plain number of seconds.
+fn parse_duration(text: &str) -> Result<f32, String> {
+    let t = text.trim();
+    let (num, scale) = if let Some(n) = t.strip_suffix("ms") {
+        (n, 1e-3)
+    } else if let Some(n) = t.strip_suffix('s') {
+        (n, 1.0)
+    } else if let Some(n) = t.strip_suffix('m') {
+        (n, 60.0)
+    } else if let Some(n) = t.strip_suffix('h') {
+        (n, 3600.0)
+    } else {
+        (t, 1.0)
+    };
+    match num.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v * scale),
+        _ => Err(format!("`{text}` is not a duration (examples: 30s, 2m, 500ms)")),
+    }
 }
 
 /// Runs the CLI; returns the process exit code.
@@ -176,6 +225,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Render(args) => render_cmd(&args, &NoExternalData),
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
+        Command::Converge(args) => converge::run(&args, &NoExternalData).map(|_| ()),
     }
 }
 
@@ -255,10 +305,23 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
         };
     }
     if let Some(k) = args.sampler {
-        s.render.sampler = match k {
-            SamplerArg::Sobol => schema::SamplerKind::Sobol,
-            SamplerArg::Independent => schema::SamplerKind::Independent,
-        };
+        s.render.sampler = k.into();
+    }
+    if let Some(t) = args.time {
+        s.render.time_budget_s = Some(t);
+    }
+    if (args.time.is_some() || args.target_error.is_some()) && args.spp.is_none() {
+        // Asked for a time or an error, not a sample count: let the budget decide.
+        s.render.spp = schema::MAX_SPP;
+    }
+    let reference = match &args.reference {
+        Some(p) => Some(crate::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
+        None => None,
+    };
+    if let Some(r) = &reference {
+        if (r.width, r.height) != (s.image.width, s.image.height) {
+            return Err(CliError::invalid(format!("{}: reference is {}×{} but the render is {}×{}", args.reference.as_ref().map_or(String::new(), |p| p.display().to_string()), r.width, r.height, s.image.width, s.image.height)));
+        }
     }
     let pixels = u64::from(s.image.width) * u64::from(s.image.height);
     if pixels > schema::MAX_PIXELS {
@@ -272,35 +335,51 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
         eprintln!("warning: {}: {w}", args.scene.display());
     }
     let total = u64::from(scene.settings.width) * u64::from(scene.settings.height) * u64::from(scene.settings.spp);
-    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(total) };
+    let open_ended = scene.settings.time_budget_s.is_some() || args.target_error.is_some();
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else if open_ended {
+        ProgressBar::no_length()
+    } else {
+        ProgressBar::new(total)
+    };
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% {human_pos}/{human_len} samples, {per_sec}, ETA {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
     let progress = |n: u64| bar.set_position(n);
-    let options = RenderOptions { progress: Some(&progress) };
+    let options = RenderOptions { progress: Some(&progress), target_rel_error: args.target_error, adaptive: args.adaptive };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0) as usize)
         .build()
         .map_err(|e| CliError::failure(format!("cannot start worker threads: {e}")))?;
-    let (image, stats) = pool.install(|| render(&scene, &options));
+    let rendered = pool.install(|| render_with_error(&scene, &options));
+    let (image, stats) = (&rendered.image, rendered.stats);
     bar.finish_and_clear();
     let tone = match args.tonemap {
         ToneMapArg::Clamp => ToneMap::Clamp,
         ToneMapArg::Aces => ToneMap::Aces,
     };
-    write_image(&image, &args.output, tone).map_err(|e| CliError::failure(e.to_string()))?;
+    write_image(image, &args.output, tone).map_err(|e| CliError::failure(e.to_string()))?;
+    if let Some(path) = &args.error_image {
+        write_image(&rendered.std_error, path, ToneMap::Clamp).map_err(|e| CliError::failure(e.to_string()))?;
+    }
     let secs = stats.elapsed.as_secs_f64();
     let nan = if stats.nan_samples > 0 { format!(", {} NaN/Inf samples dropped", stats.nan_samples) } else { String::new() };
+    let vs_reference = match &reference {
+        Some(r) => format!(", RMSE {:.5}, relMSE {:.6} vs reference", image.rmse(r), image.rel_mse(r)),
+        None => String::new(),
+    };
     eprintln!(
-        "rendered {}×{} at {} spp in {:.2} s: {:.2} M rays/s, {:.2} M samples/s{nan} → {}",
+        "rendered {}×{} at {} spp in {:.2} s: {:.2} M rays/s, {:.2} M samples/s, estimated relative error {:.4}{vs_reference}{nan} → {}",
         image.width,
         image.height,
         stats.spp,
         secs,
         stats.rays as f64 / secs / 1e6,
-        total as f64 / secs / 1e6,
+        stats.samples as f64 / secs / 1e6,
+        stats.estimated_rel_error,
         args.output.display()
     );
     Ok(())

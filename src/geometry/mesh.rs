@@ -1,8 +1,104 @@
-//! Triangle meshes in object space, each with its own BVH, shared between instances.
+//! Triangle meshes in object space, each with its own BVH, shared between instances; and
+//! [`TriangleBvh`], a BVH over triangles whose corners are copied into leaf order (the form
+//! both a mesh's BVH and the world-space triangle set of a scene take).
 
-use crate::bvh::Bvh;
-use crate::geometry::triangle::{self, RayShear};
+use std::sync::OnceLock;
+
+use glam::Vec3A;
+
+use crate::bvh::{Bvh, TraversalRay};
+use crate::geometry::triangle::{self, RayShear, TriHit};
 use crate::math::{Aabb, Vec2, Vec3};
+
+/// A ray prepared for triangle BVHs: the box-test and the watertight-shear constants.
+#[derive(Debug, Clone, Copy)]
+pub struct TriRay {
+    /// Box-test constants.
+    pub boxes: TraversalRay,
+    /// Triangle-test constants.
+    pub shear: RayShear,
+}
+
+impl TriRay {
+    /// Prepares the ray o + t d.
+    #[inline]
+    pub fn new(o: Vec3, d: Vec3) -> TriRay {
+        TriRay { boxes: TraversalRay::new(o, d), shear: RayShear::new(o, d) }
+    }
+}
+
+/// A BVH over triangles, with the corners of each triangle stored at its slot (leaf order), so
+/// the leaf test reads 48 contiguous bytes per triangle without looking up vertex indices.
+/// Each triangle carries a caller-defined id (for a mesh, its triangle index; for a scene's
+/// world-space set, the instance and the triangle index).
+#[derive(Debug, Clone, Default)]
+pub struct TriangleBvh {
+    bvh: Bvh,
+    corners: Vec<[Vec3A; 3]>,
+    ids: Vec<[u32; 2]>,
+}
+
+impl TriangleBvh {
+    /// Builds the BVH over triangles given by their corners and ids.
+    pub fn new(corners: Vec<[Vec3A; 3]>, ids: Vec<[u32; 2]>) -> TriangleBvh {
+        debug_assert_eq!(corners.len(), ids.len());
+        let boxes: Vec<Aabb> = corners
+            .iter()
+            .map(|c| {
+                let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                Aabb { min: lo.into(), max: hi.into() }
+            })
+            .collect();
+        let bvh = Bvh::build(&boxes);
+        let corners = bvh.prims.iter().map(|&p| corners[p as usize]).collect();
+        let ids = bvh.prims.iter().map(|&p| ids[p as usize]).collect();
+        TriangleBvh { bvh, corners, ids }
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Whether there are no triangles.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// Bounds of all triangles.
+    pub fn bounds(&self) -> Aabb {
+        self.bvh.bounds()
+    }
+
+    /// The underlying hierarchy.
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// Closest hit within (t_min, t_max): the triangle's id and the hit.
+    #[inline]
+    pub fn intersect(&self, ray: &TriRay, t_min: f32, t_max: f32) -> Option<([u32; 2], TriHit)> {
+        let mut best: Option<(u32, TriHit)> = None;
+        let mut t_max = t_max;
+        self.bvh.traverse(&ray.boxes, t_min, &mut t_max, |slot, t_max| {
+            if let Some(h) = triangle::intersect_a(&ray.shear, &self.corners[slot as usize], t_min, *t_max) {
+                *t_max = h.t;
+                best = Some((slot, h));
+            }
+            false
+        });
+        best.map(|(slot, h)| (self.ids[slot as usize], h))
+    }
+
+    /// Whether any triangle is hit within (t_min, t_max).
+    #[inline]
+    pub fn occluded(&self, ray: &TriRay, t_min: f32, t_max: f32) -> bool {
+        let mut t_max = t_max;
+        self.bvh.traverse(&ray.boxes, t_min, &mut t_max, |slot, t_max| {
+            triangle::intersect_a(&ray.shear, &self.corners[slot as usize], t_min, *t_max).is_some()
+        })
+    }
+}
 
 /// An indexed triangle mesh with optional per-vertex normals and texture coordinates.
 #[derive(Debug, Clone)]
@@ -15,7 +111,10 @@ pub struct Mesh {
     pub normals: Option<Vec<Vec3>>,
     /// Vertex texture coordinates, when present.
     pub uvs: Option<Vec<Vec2>>,
-    bvh: Bvh,
+    bounds: Aabb,
+    /// Built on first use: a mesh whose only instances are flattened into the scene's
+    /// world-space triangle set never needs its own.
+    bvh: OnceLock<TriangleBvh>,
 }
 
 /// Where a ray meets a mesh.
@@ -32,8 +131,9 @@ pub struct MeshHit {
 }
 
 impl Mesh {
-    /// Builds a mesh and its BVH. Degenerate (zero-area) triangles are removed; the number
-    /// removed is returned alongside so the loader can warn once.
+    /// Makes a mesh (its BVH is built on first use, see [`Mesh::bvh`]). Degenerate (zero-area)
+    /// triangles are removed; the number removed is returned alongside so the loader can warn
+    /// once.
     pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>, normals: Option<Vec<Vec3>>, uvs: Option<Vec<Vec2>>) -> (Mesh, usize) {
         let before = triangles.len();
         let triangles: Vec<[u32; 3]> = triangles
@@ -44,14 +144,22 @@ impl Mesh {
             })
             .collect();
         let dropped = before - triangles.len();
-        let boxes: Vec<Aabb> = triangles.iter().map(|t| Aabb::from_points(t.map(|i| positions[i as usize]))).collect();
-        let bvh = Bvh::build(&boxes);
-        (Mesh { positions, triangles, normals, uvs, bvh }, dropped)
+        let bounds = triangles.iter().fold(Aabb::EMPTY, |b, t| t.iter().fold(b, |b, &i| b.grow(positions[i as usize])));
+        (Mesh { positions, triangles, normals, uvs, bounds, bvh: OnceLock::new() }, dropped)
     }
 
     /// Bounds in object space.
     pub fn bounds(&self) -> Aabb {
-        self.bvh.bounds()
+        self.bounds
+    }
+
+    /// The mesh's own BVH (object space), built on first call.
+    pub fn bvh(&self) -> &TriangleBvh {
+        self.bvh.get_or_init(|| {
+            let corners = (0..self.triangles.len() as u32).map(|p| self.corners(p).map(Vec3A::from)).collect();
+            let ids = (0..self.triangles.len() as u32).map(|p| [0, p]).collect();
+            TriangleBvh::new(corners, ids)
+        })
     }
 
     /// The three corners of triangle `prim`.
@@ -62,28 +170,12 @@ impl Mesh {
 
     /// Closest hit within (t_min, t_max).
     pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<MeshHit> {
-        let shear = RayShear::new(o, d);
-        let mut best = None;
-        let mut t_max = t_max;
-        self.bvh.traverse(o, d, t_min, &mut t_max, |p, t_max| {
-            let [a, b, c] = self.corners(p);
-            if let Some(h) = triangle::intersect(&shear, a, b, c, t_min, *t_max) {
-                *t_max = h.t;
-                best = Some(MeshHit { t: h.t, prim: p, b1: h.b1, b2: h.b2 });
-            }
-            false
-        });
-        best
+        self.bvh().intersect(&TriRay::new(o, d), t_min, t_max).map(|(id, h)| MeshHit { t: h.t, prim: id[1], b1: h.b1, b2: h.b2 })
     }
 
     /// Whether anything is hit within (t_min, t_max).
     pub fn occluded(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
-        let shear = RayShear::new(o, d);
-        let mut t_max = t_max;
-        self.bvh.traverse(o, d, t_min, &mut t_max, |p, t_max| {
-            let [a, b, c] = self.corners(p);
-            triangle::intersect(&shear, a, b, c, t_min, *t_max).is_some()
-        })
+        self.bvh().occluded(&TriRay::new(o, d), t_min, t_max)
     }
 
     /// Interpolated point, geometric normal, shading normal and texture coordinates of a hit.
@@ -125,6 +217,71 @@ impl Mesh {
         }
         acc.into_iter().map(|n| n.normalize_or_zero()).collect()
     }
+}
+
+/// A unit icosphere: the regular icosahedron with every triangle split into four
+/// `subdivisions` times, new vertices pushed onto the sphere; 20·4ⁿ triangles (n = 7 gives
+/// 327,680, n = 8 gives 1,310,720), counter-clockwise seen from outside. Used by tests,
+/// benchmarks and generated scene assets.
+pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let g = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut positions: Vec<Vec3> = [
+        (-1.0, g, 0.0),
+        (1.0, g, 0.0),
+        (-1.0, -g, 0.0),
+        (1.0, -g, 0.0),
+        (0.0, -1.0, g),
+        (0.0, 1.0, g),
+        (0.0, -1.0, -g),
+        (0.0, 1.0, -g),
+        (g, 0.0, -1.0),
+        (g, 0.0, 1.0),
+        (-g, 0.0, -1.0),
+        (-g, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut tris: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut mid = std::collections::HashMap::with_capacity(tris.len() * 3 / 2);
+        let mut next = Vec::with_capacity(tris.len() * 4);
+        let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                positions.push(((positions[a as usize] + positions[b as usize]) * 0.5).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        for &[a, b, c] in &tris {
+            let ab = midpoint(a, b, &mut positions);
+            let bc = midpoint(b, c, &mut positions);
+            let ca = midpoint(c, a, &mut positions);
+            next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    (positions, tris)
 }
 
 #[cfg(test)]

@@ -7,9 +7,11 @@ pub mod triangle;
 
 use std::sync::Arc;
 
-use crate::bvh::Bvh;
+use glam::Vec3A;
+
+use crate::bvh::{Bvh, TraversalRay};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
-pub use mesh::Mesh;
+pub use mesh::{Mesh, TriRay, TriangleBvh};
 pub use sphere::{Plane, Sphere};
 
 /// A shape in its own object space.
@@ -173,45 +175,110 @@ pub trait Accel: Sync {
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool;
 }
 
-/// All instances of a scene with a BVH over the bounded ones (the top level of a two-level
-/// hierarchy; each mesh has its own BVH inside).
+/// Meshes with at most this many triangles are flattened into the world-space triangle set
+/// even when several instances share them (copying them costs less than a second BVH level).
+pub const FLATTEN_MAX_SHARED_TRIANGLES: usize = 256;
+
+/// All instances of a scene, in two parts:
+///
+/// - a single BVH over world-space triangles ([`TriangleBvh`]) holding every mesh instance
+///   whose mesh is used once (or is small), transformed to world space at build time as pbrt-v4
+///   does for non-instanced meshes: rays then need no per-instance transform, and one traversal
+///   covers all of them;
+/// - a BVH over the remaining bounded instances (spheres, and meshes shared by several
+///   instances, each with its own object-space BVH inside: the top level of a two-level
+///   hierarchy, so a mesh used twice is stored once), plus the unbounded planes.
+///
+/// Hits report the instance and the triangle of the original mesh either way, and the surface
+/// is computed from the object-space mesh by the barycentrics (an affine map preserves them),
+/// so flattening changes only rounding, not results.
 #[derive(Debug, Clone)]
 pub struct Geometry {
     /// The instances.
     pub instances: Vec<Instance>,
+    flat: TriangleBvh,
     top: Bvh,
+    /// Instance index of each primitive of `top`.
+    top_instances: Vec<u32>,
     unbounded: Vec<u32>,
 }
 
 impl Geometry {
-    /// Builds the top-level BVH.
+    /// Builds the acceleration structures.
     pub fn new(instances: Vec<Instance>) -> Geometry {
-        let boxes: Vec<Aabb> = instances.iter().map(|i| i.bounds().unwrap_or(Aabb::EMPTY)).collect();
-        let unbounded = instances.iter().enumerate().filter(|(_, i)| i.bounds().is_none()).map(|(k, _)| k as u32).collect();
-        Geometry { top: Bvh::build(&boxes), instances, unbounded }
+        // How many instances use each mesh.
+        let mut uses: std::collections::HashMap<*const Mesh, usize> = std::collections::HashMap::new();
+        for inst in &instances {
+            if let Shape::Mesh(m) = &inst.shape {
+                *uses.entry(Arc::as_ptr(m)).or_default() += 1;
+            }
+        }
+        let mut corners = Vec::new();
+        let mut ids = Vec::new();
+        let mut top_instances = Vec::new();
+        let mut top_boxes = Vec::new();
+        let mut unbounded = Vec::new();
+        for (k, inst) in instances.iter().enumerate() {
+            if let Shape::Mesh(m) = &inst.shape {
+                if uses[&Arc::as_ptr(m)] == 1 || m.triangles.len() <= FLATTEN_MAX_SHARED_TRIANGLES {
+                    for prim in 0..m.triangles.len() as u32 {
+                        let c = m.corners(prim);
+                        let c = if inst.identity { c } else { c.map(|p| inst.to_world.transform_point3(p)) };
+                        corners.push(c.map(Vec3A::from));
+                        ids.push([k as u32, prim]);
+                    }
+                    continue;
+                }
+                // Shared and large: instanced through its own BVH, built now rather than on
+                // the first ray.
+                m.bvh();
+            }
+            match inst.bounds() {
+                Some(b) => {
+                    top_instances.push(k as u32);
+                    top_boxes.push(b);
+                }
+                None => unbounded.push(k as u32),
+            }
+        }
+        Geometry { flat: TriangleBvh::new(corners, ids), top: Bvh::build(&top_boxes), top_instances, instances, unbounded }
     }
 
     /// Bounds of all bounded instances.
     pub fn bounds(&self) -> Aabb {
-        self.top.bounds()
+        let (a, b) = (self.flat.bounds(), self.top.bounds());
+        match (a.is_empty(), b.is_empty()) {
+            (true, _) => b,
+            (_, true) => a,
+            _ => a.union(b),
+        }
     }
 
     fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, RawHit)> {
         let mut best: Option<(u32, RawHit)> = None;
         let mut t_max = t_max;
+        if !self.flat.is_empty() {
+            if let Some((id, h)) = self.flat.intersect(&TriRay::new(ray.o, ray.d), t_min, t_max) {
+                t_max = h.t;
+                best = Some((id[0], RawHit { t: h.t, prim: id[1], b1: h.b1, b2: h.b2 }));
+            }
+        }
         for &k in &self.unbounded {
             if let Some(h) = self.instances[k as usize].intersect(ray, t_min, t_max) {
                 t_max = h.t;
                 best = Some((k, h));
             }
         }
-        self.top.traverse(ray.o, ray.d, t_min, &mut t_max, |k, t_max| {
-            if let Some(h) = self.instances[k as usize].intersect(ray, t_min, *t_max) {
-                *t_max = h.t;
-                best = Some((k, h));
-            }
-            false
-        });
+        if !self.top_instances.is_empty() {
+            self.top.traverse(&TraversalRay::new(ray.o, ray.d), t_min, &mut t_max, |slot, t_max| {
+                let k = self.top_instances[self.top.prims[slot as usize] as usize];
+                if let Some(h) = self.instances[k as usize].intersect(ray, t_min, *t_max) {
+                    *t_max = h.t;
+                    best = Some((k, h));
+                }
+                false
+            });
+        }
         best
     }
 }
@@ -222,11 +289,20 @@ impl Accel for Geometry {
     }
 
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        if !self.flat.is_empty() && self.flat.occluded(&TriRay::new(ray.o, ray.d), t_min, t_max) {
+            return true;
+        }
         if self.unbounded.iter().any(|&k| self.instances[k as usize].occluded(ray, t_min, t_max)) {
             return true;
         }
+        if self.top_instances.is_empty() {
+            return false;
+        }
         let mut t_max = t_max;
-        self.top.traverse(ray.o, ray.d, t_min, &mut t_max, |k, t_max| self.instances[k as usize].occluded(ray, t_min, *t_max))
+        self.top.traverse(&TraversalRay::new(ray.o, ray.d), t_min, &mut t_max, |slot, t_max| {
+            let k = self.top_instances[self.top.prims[slot as usize] as usize];
+            self.instances[k as usize].occluded(ray, t_min, *t_max)
+        })
     }
 }
 
@@ -299,6 +375,60 @@ mod tests {
                 }
             }
             assert_eq!(geo.occluded(&ray, 0.0, f32::INFINITY), b.is_some());
+        }
+    }
+    /// Large meshes shared by several instances stay instanced (two-level path), used-once
+    /// meshes are flattened to world space; both must agree with the brute-force oracle.
+    #[test]
+    fn instanced_and_flattened_meshes_agree_with_brute_force() {
+        let mut s = 21u64;
+        let (pos, tris) = mesh::icosphere(3); // 1280 triangles: above the flattening limit
+        assert!(tris.len() > FLATTEN_MAX_SHARED_TRIANGLES);
+        let shared = Arc::new(Mesh::new(pos.clone(), tris.clone(), None, None).0);
+        let mut instances = Vec::new();
+        for i in 0..12 {
+            let t = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 16.0 - 8.0;
+            let scale = Vec3::new(0.5 + lcg(&mut s), 0.5 + lcg(&mut s), 0.5 + lcg(&mut s));
+            let rot = glam::Quat::from_axis_angle(Vec3::new(lcg(&mut s), lcg(&mut s) + 0.1, lcg(&mut s)).normalize(), lcg(&mut s) * 6.0);
+            let m = Affine3A::from_scale_rotation_translation(scale, rot, t);
+            let mesh = if i % 3 == 0 { Arc::new(Mesh::new(pos.clone(), tris.clone(), None, None).0) } else { shared.clone() };
+            instances.push(Instance::new(Shape::Mesh(mesh), m, 0));
+        }
+        let geo = Geometry::new(instances.clone());
+        assert_eq!(geo.flat.len(), 4 * tris.len());
+        assert_eq!(geo.top_instances.len(), 8);
+        let brute = BruteForce(&instances);
+        let mut hits = 0;
+        for _ in 0..3000 {
+            let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 24.0 - 12.0;
+            let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5).normalize();
+            let ray = Ray::new(o, d);
+            let a = geo.intersect(&ray, 0.0, f32::INFINITY);
+            let b = brute.intersect(&ray, 0.0, f32::INFINITY);
+            assert_eq!(a.map(|h| (h.instance, h.prim)), b.map(|h| (h.instance, h.prim)));
+            if let (Some(a), Some(b)) = (a, b) {
+                hits += 1;
+                assert!((a.t - b.t).abs() < 1e-4 * b.t.max(1.0) && (a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
+            }
+            assert_eq!(geo.occluded(&ray, 0.0, f32::INFINITY), b.is_some());
+            // Segment queries stop at t_max.
+            if let Some(b) = b {
+                assert!(!geo.occluded(&ray, 0.0, b.t * 0.999));
+            }
+        }
+        assert!(hits > 50, "too few hits to test anything: {hits}");
+    }
+
+    #[test]
+    fn icosphere_counts_and_orientation() {
+        for n in 0..4 {
+            let (pos, tris) = mesh::icosphere(n);
+            assert_eq!(tris.len(), 20 * 4usize.pow(n));
+            assert_eq!(pos.len(), 10 * 4usize.pow(n) + 2);
+            for t in &tris {
+                let [a, b, c] = t.map(|i| pos[i as usize]);
+                assert!((b - a).cross(c - a).dot(a + b + c) > 0.0, "faces point outwards");
+            }
         }
     }
 }

@@ -3,22 +3,27 @@
 //! then evaluated in 2D, with a fallback to f64 when one is exactly zero, so rays never slip
 //! through the shared edge of two triangles.
 
+use glam::{Mat3A, Vec3A};
+
 use crate::math::Vec3;
 
 /// Per-ray constants of the shear transform.
+///
+/// With `kz` the dominant axis of the direction and (kx, ky) the other two (swapped when
+/// d[kz] < 0 to keep the winding), a vertex a relative to the origin maps to
+/// (a[kx] − sx·a[kz], a[ky] − sy·a[kz], sz·a[kz]). That map is stored as a matrix whose columns
+/// are the images of the unit axes: (1, 0, 0) for kx, (0, 1, 0) for ky and (−sx, −sy, sz) for
+/// kz. Multiplying by it adds the same products as the scalar formula plus exact zeros, so the
+/// result is bit-identical to the paper's, without per-ray branching on axis indices.
 #[derive(Debug, Clone, Copy)]
 pub struct RayShear {
-    o: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    o: Vec3A,
+    m: Mat3A,
 }
 
 impl RayShear {
     /// Precomputes the shear for a ray with origin `o` and direction `d`.
+    #[inline]
     pub fn new(o: Vec3, d: Vec3) -> RayShear {
         let a = d.abs();
         let kz = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
@@ -27,7 +32,18 @@ impl RayShear {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        RayShear { o, kx, ky, kz, sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
+        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let mut cols = [Vec3A::ZERO; 3];
+        cols[kx] = Vec3A::X;
+        cols[ky] = Vec3A::Y;
+        cols[kz] = Vec3A::new(-sx, -sy, sz);
+        RayShear { o: o.into(), m: Mat3A::from_cols(cols[0], cols[1], cols[2]) }
+    }
+
+    /// The vertex in the sheared frame: (x, y) relative to the ray, z scaled along it.
+    #[inline(always)]
+    fn map(&self, v: Vec3A) -> Vec3A {
+        self.m * (v - self.o)
     }
 }
 
@@ -45,23 +61,23 @@ pub struct TriHit {
 /// Intersects the sheared ray with triangle (v0, v1, v2) within (t_min, t_max). Both faces hit.
 #[inline]
 pub fn intersect(r: &RayShear, v0: Vec3, v1: Vec3, v2: Vec3, t_min: f32, t_max: f32) -> Option<TriHit> {
-    let a = v0 - r.o;
-    let b = v1 - r.o;
-    let c = v2 - r.o;
-    let ax = a[r.kx] - r.sx * a[r.kz];
-    let ay = a[r.ky] - r.sy * a[r.kz];
-    let bx = b[r.kx] - r.sx * b[r.kz];
-    let by = b[r.ky] - r.sy * b[r.kz];
-    let cx = c[r.kx] - r.sx * c[r.kz];
-    let cy = c[r.ky] - r.sy * c[r.kz];
-    let mut u = cx * by - cy * bx;
-    let mut v = ax * cy - ay * cx;
-    let mut w = bx * ay - by * ax;
+    intersect_a(r, &[v0.into(), v1.into(), v2.into()], t_min, t_max)
+}
+
+/// [`intersect`] on corners stored in SIMD layout (as the triangle sets keep them).
+#[inline(always)]
+pub fn intersect_a(r: &RayShear, v: &[Vec3A; 3], t_min: f32, t_max: f32) -> Option<TriHit> {
+    let a = r.map(v[0]);
+    let b = r.map(v[1]);
+    let c = r.map(v[2]);
+    let mut u = c.x * b.y - c.y * b.x;
+    let mut v = a.x * c.y - a.y * c.x;
+    let mut w = b.x * a.y - b.y * a.x;
     if u == 0.0 || v == 0.0 || w == 0.0 {
         // Exactly on an edge in f32: decide in double precision so neighbours agree.
-        u = (cx as f64 * by as f64 - cy as f64 * bx as f64) as f32;
-        v = (ax as f64 * cy as f64 - ay as f64 * cx as f64) as f32;
-        w = (bx as f64 * ay as f64 - by as f64 * ax as f64) as f32;
+        u = (c.x as f64 * b.y as f64 - c.y as f64 * b.x as f64) as f32;
+        v = (a.x as f64 * c.y as f64 - a.y as f64 * c.x as f64) as f32;
+        w = (b.x as f64 * a.y as f64 - b.y as f64 * a.x as f64) as f32;
     }
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return None;
@@ -70,10 +86,7 @@ pub fn intersect(r: &RayShear, v0: Vec3, v1: Vec3, v2: Vec3, t_min: f32, t_max: 
     if det == 0.0 {
         return None;
     }
-    let az = r.sz * a[r.kz];
-    let bz = r.sz * b[r.kz];
-    let cz = r.sz * c[r.kz];
-    let t_scaled = u * az + v * bz + w * cz;
+    let t_scaled = u * a.z + v * b.z + w * c.z;
     let inv = 1.0 / det;
     let t = t_scaled * inv;
     if !(t > t_min && t < t_max) {

@@ -34,5 +34,5 @@ pub fn build(desc: &lumo_schema::Scene, base: &Path) -> lumo::scene::Scene {
 
 /// Renders with the scene's own settings on the current rayon pool.
 pub fn render(scene: &lumo::scene::Scene) -> lumo::render::Image {
-    lumo::render::render(scene, &lumo::render::RenderOptions { progress: None }).0
+    lumo::render::render(scene, &Default::default()).0
 }
