@@ -119,6 +119,7 @@ impl Loaded {
     /// Parses bytes as the file `file` (used for messages and to resolve relative URIs).
     /// With `external` false, external buffer files are not read (an error names them).
     pub fn from_bytes(file: &Path, bytes: &[u8], external: bool) -> Result<Loaded, GltfError> {
+        precheck(file, bytes)?;
         let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| {
             let mut err = parse_error(file, e);
             if let GltfError::UnsupportedExtension { index, extension, .. } = &mut err {
@@ -356,4 +357,32 @@ fn component(b: &[u8], dt: DataType, normalized: bool) -> f64 {
         DataType::U32 => f64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
         DataType::F32 => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
     }
+}
+
+/// Checks what the gltf crate's validation dereferences without checking (found by fuzzing:
+/// a POSITION attribute naming a missing accessor panics inside `gltf-json` 1.4), so those
+/// files get an error instead.
+fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
+    // Parse errors are reported by the validating parse that follows.
+    let Ok(raw) = gltf::Gltf::from_slice_without_validation(bytes) else { return Ok(()) };
+    let root = raw.document.as_json();
+    let n = root.accessors.len();
+    for (i, m) in root.meshes.iter().enumerate() {
+        for (j, p) in m.primitives.iter().enumerate() {
+            for (sem, acc) in &p.attributes {
+                if acc.value() >= n {
+                    let name = match sem {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        gltf::json::validation::Checked::Invalid => "?".into(),
+                    };
+                    return Err(GltfError::invalid(
+                        file,
+                        format!("meshes[{i}].primitives[{j}].attributes.{name}"),
+                        format!("accessor index {} is out of range: the file has {n} accessors", acc.value()),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }

@@ -18,6 +18,7 @@ use serde::de::DeserializeOwned;
 use super::document::{decode_data_uri, percent_decode, Loaded};
 use super::error::GltfError;
 use super::math::{self, Mat4};
+use super::mesh::read_primitive;
 use super::paths::relative;
 use super::pbr::{self, LightValues, Pbr, TexInfo};
 
@@ -199,6 +200,15 @@ impl Importer<'_> {
             }
         }
 
+        // Read every triangle primitive now, as the renderer will, so a broken buffer is
+        // reported by the import rather than at render time.
+        for m in doc.meshes() {
+            for p in m.primitives() {
+                if p.mode() == Mode::Triangles && p.get(&Semantic::Positions).is_some() {
+                    read_primitive(self.l, m.index(), p.index())?;
+                }
+            }
+        }
         let (camera, image) = self.camera(options, &scene_extras)?;
         if !self.ignored.is_empty() {
             let list: Vec<String> = self.ignored.iter().cloned().collect();

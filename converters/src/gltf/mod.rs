@@ -30,14 +30,5 @@ pub use pbr::LUMENS_PER_WATT;
 /// URIs and in messages). External buffers and images are not read. For fuzzing and tests.
 pub fn import_bytes(file: &std::path::Path, bytes: &[u8], options: &ImportOptions) -> Result<Imported, GltfError> {
     let loaded = document::Loaded::from_bytes(file, bytes, false)?;
-    let imported = import::import_loaded(&loaded, options)?;
-    // Read every triangle primitive as the renderer would, so its checks run too.
-    for m in loaded.doc.meshes() {
-        for p in m.primitives() {
-            if p.mode() == gltf::mesh::Mode::Triangles && p.get(&gltf::Semantic::Positions).is_some() {
-                mesh::read_primitive(&loaded, m.index(), p.index())?;
-            }
-        }
-    }
-    Ok(imported)
+    import::import_loaded(&loaded, options)
 }
