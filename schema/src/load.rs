@@ -98,7 +98,7 @@ fn explain(raw: &str) -> (String, Option<String>) {
     };
     if let Some(rest) = msg.strip_prefix("invalid type: ") {
         if let Some((found, expected)) = rest.split_once(", expected ") {
-            return (format!("expected {}, found {}", plain_type(expected), found), None);
+            return (format!("expected {}, found {}", plain_type(expected), plain_found(found)), None);
         }
     }
     if let Some(rest) = msg.strip_prefix("unknown field `") {
@@ -130,6 +130,16 @@ fn explain(raw: &str) -> (String, Option<String>) {
         return ("expected a number or an array of three numbers".into(), Some("a uniform scale is one number, a per-axis scale is [x, y, z]".into()));
     }
     (msg.to_string(), None)
+}
+
+/// serde's description of a found value in JSON words (`map` → `an object`).
+fn plain_found(found: &str) -> String {
+    for (serde, json) in [("string", "a string"), ("map", "an object"), ("sequence", "an array"), ("floating point", "the number"), ("integer", "the integer"), ("boolean", "the boolean")] {
+        if let Some(rest) = found.strip_prefix(serde) {
+            return format!("{json}{rest}");
+        }
+    }
+    found.to_string()
 }
 
 /// serde's type names in words a scene author knows.

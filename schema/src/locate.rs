@@ -58,7 +58,8 @@ impl JsonPath {
                     }
                     rest = &stripped[close + 1..];
                 }
-            } else if !rest.is_empty() {
+            } else if !rest.is_empty() && rest != "?" {
+                // `?` is serde_path_to_error's marker for a position it could not name.
                 segs.push(PathSegment::Key(rest.to_string()));
             }
         }

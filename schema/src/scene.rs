@@ -93,6 +93,17 @@ pub enum Integrator {
     Raycast,
 }
 
+/// The sequence of sample points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SamplerKind {
+    /// Owen-scrambled Sobol points: lower error at equal sample counts.
+    #[default]
+    Sobol,
+    /// Independent uniform random numbers (for comparison).
+    Independent,
+}
+
 /// How the image is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -100,6 +111,9 @@ pub struct RenderSettings {
     /// The light-transport algorithm. Default `path`.
     #[serde(default)]
     pub integrator: Integrator,
+    /// The sequence of sample points. Default `sobol`.
+    #[serde(default, skip_serializing_if = "is_default_sampler")]
+    pub sampler: SamplerKind,
     /// Samples per pixel. Default 64.
     #[serde(default = "default_spp")]
     #[schemars(range(min = 1))]
@@ -119,6 +133,10 @@ pub struct RenderSettings {
     pub time_budget_s: Option<f32>,
 }
 
+fn is_default_sampler(s: &SamplerKind) -> bool {
+    *s == SamplerKind::Sobol
+}
+
 fn default_spp() -> u32 {
     64
 }
@@ -130,6 +148,7 @@ impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
             integrator: Integrator::default(),
+            sampler: SamplerKind::default(),
             spp: default_spp(),
             max_depth: default_max_depth(),
             seed: 0,

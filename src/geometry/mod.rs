@@ -1,0 +1,287 @@
+//! Geometry: shapes in object space, instances placing them in the world, and the two-level
+//! acceleration structure over instances (a mesh used by several objects is stored once).
+
+pub mod mesh;
+pub mod sphere;
+pub mod triangle;
+
+use std::sync::Arc;
+
+use crate::bvh::Bvh;
+use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
+pub use mesh::Mesh;
+pub use sphere::{Plane, Sphere};
+
+/// A shape in its own object space.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    /// A sphere.
+    Sphere(Sphere),
+    /// An infinite plane.
+    Plane(Plane),
+    /// A triangle mesh (shared between instances).
+    Mesh(Arc<Mesh>),
+}
+
+/// A shape placed in the world with a material.
+#[derive(Debug, Clone)]
+pub struct Instance {
+    /// The shape.
+    pub shape: Shape,
+    /// Object → world.
+    pub to_world: Affine3A,
+    /// World → object.
+    pub to_object: Affine3A,
+    /// Maps object-space normals to world space (inverse transpose of the linear part).
+    pub normal_to_world: Mat3,
+    /// Whether `to_world` is the identity (rays need no transforming).
+    pub identity: bool,
+    /// Material index.
+    pub material: u32,
+    /// Index of this instance's first area light (one per triangle for meshes), if emissive.
+    pub light_base: Option<u32>,
+}
+
+impl Instance {
+    /// Places `shape` with the object → world map `to_world` (must be invertible).
+    pub fn new(shape: Shape, to_world: Affine3A, material: u32) -> Instance {
+        let to_object = to_world.inverse();
+        let normal_to_world = Mat3::from(to_object.matrix3).transpose();
+        let identity = to_world == Affine3A::IDENTITY;
+        Instance { shape, to_world, to_object, normal_to_world, identity, material, light_base: None }
+    }
+
+    /// World-space bounds (infinite for planes).
+    pub fn bounds(&self) -> Option<Aabb> {
+        let local = match &self.shape {
+            Shape::Sphere(s) => s.bounds(),
+            Shape::Plane(_) => return None,
+            Shape::Mesh(m) => m.bounds(),
+        };
+        Some(if self.identity { local } else { local.transformed(&self.to_world) })
+    }
+
+    #[inline]
+    fn local_ray(&self, ray: &Ray) -> Ray {
+        if self.identity { *ray } else { ray.transformed(&self.to_object) }
+    }
+
+    /// Closest hit within (t_min, t_max); `t` is in units of the world ray's direction.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<RawHit> {
+        let r = self.local_ray(ray);
+        match &self.shape {
+            Shape::Sphere(s) => s.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit { t, prim: 0, b1: 0.0, b2: 0.0 }),
+            Shape::Plane(p) => p.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit { t, prim: 0, b1: 0.0, b2: 0.0 }),
+            Shape::Mesh(m) => m.intersect(r.o, r.d, t_min, t_max).map(|h| RawHit { t: h.t, prim: h.prim, b1: h.b1, b2: h.b2 }),
+        }
+    }
+
+    /// Whether anything of this instance lies within (t_min, t_max).
+    #[inline]
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        match &self.shape {
+            Shape::Mesh(m) => {
+                let r = self.local_ray(ray);
+                m.occluded(r.o, r.d, t_min, t_max)
+            }
+            _ => self.intersect(ray, t_min, t_max).is_some(),
+        }
+    }
+
+    /// The full surface description of a hit.
+    pub fn surface(&self, ray: &Ray, raw: &RawHit, instance: u32) -> SurfaceHit {
+        let r = self.local_ray(ray);
+        let (p, ng, ns, uv) = match &self.shape {
+            Shape::Sphere(s) => {
+                let (p, n, uv) = s.surface(r.at(raw.t));
+                (p, n, n, uv)
+            }
+            Shape::Plane(pl) => {
+                let p = pl.project(r.at(raw.t));
+                (p, pl.normal, pl.normal, pl.uv(p))
+            }
+            Shape::Mesh(m) => m.surface(&mesh::MeshHit { t: raw.t, prim: raw.prim, b1: raw.b1, b2: raw.b2 }),
+        };
+        let (p, ng, ns) = if self.identity {
+            (p, ng, ns)
+        } else {
+            (
+                self.to_world.transform_point3(p),
+                (self.normal_to_world * ng).normalize(),
+                (self.normal_to_world * ns).normalize(),
+            )
+        };
+        SurfaceHit { t: raw.t, p, ng, ns, uv, instance, prim: raw.prim }
+    }
+}
+
+/// The minimal record of a hit, enough to compute the surface later.
+#[derive(Debug, Clone, Copy)]
+pub struct RawHit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Primitive within the shape (triangle index).
+    pub prim: u32,
+    /// Shape-specific coordinates (barycentrics for triangles).
+    pub b1: f32,
+    /// Shape-specific coordinates.
+    pub b2: f32,
+}
+
+/// A ray's hit on a surface, in world space.
+#[derive(Debug, Clone, Copy)]
+pub struct SurfaceHit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Hit point.
+    pub p: Vec3,
+    /// Unit geometric normal; its side is the surface's front.
+    pub ng: Vec3,
+    /// Unit shading normal (interpolated), on the same side as `ng`.
+    pub ns: Vec3,
+    /// Texture coordinates.
+    pub uv: Vec2,
+    /// Instance index.
+    pub instance: u32,
+    /// Primitive index within the instance's shape.
+    pub prim: u32,
+}
+
+/// What the renderer needs from an acceleration structure.
+pub trait Accel: Sync {
+    /// The closest hit within (t_min, t_max).
+    fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit>;
+    /// Whether anything lies within (t_min, t_max).
+    fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool;
+}
+
+/// All instances of a scene with a BVH over the bounded ones (the top level of a two-level
+/// hierarchy; each mesh has its own BVH inside).
+#[derive(Debug, Clone)]
+pub struct Geometry {
+    /// The instances.
+    pub instances: Vec<Instance>,
+    top: Bvh,
+    unbounded: Vec<u32>,
+}
+
+impl Geometry {
+    /// Builds the top-level BVH.
+    pub fn new(instances: Vec<Instance>) -> Geometry {
+        let boxes: Vec<Aabb> = instances.iter().map(|i| i.bounds().unwrap_or(Aabb::EMPTY)).collect();
+        let unbounded = instances.iter().enumerate().filter(|(_, i)| i.bounds().is_none()).map(|(k, _)| k as u32).collect();
+        Geometry { top: Bvh::build(&boxes), instances, unbounded }
+    }
+
+    /// Bounds of all bounded instances.
+    pub fn bounds(&self) -> Aabb {
+        self.top.bounds()
+    }
+
+    fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, RawHit)> {
+        let mut best: Option<(u32, RawHit)> = None;
+        let mut t_max = t_max;
+        for &k in &self.unbounded {
+            if let Some(h) = self.instances[k as usize].intersect(ray, t_min, t_max) {
+                t_max = h.t;
+                best = Some((k, h));
+            }
+        }
+        self.top.traverse(ray.o, ray.d, t_min, &mut t_max, |k, t_max| {
+            if let Some(h) = self.instances[k as usize].intersect(ray, t_min, *t_max) {
+                *t_max = h.t;
+                best = Some((k, h));
+            }
+            false
+        });
+        best
+    }
+}
+
+impl Accel for Geometry {
+    fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
+        self.closest(ray, t_min, t_max).map(|(k, h)| self.instances[k as usize].surface(ray, &h, k))
+    }
+
+    fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        if self.unbounded.iter().any(|&k| self.instances[k as usize].occluded(ray, t_min, t_max)) {
+            return true;
+        }
+        let mut t_max = t_max;
+        self.top.traverse(ray.o, ray.d, t_min, &mut t_max, |k, t_max| self.instances[k as usize].occluded(ray, t_min, *t_max))
+    }
+}
+
+/// Tests every instance for every ray: slow, obviously right, the oracle for [`Geometry`].
+pub struct BruteForce<'a>(pub &'a [Instance]);
+
+impl Accel for BruteForce<'_> {
+    fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
+        let mut best: Option<(u32, RawHit)> = None;
+        let mut t_max = t_max;
+        for (k, inst) in self.0.iter().enumerate() {
+            if let Some(h) = inst.intersect(ray, t_min, t_max) {
+                t_max = h.t;
+                best = Some((k as u32, h));
+            }
+        }
+        best.map(|(k, h)| self.0[k as usize].surface(ray, &h, k))
+    }
+
+    fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        self.0.iter().any(|i| i.occluded(ray, t_min, t_max))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(state: &mut u64) -> f32 {
+        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*state >> 40) as f32) / (1u64 << 24) as f32
+    }
+
+    #[test]
+    fn two_level_bvh_agrees_with_brute_force_under_transforms() {
+        let mut s = 11u64;
+        let cube_pos: Vec<Vec3> = (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0 - 1.0).collect();
+        let cube_tris = vec![[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4], [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]];
+        let (cube, _) = Mesh::new(cube_pos, cube_tris, None, None);
+        let cube = Arc::new(cube);
+        let mut instances = Vec::new();
+        for i in 0..60 {
+            let t = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 20.0 - 10.0;
+            let scale = Vec3::new(0.2 + lcg(&mut s), 0.2 + lcg(&mut s), 0.2 + lcg(&mut s));
+            let rot = glam::Quat::from_axis_angle(Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s) + 0.1).normalize(), lcg(&mut s) * 6.0);
+            let m = Affine3A::from_scale_rotation_translation(scale, rot, t);
+            let shape = if i % 2 == 0 { Shape::Mesh(cube.clone()) } else { Shape::Sphere(Sphere { center: Vec3::ZERO, radius: 1.0 }) };
+            instances.push(Instance::new(shape, m, 0));
+        }
+        instances.push(Instance::new(Shape::Plane(Plane { normal: Vec3::Y, offset: -12.0 }), Affine3A::IDENTITY, 0));
+        let geo = Geometry::new(instances.clone());
+        let brute = BruteForce(&instances);
+        for _ in 0..4000 {
+            let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 30.0 - 15.0;
+            let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5).normalize();
+            let ray = Ray::new(o, d);
+            let a = geo.intersect(&ray, 0.0, f32::INFINITY);
+            let b = brute.intersect(&ray, 0.0, f32::INFINITY);
+            assert_eq!(a.map(|h| (h.instance, h.prim)), b.map(|h| (h.instance, h.prim)));
+            if let (Some(a), Some(b)) = (a, b) {
+                assert!((a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
+                // Non-uniformly scaled spheres: the world normal is perpendicular to the surface,
+                // so it matches the gradient of the ellipsoid's implicit function.
+                let inst = &instances[a.instance as usize];
+                if let Shape::Sphere(_) = inst.shape {
+                    let q = inst.to_object.transform_point3(a.p);
+                    assert!((q.length() - 1.0).abs() < 1e-4);
+                    let grad = (Mat3::from(inst.to_object.matrix3).transpose() * q).normalize();
+                    assert!((grad - a.ng).length() < 1e-4);
+                }
+            }
+            assert_eq!(geo.occluded(&ray, 0.0, f32::INFINITY), b.is_some());
+        }
+    }
+}

@@ -1,0 +1,102 @@
+//! Unidirectional path tracing with next-event estimation, combined with BSDF sampling by
+//! multiple importance sampling (Veach and Guibas 1995, power heuristic), and Russian roulette.
+//!
+//! Depth is counted as in Mitsuba 3: the camera ray's hit is vertex 1, emission seen there is a
+//! path of depth 1, light sampled from it a path of depth 2, and so on up to `max_depth`.
+
+use crate::bsdf::power_heuristic;
+use crate::integrator::{spawn, unoccluded_towards, visible, TraceStats};
+use crate::light::Light;
+use crate::math::{Ray, Rgb, Vec3};
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+
+/// Depth from which Russian roulette may end paths (as in Mitsuba 3).
+pub const RR_DEPTH: u32 = 5;
+
+/// Radiance along a camera ray.
+pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut TraceStats) -> Rgb {
+    let max_depth = scene.settings.max_depth;
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    // The previous scattering event, for MIS on emitters hit by BSDF sampling.
+    let mut prev_pdf = 0.0f32;
+    let mut prev_delta = true;
+    let mut prev_p = ray.o;
+    for depth in 1..=max_depth {
+        stats.rays += 1;
+        let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
+            l += beta * scene.background;
+            break;
+        };
+        let wo = -ray.d.normalize();
+        let material = scene.material(&hit);
+        let le = material.emitted(&scene.textures, hit.ng, hit.uv, wo);
+        if le != Vec3::ZERO {
+            let weight = match scene.light_of(&hit) {
+                Some(li) if !prev_delta => {
+                    let pdf_light = scene.light_sampler.pmf(li) * scene.lights[li].pdf(prev_p, hit.p, hit.ng);
+                    power_heuristic(prev_pdf, pdf_light)
+                }
+                _ => 1.0,
+            };
+            l += beta * le * weight;
+        }
+        if depth == max_depth {
+            break;
+        }
+        let bsdf = material.bsdf(&scene.textures, &hit);
+
+        // Next-event estimation: one light, chosen by power.
+        let u_pick = sampler.get_1d();
+        let u_light = sampler.get_2d();
+        if bsdf.has_smooth_lobe() {
+            if let Some((index, pmf)) = scene.light_sampler.pick(u_pick) {
+                let light = &scene.lights[index];
+                if let Some(ls) = light.sample(hit.p, u_light) {
+                    let li = if ls.delta {
+                        ls.li
+                    } else {
+                        let m = scene.material_of_light(light);
+                        m.emitted(&scene.textures, ls.normal, ls.uv, -ls.wi)
+                    };
+                    if li != Vec3::ZERO {
+                        let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);
+                        if f != Vec3::ZERO {
+                            let unblocked = match light {
+                                Light::Directional { .. } => unoccluded_towards(scene, &hit, ls.wi, stats),
+                                _ => visible(scene, &hit, ls.point, ls.normal, stats),
+                            };
+                            if unblocked {
+                                let pdf_light = pmf * ls.pdf;
+                                let weight = if ls.delta { 1.0 } else { power_heuristic(pdf_light, pdf_bsdf) };
+                                l += beta * f * li * (weight / pdf_light);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+
+        // Continue the path by sampling the BSDF.
+        let u_lobe = sampler.get_1d();
+        let u_dir = sampler.get_2d();
+        let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else { break };
+        beta *= s.weight;
+        prev_pdf = s.pdf;
+        prev_delta = s.delta;
+        prev_p = hit.p;
+        ray = spawn(&hit, s.wi);
+        if depth >= RR_DEPTH {
+            let q = beta.max_element().min(0.95);
+            if sampler.get_1d() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        if beta == Vec3::ZERO {
+            break;
+        }
+    }
+    l
+}

@@ -1,0 +1,20 @@
+//! lumo: a physically based renderer.
+//!
+//! Data flows one way: a scene description (crate `lumo-schema`) is validated, turned into a
+//! [`scene::Scene`] graph ([`scene::build`]), rendered ([`render::render`]) and written
+//! ([`output::write_image`]). The renderer itself only ever sees the scene graph.
+
+pub mod bsdf;
+pub mod bvh;
+pub mod camera;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod output;
+pub mod render;
+pub mod sampler;
+pub mod scene;
+pub mod texture;
+pub mod cli;

@@ -1,0 +1,328 @@
+//! Turning a validated scene description into a scene graph: resolve names to indices, compose
+//! transforms, load meshes and textures, collect lights.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::{Affine2, Mat4};
+use lumo_schema as schema;
+
+use super::obj::{load_obj, MeshData};
+use super::{IntegratorKind, Scene, Settings};
+use crate::camera::Camera;
+use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
+use crate::light::{Light, LightSampler};
+use crate::material::Material;
+use crate::math::{srgb_to_linear, Affine3A, Vec2, Vec3};
+use crate::texture::{Texture, TextureRef, Wrap};
+
+/// Most triangles a scene may hold (about 6 GiB with BVHs); larger scenes are refused.
+pub const MAX_TRIANGLES: usize = 64 << 20;
+
+/// Why a scene graph could not be built (files that fail to load, limits exceeded).
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// A referenced file could not be loaded.
+    #[error("{}: {message} (referenced at {json_path})", file.display())]
+    File {
+        /// The file.
+        file: PathBuf,
+        /// JSON path of the reference in the scene.
+        json_path: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// A limit was exceeded.
+    #[error("{0}")]
+    Limit(String),
+}
+
+/// A source of glTF data for meshes and textures referenced by index (provided by the CLI,
+/// which wires in the glTF importer; the renderer itself reads no glTF).
+pub trait ExternalData {
+    /// Mesh primitive `primitive` of mesh `mesh` in the glTF file `file`.
+    fn gltf_mesh(&self, file: &Path, mesh: u32, primitive: u32) -> Result<MeshData, String>;
+    /// Encoded bytes of image `image` in the glTF file `file`.
+    fn gltf_image(&self, file: &Path, image: u32) -> Result<Vec<u8>, String>;
+}
+
+/// Used when no glTF support is wired in: every glTF reference is an error saying so.
+pub struct NoExternalData;
+
+impl ExternalData for NoExternalData {
+    fn gltf_mesh(&self, _: &Path, _: u32, _: u32) -> Result<MeshData, String> {
+        Err("glTF meshes need the glTF importer, which this build does not provide".into())
+    }
+    fn gltf_image(&self, _: &Path, _: u32) -> Result<Vec<u8>, String> {
+        Err("glTF images need the glTF importer, which this build does not provide".into())
+    }
+}
+
+/// The object → world map of a list of transform steps (the first step acts first).
+pub fn compose_transform(ops: &[schema::TransformOp]) -> Affine3A {
+    ops.iter().fold(Affine3A::IDENTITY, |m, op| step(op) * m)
+}
+
+fn step(op: &schema::TransformOp) -> Affine3A {
+    match op {
+        schema::TransformOp::Translate(t) => Affine3A::from_translation(Vec3::from(*t)),
+        schema::TransformOp::Rotate(r) => Affine3A::from_axis_angle(Vec3::from(r.axis).normalize(), r.degrees.to_radians()),
+        schema::TransformOp::Scale(schema::Scale::Uniform(s)) => Affine3A::from_scale(Vec3::splat(*s)),
+        schema::TransformOp::Scale(schema::Scale::PerAxis(s)) => Affine3A::from_scale(Vec3::from(*s)),
+        schema::TransformOp::Matrix(rows) => Affine3A::from_mat4(Mat4::from_cols_array_2d(rows).transpose()),
+    }
+}
+
+/// Builds the scene graph. `base_dir` is where relative paths resolve (the scene file's folder).
+pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData) -> Result<(Scene, Vec<String>), BuildError> {
+    let mut warnings = Vec::new();
+    let file_err = |file: PathBuf, json_path: String, message: String| BuildError::File { file, json_path, message };
+
+    // Textures, by name → index.
+    let mut texture_index = HashMap::new();
+    let mut textures = Vec::new();
+    for (name, t) in &desc.textures {
+        let path = base_dir.join(&t.file);
+        let json_path = format!("textures.{name}");
+        let bytes = match t.gltf_image {
+            Some(i) => external.gltf_image(&path, i).map_err(|m| file_err(path.clone(), json_path.clone(), m))?,
+            None => std::fs::read(&path).map_err(|e| file_err(path.clone(), json_path.clone(), format!("cannot read texture: {e}")))?,
+        };
+        let img = image::load_from_memory(&bytes).map_err(|e| file_err(path.clone(), json_path.clone(), format!("cannot decode image: {e}")))?;
+        let rgb = img.to_rgb32f();
+        let srgb = t.color_space == schema::ColorSpace::Srgb && !matches!(img, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
+        let texels = rgb
+            .pixels()
+            .map(|p| {
+                let c = Vec3::new(p[0], p[1], p[2]);
+                if srgb { Vec3::new(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z)) } else { c }
+            })
+            .collect();
+        let wrap = match t.wrap {
+            schema::Wrap::Repeat => Wrap::Repeat,
+            schema::Wrap::Mirror => Wrap::Mirror,
+            schema::Wrap::Clamp => Wrap::Clamp,
+        };
+        texture_index.insert(name.as_str(), textures.len() as u32);
+        textures.push(Texture { width: rgb.width(), height: rgb.height(), texels, wrap });
+    }
+    let tex_ref = |r: &Option<schema::TextureRef>| {
+        r.as_ref().and_then(|r| {
+            texture_index.get(r.texture.as_str()).map(|&texture| TextureRef {
+                texture,
+                transform: Affine2::from_translation(Vec2::from(r.offset))
+                    * Affine2::from_angle(r.rotation_deg.to_radians())
+                    * Affine2::from_scale(Vec2::from(r.scale)),
+            })
+        })
+    };
+
+    let mut material_index = HashMap::new();
+    let mut materials = Vec::new();
+    for (name, m) in &desc.materials {
+        material_index.insert(name.as_str(), materials.len() as u32);
+        materials.push(Material {
+            base_color: Vec3::from(m.base_color),
+            base_color_texture: tex_ref(&m.base_color_texture),
+            diffuse: m.diffuse,
+            specular: m.specular,
+            transmission: m.transmission,
+            roughness: m.roughness,
+            roughness_specular_texture: tex_ref(&m.roughness_specular_texture),
+            ior: m.ior,
+            emission: Vec3::from(m.emission),
+            emission_texture: tex_ref(&m.emission_texture),
+            two_sided_emission: m.two_sided_emission,
+        });
+    }
+
+    // Objects → instances; meshes are shared between objects with the same source.
+    let mut mesh_cache: HashMap<String, Arc<Mesh>> = HashMap::new();
+    let mut instances = Vec::new();
+    let mut total_triangles = 0usize;
+    let mut degenerate = 0usize;
+    for (i, obj) in desc.objects.iter().enumerate() {
+        let json_path = format!("objects[{i}].{}", obj.kind());
+        let Some(&material) = material_index.get(obj.material()) else {
+            return Err(BuildError::Limit(format!("{json_path}.material: unknown material `{}`", obj.material())));
+        };
+        let to_world = compose_transform(obj.transform());
+        let shape = match obj {
+            schema::Object::Sphere(s) => Shape::Sphere(Sphere { center: Vec3::from(s.center), radius: s.radius }),
+            schema::Object::Plane(p) => {
+                let n = Vec3::from(p.normal);
+                let len = n.length();
+                Shape::Plane(Plane { normal: n / len, offset: p.offset })
+            }
+            schema::Object::Triangle(t) => {
+                let (mesh, dropped) = Mesh::new(t.vertices.iter().map(|v| Vec3::from(*v)).collect(), vec![[0, 1, 2]], None, None);
+                degenerate += dropped;
+                total_triangles += 1;
+                Shape::Mesh(Arc::new(mesh))
+            }
+            schema::Object::Mesh(m) => {
+                let key = format!("{:?}|{}", m.source, m.smooth);
+                let mesh = match mesh_cache.get(&key) {
+                    Some(mesh) => mesh.clone(),
+                    None => {
+                        let data = load_mesh(&m.source, base_dir, external, &json_path)?;
+                        total_triangles += data.triangles.len();
+                        if total_triangles > MAX_TRIANGLES {
+                            return Err(BuildError::Limit(format!(
+                                "{json_path}: the scene exceeds the limit of {MAX_TRIANGLES} triangles (about 6 GiB of memory)"
+                            )));
+                        }
+                        let normals = if m.smooth {
+                            Some(data.normals.clone().unwrap_or_else(|| Mesh::angle_weighted_normals(&data.positions, &data.triangles)))
+                        } else {
+                            None
+                        };
+                        let (mesh, dropped) = Mesh::new(data.positions, data.triangles, normals, data.uvs);
+                        degenerate += dropped;
+                        let mesh = Arc::new(mesh);
+                        mesh_cache.insert(key, mesh.clone());
+                        mesh
+                    }
+                };
+                Shape::Mesh(mesh)
+            }
+            schema::Object::Lathe(_) => {
+                return Err(BuildError::Limit(format!("{json_path}: lathes are not supported by this renderer yet")));
+            }
+        };
+        instances.push(Instance::new(shape, to_world, material));
+    }
+    if degenerate > 0 {
+        warnings.push(format!("dropped {degenerate} degenerate (zero-area) triangles"));
+    }
+
+    // Area lights from emissive instances.
+    let mut lights = Vec::new();
+    let mut unsampled = 0;
+    for (k, inst) in instances.iter_mut().enumerate() {
+        let m = &materials[inst.material as usize];
+        if !m.is_emissive() {
+            continue;
+        }
+        match &inst.shape {
+            Shape::Mesh(mesh) => {
+                inst.light_base = Some(lights.len() as u32);
+                for prim in 0..mesh.triangles.len() as u32 {
+                    let v = mesh.corners(prim).map(|p| inst.to_world.transform_point3(p));
+                    let tri = mesh.triangles[prim as usize];
+                    let uv = match &mesh.uvs {
+                        Some(uvs) => tri.map(|i| uvs[i as usize]),
+                        None => [Vec2::ZERO, Vec2::X, Vec2::Y],
+                    };
+                    let c = (v[1] - v[0]).cross(v[2] - v[0]);
+                    lights.push(Light::Triangle { instance: k as u32, prim, v, uv, n: c.normalize(), area: 0.5 * c.length(), emission: m.emission, two_sided: m.two_sided_emission });
+                }
+            }
+            Shape::Sphere(s) => match similarity_scale(&inst.to_world) {
+                Some(scale) => {
+                    inst.light_base = Some(lights.len() as u32);
+                    lights.push(Light::Sphere { instance: k as u32, center: inst.to_world.transform_point3(s.center), radius: s.radius * scale, emission: m.emission });
+                }
+                None => unsampled += 1,
+            },
+            _ => unsampled += 1,
+        }
+    }
+    if unsampled > 0 {
+        warnings.push(format!(
+            "{unsampled} emissive object(s) (planes, lathes or non-uniformly scaled spheres) are lit only by rays that hit them, which converges slowly"
+        ));
+    }
+    let geometry = Geometry::new(instances);
+    let bounds = geometry.bounds();
+    let scene_radius = if bounds.is_empty() { 1.0 } else { (bounds.max - bounds.min).length() * 0.5 };
+    for l in &desc.lights {
+        lights.push(match l {
+            schema::Light::Point(p) => Light::Point { position: Vec3::from(p.position), intensity: Vec3::from(p.intensity) },
+            schema::Light::Directional(d) => Light::Directional { to_light: -Vec3::from(d.direction).normalize(), irradiance: Vec3::from(d.irradiance), scene_radius },
+            schema::Light::Spot(s) => Light::Spot {
+                position: Vec3::from(s.position),
+                axis: Vec3::from(s.direction).normalize(),
+                intensity: Vec3::from(s.intensity),
+                cos_inner: s.inner_angle_deg.to_radians().cos(),
+                cos_outer: s.outer_angle_deg.to_radians().cos(),
+            },
+        });
+    }
+    let light_sampler = LightSampler::new(&lights);
+
+    let c = &desc.camera;
+    let aspect = desc.image.width as f32 / desc.image.height as f32;
+    let camera = Camera::look_at(Vec3::from(c.position), Vec3::from(c.look_at), Vec3::from(c.up), c.fov_y_deg, aspect, c.aperture_radius, c.focus_distance);
+    let r = &desc.render;
+    let settings = Settings {
+        width: desc.image.width,
+        height: desc.image.height,
+        spp: r.spp,
+        max_depth: r.max_depth,
+        seed: r.seed,
+        integrator: match r.integrator {
+            schema::Integrator::Path => IntegratorKind::Path,
+            schema::Integrator::Raycast => IntegratorKind::Raycast,
+        },
+        sampler: match r.sampler {
+            schema::SamplerKind::Sobol => crate::sampler::SamplerKind::Sobol,
+            schema::SamplerKind::Independent => crate::sampler::SamplerKind::Independent,
+        },
+        time_budget_s: r.time_budget_s,
+    };
+    let scene = Scene { camera, background: Vec3::from(desc.background.color), geometry, materials, textures, lights, light_sampler, settings };
+    Ok((scene, warnings))
+}
+
+/// The scale factor of a similarity transform (rotation × uniform scale + translation), or
+/// `None` when the map shears or scales non-uniformly.
+fn similarity_scale(m: &Affine3A) -> Option<f32> {
+    let cols = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
+    let s = cols[0].length();
+    let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * s.max(1e-30);
+    let ok = cols.iter().all(|c| close(c.length(), s)) && close(cols[0].dot(cols[1]) / s, 0.0) && close(cols[1].dot(cols[2]) / s, 0.0) && close(cols[0].dot(cols[2]) / s, 0.0);
+    ok.then_some(s)
+}
+
+fn load_mesh(source: &schema::MeshSource, base_dir: &Path, external: &dyn ExternalData, json_path: &str) -> Result<MeshData, BuildError> {
+    match source {
+        schema::MeshSource::Obj(file) => {
+            let path = base_dir.join(file);
+            load_obj(&path).map_err(|message| BuildError::File { file: path, json_path: format!("{json_path}.source.obj"), message })
+        }
+        schema::MeshSource::Gltf(g) => {
+            let path = base_dir.join(&g.file);
+            external.gltf_mesh(&path, g.mesh, g.primitive).map_err(|message| BuildError::File { file: path, json_path: format!("{json_path}.source.gltf"), message })
+        }
+        schema::MeshSource::Inline(m) => Ok(MeshData {
+            positions: m.positions.iter().map(|p| Vec3::from(*p)).collect(),
+            triangles: m.indices.clone(),
+            normals: m.normals.as_ref().map(|n| n.iter().map(|v| Vec3::from(*v).normalize_or_zero()).collect()),
+            uvs: m.uvs.as_ref().map(|t| t.iter().map(|v| Vec2::from(*v)).collect()),
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn transform_steps_apply_in_listed_order() {
+        use schema::{Rotation, Scale, TransformOp};
+        // Scale by 2, then rotate +90° about y, then translate by (1, 0, 0).
+        let ops = vec![
+            TransformOp::Scale(Scale::Uniform(2.0)),
+            TransformOp::Rotate(Rotation { axis: [0.0, 1.0, 0.0], degrees: 90.0 }),
+            TransformOp::Translate([1.0, 0.0, 0.0]),
+        ];
+        let m = compose_transform(&ops);
+        // (1,0,0) → (2,0,0) → rotated +90° about y: (cos, 0, −sin)·2 = (0,0,−2) → (1,0,−2).
+        assert!((m.transform_point3(Vec3::X) - Vec3::new(1.0, 0.0, -2.0)).length() < 1e-5);
+        // A row-major matrix op equal to a translation.
+        let t = compose_transform(&[TransformOp::Matrix([[1.0, 0.0, 0.0, 5.0], [0.0, 1.0, 0.0, 6.0], [0.0, 0.0, 1.0, 7.0], [0.0, 0.0, 0.0, 1.0]])]);
+        assert!((t.transform_point3(Vec3::ZERO) - Vec3::new(5.0, 6.0, 7.0)).length() < 1e-6);
+    }
+}

@@ -1,0 +1,102 @@
+//! Image textures: linear float texels, bilinear lookup, wrap modes.
+
+use crate::math::{Rgb, Vec2, Vec3};
+use glam::Affine2;
+
+/// What a lookup does outside [0, 1].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wrap {
+    /// Tile.
+    Repeat,
+    /// Tile, mirroring every other copy.
+    Mirror,
+    /// Repeat the edge texels.
+    Clamp,
+}
+
+/// A texture image in linear RGB, rows stored top first.
+#[derive(Debug, Clone)]
+pub struct Texture {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Texels, row-major, top row first.
+    pub texels: Vec<Rgb>,
+    /// Wrap mode.
+    pub wrap: Wrap,
+}
+
+/// A material's use of a texture: which one, and the affine map applied to the coordinates.
+#[derive(Debug, Clone, Copy)]
+pub struct TextureRef {
+    /// Index into the scene's textures.
+    pub texture: u32,
+    /// uv' = transform · uv.
+    pub transform: Affine2,
+}
+
+impl Texture {
+    fn wrap_index(&self, i: i64, n: u32) -> usize {
+        let n = i64::from(n);
+        let k = match self.wrap {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m < n { m } else { 2 * n - 1 - m }
+            }
+        };
+        k as usize
+    }
+
+    fn texel(&self, x: i64, y: i64) -> Rgb {
+        let x = self.wrap_index(x, self.width);
+        let y = self.wrap_index(y, self.height);
+        self.texels[y * self.width as usize + x]
+    }
+
+    /// Bilinear lookup at texture coordinates `uv` ((0, 0) = bottom-left of the image).
+    pub fn lookup(&self, uv: Vec2) -> Rgb {
+        if !uv.is_finite() {
+            return Vec3::ZERO;
+        }
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = self.texel(x0, y0) * (1.0 - fx) + self.texel(x0 + 1, y0) * fx;
+        let bottom = self.texel(x0, y0 + 1) * (1.0 - fx) + self.texel(x0 + 1, y0 + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_by_two(wrap: Wrap) -> Texture {
+        // Top row: red, green; bottom row: blue, white.
+        Texture { width: 2, height: 2, texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE], wrap }
+    }
+
+    #[test]
+    fn lookups_are_upright_and_bilinear() {
+        let t = two_by_two(Wrap::Clamp);
+        assert_eq!(t.lookup(Vec2::new(0.25, 0.75)), Vec3::X); // top-left texel centre
+        assert_eq!(t.lookup(Vec2::new(0.25, 0.25)), Vec3::Z); // bottom-left
+        let mid = t.lookup(Vec2::new(0.5, 0.75));
+        assert!((mid - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+    }
+
+    #[test]
+    fn wrap_modes() {
+        let r = two_by_two(Wrap::Repeat);
+        assert!((r.lookup(Vec2::new(1.25, 0.75)) - Vec3::X).length() < 1e-6);
+        let m = two_by_two(Wrap::Mirror);
+        assert!((m.lookup(Vec2::new(1.25, 0.75)) - Vec3::Y).length() < 1e-6);
+        let c = two_by_two(Wrap::Clamp);
+        assert!((c.lookup(Vec2::new(5.0, 0.75)) - Vec3::Y).length() < 1e-6);
+    }
+}

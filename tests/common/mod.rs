@@ -1,0 +1,38 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+/// The workspace root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The shared test data folder (`../shared` beside the checkout, or `$LUMO_SHARED`). When it is
+/// missing, returns `None` after a loud message, or panics under `LUMO_REQUIRE_SHARED=1` (CI).
+pub fn shared() -> Option<PathBuf> {
+    let dir = std::env::var_os("LUMO_SHARED").map(PathBuf::from).unwrap_or_else(|| root().join("../shared"));
+    if dir.join("README.md").is_file() {
+        return Some(dir);
+    }
+    if std::env::var_os("LUMO_REQUIRE_SHARED").is_some_and(|v| v == "1") {
+        panic!("shared test data not found at {} and LUMO_REQUIRE_SHARED=1", dir.display());
+    }
+    eprintln!("\n=== SKIPPED: shared test data not found at {} (set LUMO_SHARED or place ../shared beside the checkout) ===\n", dir.display());
+    None
+}
+
+/// Loads and builds a scene file from the workspace, with settings overridden for a small test.
+pub fn load_scene(path: &Path) -> lumo_schema::Scene {
+    lumo_schema::load_scene_file(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Builds a scene description into a renderable scene.
+pub fn build(desc: &lumo_schema::Scene, base: &Path) -> lumo::scene::Scene {
+    lumo::scene::build(desc, base, &lumo::scene::build::NoExternalData).unwrap_or_else(|e| panic!("{e}")).0
+}
+
+/// Renders with the scene's own settings on the current rayon pool.
+pub fn render(scene: &lumo::scene::Scene) -> lumo::render::Image {
+    lumo::render::render(scene, &lumo::render::RenderOptions { progress: None }).0
+}
