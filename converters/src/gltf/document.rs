@@ -384,5 +384,43 @@ fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
             }
         }
     }
+    for (i, img) in root.images.iter().enumerate() {
+        let el = format!("images[{i}]");
+        match (&img.uri, &img.buffer_view, &img.mime_type) {
+            (None, None, _) => return Err(GltfError::invalid(file, el, "has neither `uri` nor `bufferView`")),
+            (_, Some(_), None) => return Err(GltfError::invalid(file, format!("{el}.mimeType"), "is required with `bufferView`")),
+            _ => {}
+        }
+    }
+    for (i, c) in root.cameras.iter().enumerate() {
+        use gltf::json::camera::Type;
+        use gltf::json::validation::Checked;
+        let missing = match c.type_ {
+            Checked::Valid(Type::Perspective) => c.perspective.is_none().then_some("perspective"),
+            Checked::Valid(Type::Orthographic) => c.orthographic.is_none().then_some("orthographic"),
+            Checked::Invalid => None,
+        };
+        if let Some(key) = missing {
+            return Err(GltfError::invalid(file, format!("cameras[{i}].{key}"), "is missing for a camera of this type"));
+        }
+    }
+    let lights = root.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()).map(|k| k.lights.as_slice()).unwrap_or(&[]);
+    for (i, l) in lights.iter().enumerate() {
+        use gltf::json::extensions::scene::khr_lights_punctual::Type;
+        if matches!(l.type_, gltf::json::validation::Checked::Valid(Type::Spot)) && l.spot.is_none() {
+            return Err(GltfError::invalid(file, format!("extensions.KHR_lights_punctual.lights[{i}].spot"), "is missing for a spot light"));
+        }
+    }
+    for (i, n) in root.nodes.iter().enumerate() {
+        if let Some(k) = n.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
+            if k.light.value() >= lights.len() {
+                return Err(GltfError::invalid(
+                    file,
+                    format!("nodes[{i}].extensions.KHR_lights_punctual.light"),
+                    format!("light index {} is out of range: the file has {} lights", k.light.value(), lights.len()),
+                ));
+            }
+        }
+    }
     Ok(())
 }

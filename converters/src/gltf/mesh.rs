@@ -27,22 +27,43 @@ pub struct MeshData {
 /// Loads one primitive of one mesh of a .gltf/.glb file. Only TRIANGLES primitives can be
 /// loaded; every index and offset is checked.
 pub fn load_mesh_primitive(file: &Path, mesh: u32, primitive: u32) -> Result<MeshData, GltfError> {
-    let loaded = Loaded::open(file)?;
-    read_primitive(&loaded, mesh as usize, primitive as usize)
+    GltfFile::open(file)?.mesh_primitive(mesh, primitive)
 }
 
 /// Loads image `image` of a .gltf/.glb file: its encoded bytes (PNG, JPEG...) and MIME type when
 /// the file states it or the URI's extension tells.
 pub fn load_image(file: &Path, image: u32) -> Result<(Vec<u8>, Option<String>), GltfError> {
-    let loaded = Loaded::open(file)?;
-    let Some(img) = loaded.doc.images().nth(image as usize) else {
-        return Err(GltfError::NotFound {
-            file: file.to_path_buf(),
-            element: format!("images[{image}]"),
-            message: format!("the file has {} images", loaded.doc.images().len()),
-        });
-    };
-    loaded.image_bytes(&img)
+    GltfFile::open(file)?.image(image)
+}
+
+/// A glTF file opened once (parsed, buffers loaded) for reading many primitives and images, as
+/// a renderer's loader does; [`load_mesh_primitive`] and [`load_image`] open the file per call.
+pub struct GltfFile {
+    loaded: Loaded,
+}
+
+impl GltfFile {
+    /// Reads, parses and validates a .gltf or .glb file and loads its buffers.
+    pub fn open(file: &Path) -> Result<GltfFile, GltfError> {
+        Ok(GltfFile { loaded: Loaded::open(file)? })
+    }
+
+    /// See [`load_mesh_primitive`].
+    pub fn mesh_primitive(&self, mesh: u32, primitive: u32) -> Result<MeshData, GltfError> {
+        read_primitive(&self.loaded, mesh as usize, primitive as usize)
+    }
+
+    /// See [`load_image`].
+    pub fn image(&self, image: u32) -> Result<(Vec<u8>, Option<String>), GltfError> {
+        let Some(img) = self.loaded.doc.images().nth(image as usize) else {
+            return Err(GltfError::NotFound {
+                file: self.loaded.file.clone(),
+                element: format!("images[{image}]"),
+                message: format!("the file has {} images", self.loaded.doc.images().len()),
+            });
+        };
+        self.loaded.image_bytes(&img)
+    }
 }
 
 /// The TEXCOORD set a primitive's material samples (see [`MeshData::uvs`]).

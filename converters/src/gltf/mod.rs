@@ -23,7 +23,7 @@ mod tessellate;
 pub use error::GltfError;
 pub use export::export;
 pub use import::{import, CameraChoice, ImportOptions, Imported};
-pub use mesh::{load_image, load_mesh_primitive, MeshData};
+pub use mesh::{load_image, load_mesh_primitive, GltfFile, MeshData};
 pub use pbr::LUMENS_PER_WATT;
 
 /// Imports glTF or GLB bytes held in memory, as if read from `file` (used to resolve relative
