@@ -49,6 +49,18 @@ fn truncated_glb() {
 }
 
 #[test]
+fn glb_header_declaring_a_length_below_its_own_size() {
+    // Found by cargo-fuzz: the gltf crate subtracted the header size from this length unchecked.
+    let mut bytes = b"glTF".to_vec();
+    bytes.extend_from_slice(&2u32.to_le_bytes());
+    bytes.extend_from_slice(&4u32.to_le_bytes());
+    bytes.extend_from_slice(&[0u8; 64]);
+    let f = Path::new("tiny.glb");
+    let msg = import_bytes(f, &bytes, &ImportOptions::default()).unwrap_err().to_string();
+    assert!(msg.contains("tiny.glb") && msg.contains("GLB header"), "{msg}");
+}
+
+#[test]
 fn buffer_shorter_than_accessor() {
     let Some(shared) = common::shared_dir() else { return };
     let dir = tempfile::tempdir().unwrap();

@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use lumo_converters::gltf::{self, CameraChoice, ImportOptions};
 use lumo_schema as schema;
 
 use super::CliError;
@@ -21,6 +22,18 @@ pub struct Input {
 pub enum InputKind {
     /// lumo scene JSON.
     Json,
+    /// glTF 2.0 (.gltf or .glb).
+    Gltf,
+}
+
+/// Options for inputs that need them.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// glTF: which camera to use (`--camera NAME|INDEX`).
+    pub camera: Option<CameraChoice>,
+    /// glTF: the folder the scene's relative paths should be relative to (where a converted
+    /// scene file will be written). Default: the glTF file's folder.
+    pub scene_dir: Option<PathBuf>,
 }
 
 /// The input kind of a path, by extension.
@@ -28,8 +41,9 @@ pub fn kind_of(path: &Path) -> Result<InputKind, CliError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     match ext.as_str() {
         "json" => Ok(InputKind::Json),
+        "gltf" | "glb" => Ok(InputKind::Gltf),
         _ => Err(CliError::invalid(format!(
-            "{}: cannot tell the input kind from the extension `{ext}` (expected .json)",
+            "{}: cannot tell the input kind from the extension `{ext}` (expected .json, .gltf or .glb)",
             path.display()
         ))),
     }
@@ -37,7 +51,28 @@ pub fn kind_of(path: &Path) -> Result<InputKind, CliError> {
 
 /// Reads and validates a scene from `path`.
 pub fn load(path: &Path) -> Result<Input, CliError> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// Reads and validates a scene from `path` with options.
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Input, CliError> {
     match kind_of(path)? {
+        InputKind::Gltf => {
+            let opts = ImportOptions { camera: options.camera.clone(), scene_dir: options.scene_dir.clone() };
+            let imported = gltf::import(path, &opts).map_err(|e| match e {
+                gltf::GltfError::Io { .. } => CliError::failure(e.to_string()),
+                _ => CliError::invalid(e.to_string()),
+            })?;
+            let base_dir = match &options.scene_dir {
+                Some(d) => d.clone(),
+                None => schema::base_dir_of(path),
+            };
+            let diags = schema::validate(&imported.scene, Some(&base_dir));
+            if let Some(d) = diags.first() {
+                return Err(CliError::invalid(format!("{}: the imported scene is not valid: {d}", path.display())));
+            }
+            Ok(Input { scene: imported.scene, base_dir, warnings: imported.warnings })
+        }
         InputKind::Json => {
             let scene = schema::load_scene_file(path).map_err(CliError::from_load)?;
             Ok(Input { scene, base_dir: schema::base_dir_of(path), warnings: Vec::new() })

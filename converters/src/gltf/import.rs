@@ -212,15 +212,27 @@ impl Importer<'_> {
         let (camera, image) = self.camera(options, &scene_extras)?;
         if !self.ignored.is_empty() {
             let list: Vec<String> = self.ignored.iter().cloned().collect();
-            self.warnings.push(format!("{}: not imported: {}", self.file().display(), list.join(", ")));
+            self.warnings.push(format!("not imported: {}", list.join(", ")));
         }
+        // A file with neither lights nor emitters would render black; glTF viewers light such
+        // models with a neutral environment, so lumo uses a uniform white background (unless
+        // lumo's own extras give one).
+        let unlit = self.lights.is_empty() && self.materials.values().all(|m| m.emission == [0.0; 3]);
+        let background = match scene_extras.background {
+            Some(b) => b,
+            None if unlit => {
+                self.warnings.push("no lights or emissive materials: lit by a uniform white background".to_string());
+                Background { color: [1.0; 3] }
+            }
+            None => Background::default(),
+        };
         let scene = Scene {
             schema: scene_extras.schema.clone(),
             format_version: FORMAT_VERSION,
             image,
             render: scene_extras.render.unwrap_or_else(RenderSettings::default),
             camera,
-            background: scene_extras.background.unwrap_or_else(Background::default),
+            background,
             textures: self.textures,
             materials: self.materials,
             objects: self.objects,
