@@ -66,3 +66,24 @@ fn convert_writes_gltf_that_renders_like_the_scene() {
     }
     assert_eq!(imgs[0].pixels, imgs[1].pixels);
 }
+
+#[test]
+fn cli_converts_gltf_to_json_and_reports_camera_errors() {
+    let Some(shared) = common::shared() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("duck.json");
+    let lumo = || assert_cmd::Command::cargo_bin("lumo").unwrap();
+    lumo().arg("convert").arg(shared.join("gltf/Duck/glTF/Duck.gltf")).arg("-o").arg(&json).assert().success();
+    // The written scene references the glTF file relative to its own folder and renders.
+    let png = dir.path().join("duck.png");
+    lumo().args(["render", "--spp", "1", "--width", "16", "--height", "16", "-q", "-o"]).arg(&png).arg(&json).assert().success();
+    assert!(png.is_file());
+    let out = lumo()
+        .args(["render", "--camera", "1", "-q", "-o"])
+        .arg(dir.path().join("x.png"))
+        .arg(shared.join("gltf/Cameras/glTF/Cameras.gltf"))
+        .assert()
+        .code(2);
+    let stderr = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(stderr.contains("cameras[1]") && stderr.contains("orthographic"), "{stderr}");
+}
