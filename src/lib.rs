@@ -18,3 +18,4 @@ pub mod sampler;
 pub mod scene;
 pub mod texture;
 pub mod cli;
+pub mod lathe;

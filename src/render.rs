@@ -67,76 +67,100 @@ pub struct RenderOptions<'a> {
     pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
 }
 
-/// Renders the scene with its settings.
+/// Running sums of one pixel's samples.
+#[derive(Debug, Clone, Copy, Default)]
+struct PixelSum {
+    sum: glam::DVec3,
+    good: u32,
+    bad: u32,
+}
+
+/// Renders the scene with its settings. Without a time budget all samples are taken in one
+/// pass; with one, passes of doubling size run until the budget is spent or `spp` is reached.
+/// Either way each sample index has its own random stream, so the image depends only on the
+/// number of samples taken, not on how they were split into passes or threads.
 pub fn render(scene: &Scene, options: &RenderOptions) -> (Image, Stats) {
     let start = Instant::now();
     let s = &scene.settings;
     let (w, h) = (s.width, s.height);
+    let budget = s.time_budget_s.map(|t| Duration::from_secs_f32(t.max(0.0)));
+    let mut sums = vec![PixelSum::default(); (w * h) as usize];
+    let rays = AtomicU64::new(0);
+    let done = AtomicU64::new(0);
+    let mut taken = 0u32;
+    let mut pass = if budget.is_some() { 1 } else { s.spp };
+    while taken < s.spp {
+        let end = (taken + pass).min(s.spp);
+        render_pass(scene, &mut sums, taken..end, &rays, &done, options);
+        taken = end;
+        if budget.is_some_and(|b| start.elapsed() >= b) {
+            break;
+        }
+        pass = pass.saturating_mul(2);
+    }
+    let pixels = sums.iter().map(|p| if p.good > 0 { (p.sum / f64::from(p.good)).as_vec3() } else { Vec3::ZERO }).collect();
+    let nan_samples = sums.iter().map(|p| u64::from(p.bad)).sum();
+    let stats = Stats { spp: taken, rays: rays.into_inner(), nan_samples, elapsed: start.elapsed() };
+    (Image { width: w, height: h, pixels }, stats)
+}
+
+/// Adds samples `range` of every pixel to `sums`, tile by tile in parallel.
+fn render_pass(scene: &Scene, sums: &mut [PixelSum], range: std::ops::Range<u32>, rays: &AtomicU64, done: &AtomicU64, options: &RenderOptions) {
+    let (w, h) = (scene.settings.width, scene.settings.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
-    let rays = AtomicU64::new(0);
-    let nans = AtomicU64::new(0);
-    let done = AtomicU64::new(0);
-    let tiles: Vec<(u32, Vec<Rgb>)> = (0..tiles_x * tiles_y)
+    let per_pixel = u64::from(range.end - range.start);
+    let tiles: Vec<(u32, Vec<PixelSum>)> = (0..tiles_x * tiles_y)
         .into_par_iter()
         .map(|tile| {
-            let (tx, ty) = (tile % tiles_x, tile / tiles_x);
-            let (x0, y0) = (tx * TILE, ty * TILE);
+            let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
             let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-            let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
             let mut stats = TraceStats::default();
-            let mut tile_nans = 0;
+            let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
             for y in y0..y1 {
                 for x in x0..x1 {
-                    let (c, bad) = render_pixel(scene, x, y, &mut stats);
-                    tile_nans += bad;
-                    out.push(c);
+                    out.push(render_samples(scene, x, y, range.clone(), &mut stats));
                 }
             }
             rays.fetch_add(stats.rays, Ordering::Relaxed);
-            nans.fetch_add(tile_nans, Ordering::Relaxed);
-            let n = done.fetch_add(u64::from((x1 - x0) * (y1 - y0)) * u64::from(s.spp), Ordering::Relaxed);
+            let n = u64::from((x1 - x0) * (y1 - y0)) * per_pixel;
+            let total = done.fetch_add(n, Ordering::Relaxed) + n;
             if let Some(p) = options.progress {
-                p(n + u64::from((x1 - x0) * (y1 - y0)) * u64::from(s.spp));
+                p(total);
             }
             (tile, out)
         })
         .collect();
-    let mut pixels = vec![Vec3::ZERO; (w * h) as usize];
     for (tile, out) in tiles {
-        let (tx, ty) = (tile % tiles_x, tile / tiles_x);
-        let (x0, y0) = (tx * TILE, ty * TILE);
+        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
         let x1 = (x0 + TILE).min(w);
-        for (i, c) in out.into_iter().enumerate() {
+        for (i, add) in out.into_iter().enumerate() {
             let (dx, dy) = (i as u32 % (x1 - x0), i as u32 / (x1 - x0));
-            pixels[((y0 + dy) * w + x0 + dx) as usize] = c;
+            let p = &mut sums[((y0 + dy) * w + x0 + dx) as usize];
+            p.sum += add.sum;
+            p.good += add.good;
+            p.bad += add.bad;
         }
     }
-    let stats = Stats { spp: s.spp, rays: rays.into_inner(), nan_samples: nans.into_inner(), elapsed: start.elapsed() };
-    (Image { width: w, height: h, pixels }, stats)
 }
 
-/// The mean of a pixel's samples (box filter: each sample uniformly jittered in the pixel), and
-/// the number of samples dropped for being NaN or infinite.
-pub fn render_pixel(scene: &Scene, x: u32, y: u32, stats: &mut TraceStats) -> (Rgb, u64) {
+fn render_samples(scene: &Scene, x: u32, y: u32, range: std::ops::Range<u32>, stats: &mut TraceStats) -> PixelSum {
     let s = &scene.settings;
     let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
-    let mut sum = glam::DVec3::ZERO;
-    let mut good = 0u32;
-    let mut bad = 0u64;
-    for i in 0..s.spp {
+    let mut acc = PixelSum::default();
+    for i in range {
         let mut sampler = Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(i));
         let jitter = sampler.get_2d();
         let film = Vec2::new((x as f32 + jitter.x) / s.width as f32, (y as f32 + jitter.y) / s.height as f32);
         let ray = scene.camera.ray(film, sampler.get_2d());
         let l = radiance(scene, ray, &mut sampler, stats);
         if l.is_finite() {
-            sum += l.as_dvec3();
-            good += 1;
+            acc.sum += l.as_dvec3();
+            acc.good += 1;
         } else {
-            bad += 1;
+            acc.bad += 1;
         }
     }
-    let c = if good > 0 { (sum / f64::from(good)).as_vec3() } else { Vec3::ZERO };
-    (c, bad)
+    acc
 }
+

@@ -189,3 +189,21 @@ fn depth_of_field_blurs_by_the_circle_of_confusion() {
     let blurred = spot_width(d);
     assert!((blurred - predicted).abs() <= 2.0, "blurred spot {blurred} px, predicted {predicted} px");
 }
+
+#[test]
+fn progressive_passes_give_the_same_image_as_one_pass() {
+    let mut desc = common::load_scene(&common::root().join("scenes/cornell.json"));
+    desc.image.width = 24;
+    desc.image.height = 24;
+    desc.render.spp = 13;
+    let one_pass = common::render(&common::build(&desc, &common::root().join("scenes")));
+    // A budget that is never reached: passes of 1, 2, 4, 6 samples.
+    desc.render.time_budget_s = Some(1e6);
+    let (passes, stats) = lumo::render::render(&common::build(&desc, &common::root().join("scenes")), &lumo::render::RenderOptions { progress: None });
+    assert_eq!(stats.spp, 13);
+    assert!(one_pass.pixels.iter().zip(&passes.pixels).all(|(a, b)| (*a - *b).abs().max_element() <= 1e-6 * a.max_element().max(1.0)));
+    // A budget that is spent at once stops after the first pass.
+    desc.render.time_budget_s = Some(1e-9);
+    let (_, stats) = lumo::render::render(&common::build(&desc, &common::root().join("scenes")), &lumo::render::RenderOptions { progress: None });
+    assert_eq!(stats.spp, 1);
+}

@@ -127,7 +127,9 @@ pub struct RenderSettings {
     /// whatever the thread count. Default 0.
     #[serde(default)]
     pub seed: u64,
-    /// Optional wall-clock budget in seconds: rendering stops after the pass that exceeds it.
+    /// Optional wall-clock budget in seconds: samples are taken in progressive passes of
+    /// doubling size until the budget is spent or `spp` samples are reached, whichever comes
+    /// first (the pass that crosses the budget is finished).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub time_budget_s: Option<f32>,

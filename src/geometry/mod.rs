@@ -21,6 +21,8 @@ pub enum Shape {
     Plane(Plane),
     /// A triangle mesh (shared between instances).
     Mesh(Arc<Mesh>),
+    /// A surface of revolution, intersected exactly ([`crate::lathe`]).
+    Lathe(Arc<crate::lathe::Lathe>),
 }
 
 /// A shape placed in the world with a material.
@@ -57,6 +59,12 @@ impl Instance {
             Shape::Sphere(s) => s.bounds(),
             Shape::Plane(_) => return None,
             Shape::Mesh(m) => m.bounds(),
+            Shape::Lathe(l) => {
+                // f64 bounds widened by a hair so f32 rounding never clips the surface.
+                let (lo, hi) = l.bounds();
+                let pad = 1e-5 * (hi - lo).max_element() + 1e-30;
+                Aabb { min: (lo - pad).as_vec3(), max: (hi + pad).as_vec3() }
+            }
         };
         Some(if self.identity { local } else { local.transformed(&self.to_world) })
     }
@@ -74,6 +82,10 @@ impl Instance {
             Shape::Sphere(s) => s.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit { t, prim: 0, b1: 0.0, b2: 0.0 }),
             Shape::Plane(p) => p.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit { t, prim: 0, b1: 0.0, b2: 0.0 }),
             Shape::Mesh(m) => m.intersect(r.o, r.d, t_min, t_max).map(|h| RawHit { t: h.t, prim: h.prim, b1: h.b1, b2: h.b2 }),
+            // Solved in f64; the hit keeps (v, u) for the surface record.
+            Shape::Lathe(l) => l
+                .intersect(r.o.as_dvec3(), r.d.as_dvec3(), t_min as f64, t_max as f64)
+                .map(|h| RawHit { t: h.s as f32, prim: h.segment as u32, b1: h.uv.y as f32, b2: h.uv.x as f32 }),
         }
     }
 
@@ -102,6 +114,11 @@ impl Instance {
                 (p, pl.normal, pl.normal, pl.uv(p))
             }
             Shape::Mesh(m) => m.surface(&mesh::MeshHit { t: raw.t, prim: raw.prim, b1: raw.b1, b2: raw.b2 }),
+            Shape::Lathe(l) => {
+                let p = r.at(raw.t);
+                let n = l.normal_at(raw.b1 as f64, p.as_dvec3()).as_vec3();
+                (p, n, n, Vec2::new(raw.b2, raw.b1))
+            }
         };
         let (p, ng, ns) = if self.identity {
             (p, ng, ns)

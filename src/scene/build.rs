@@ -187,9 +187,7 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
                 };
                 Shape::Mesh(mesh)
             }
-            schema::Object::Lathe(_) => {
-                return Err(BuildError::Limit(format!("{json_path}: lathes are not supported by this renderer yet")));
-            }
+            schema::Object::Lathe(l) => Shape::Lathe(Arc::new(build_lathe(&l.profile, &json_path)?)),
         };
         instances.push(Instance::new(shape, to_world, material));
     }
@@ -284,6 +282,20 @@ fn similarity_scale(m: &Affine3A) -> Option<f32> {
     let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * s.max(1e-30);
     let ok = cols.iter().all(|c| close(c.length(), s)) && close(cols[0].dot(cols[1]) / s, 0.0) && close(cols[1].dot(cols[2]) / s, 0.0) && close(cols[0].dot(cols[2]) / s, 0.0);
     ok.then_some(s)
+}
+
+/// The renderer's lathe from the schema's profile (f32 data widened to f64).
+fn build_lathe(profile: &schema::Profile, json_path: &str) -> Result<crate::lathe::Lathe, BuildError> {
+    use crate::lathe::{Lathe, Profile};
+    let pts = |v: &[[f32; 2]]| v.iter().map(|p| [p[0] as f64, p[1] as f64]).collect::<Vec<_>>();
+    let built = match profile {
+        schema::Profile::Bezier(b) => Profile::bezier(&pts(&b.points)),
+        schema::Profile::Bspline(b) => {
+            let knots: Vec<f64> = b.knots_or_default().iter().map(|&k| k as f64).collect();
+            Profile::bspline(b.degree as usize, &pts(&b.points), Some(&knots))
+        }
+    };
+    built.map(Lathe::new).map_err(|e| BuildError::Limit(format!("{json_path}.profile: {e}")))
 }
 
 fn load_mesh(source: &schema::MeshSource, base_dir: &Path, external: &dyn ExternalData, json_path: &str) -> Result<MeshData, BuildError> {

@@ -1,61 +1,90 @@
-//! Helpers shared by the converters' integration tests.
+//! Helpers shared by the converter tests.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 
-/// The workspace root (the folder above this crate).
+/// The workspace root (the parent of this crate).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the crate lives in the workspace").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("crate is inside the workspace")
+        .to_path_buf()
 }
 
-/// The shared test-data folder: `$LUMO_SHARED`, else `<workspace root>/../shared`. `None` (after
-/// a loud message) when it is missing, unless `LUMO_REQUIRE_SHARED=1`, which makes it a failure.
+/// The shared test data folder: `$LUMO_SHARED`, else `../shared` beside the workspace root.
+/// When it is missing: panics if `LUMO_REQUIRE_SHARED=1`, otherwise prints a loud SKIPPED
+/// message and returns `None`.
 pub fn shared_dir() -> Option<PathBuf> {
     let dir = match std::env::var_os("LUMO_SHARED") {
         Some(d) => PathBuf::from(d),
-        None => workspace_root().join("../shared"),
+        None => workspace_root().join("..").join("shared"),
     };
     if dir.is_dir() {
         return Some(dir);
     }
-    if std::env::var("LUMO_REQUIRE_SHARED").as_deref() == Ok("1") {
-        panic!("shared test data not found at {} and LUMO_REQUIRE_SHARED=1", dir.display());
+    if std::env::var("LUMO_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+        panic!(
+            "shared test data not found at {} (LUMO_REQUIRE_SHARED=1)",
+            dir.display()
+        );
     }
-    eprintln!("SKIPPED: ../shared not found (looked for {}); set LUMO_SHARED", dir.display());
+    eprintln!(
+        "SKIPPED: ../shared not found (looked at {}); set LUMO_SHARED",
+        dir.display()
+    );
     None
 }
 
-/// Every sample model file (.gltf and .glb) under shared/gltf, sorted.
-pub fn sample_files(shared: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![shared.join("gltf")];
-    while let Some(d) = stack.pop() {
-        let Ok(rd) = std::fs::read_dir(&d) else { continue };
-        for e in rd.flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if matches!(p.extension().and_then(|e| e.to_str()), Some("gltf") | Some("glb")) {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
+/// The `.txt` files of a folder, sorted.
+pub fn txt_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "txt"))
+        .collect();
+    v.sort();
+    v
 }
 
-/// Scene JSON files to round-trip: the workspace's `scenes/` folder (recursively) and this
-/// crate's `tests/scenes/`.
+/// The shared legacy scenes (None when shared data is missing and not required).
+pub fn shared_legacy_scenes() -> Option<Vec<PathBuf>> {
+    let dir = shared_dir()?.join("legacy-scenes");
+    let files = txt_files(&dir);
+    assert!(
+        files.len() >= 16,
+        "expected the 16 shared legacy scenes in {}, found {}",
+        dir.display(),
+        files.len()
+    );
+    Some(files)
+}
+
+/// Our own example legacy scenes in `scenes/legacy/`.
+pub fn own_legacy_scenes() -> Vec<PathBuf> {
+    txt_files(&workspace_root().join("scenes").join("legacy"))
+}
+
+/// Every glTF sample model file (.gltf and .glb) under shared/gltf, sorted.
+pub fn sample_files(shared: &Path) -> Vec<PathBuf> {
+    files_with_ext(vec![shared.join("gltf")], &["gltf", "glb"])
+}
+
+/// Scene JSON files to round-trip through glTF: the workspace's `scenes/` folder (recursively)
+/// and this crate's `tests/scenes/`.
 pub fn scene_files() -> Vec<PathBuf> {
+    files_with_ext(vec![workspace_root().join("scenes"), Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes")], &["json"])
+}
+
+/// Files with one of `exts` under the folders, recursively, sorted.
+fn files_with_ext(mut stack: Vec<PathBuf>, exts: &[&str]) -> Vec<PathBuf> {
     let mut out = Vec::new();
-    let mut stack = vec![workspace_root().join("scenes"), Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes")];
     while let Some(d) = stack.pop() {
         let Ok(rd) = std::fs::read_dir(&d) else { continue };
         for e in rd.flatten() {
             let p = e.path();
             if p.is_dir() {
                 stack.push(p);
-            } else if p.extension().and_then(|e| e.to_str()) == Some("json") {
+            } else if p.extension().and_then(|e| e.to_str()).is_some_and(|e| exts.contains(&e)) {
                 out.push(p);
             }
         }

@@ -1,0 +1,314 @@
+//! Small exact-enough math for the converter: 4×4 affine matrices in f64, the legacy transform
+//! composition rule, the point-light reference distance, and inverting f32 maps exactly so that
+//! export followed by import reproduces every number bit for bit.
+
+use lumo_schema::{Object, Scale, Scene, TransformOp};
+
+use super::ast::Op;
+
+/// A 4×4 matrix, row-major: `m[row][col]`. Points are columns: p' = M · (x, y, z, 1).
+pub type M4 = [[f64; 4]; 4];
+
+/// The identity.
+pub fn identity() -> M4 {
+    let mut m = [[0.0; 4]; 4];
+    for (i, row) in m.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    m
+}
+
+/// a · b.
+pub fn mul(a: &M4, b: &M4) -> M4 {
+    let mut m = [[0.0; 4]; 4];
+    for (r, row) in m.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = (0..4).map(|k| a[r][k] * b[k][c]).sum();
+        }
+    }
+    m
+}
+
+/// M · (p, 1), dropping the homogeneous coordinate (affine matrices only).
+pub fn apply(m: &M4, p: [f64; 3]) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    for (r, v) in out.iter_mut().enumerate() {
+        *v = m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3];
+    }
+    out
+}
+
+fn translation(t: [f64; 3]) -> M4 {
+    let mut m = identity();
+    for i in 0..3 {
+        m[i][3] = t[i];
+    }
+    m
+}
+
+fn scaling(s: [f64; 3]) -> M4 {
+    let mut m = identity();
+    for i in 0..3 {
+        m[i][i] = s[i];
+    }
+    m
+}
+
+/// Right-handed rotation by `deg` degrees about `axis` (Rodrigues' formula): positive angles turn
+/// counter-clockwise when looking down the axis towards the origin.
+pub fn rotation(axis: [f64; 3], deg: f64) -> M4 {
+    let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+    let [x, y, z] = [axis[0] / len, axis[1] / len, axis[2] / len];
+    let (s, c) = deg.to_radians().sin_cos();
+    let t = 1.0 - c;
+    [
+        [t * x * x + c, t * x * y - s * z, t * x * z + s * y, 0.0],
+        [t * x * y + s * z, t * y * y + c, t * y * z - s * x, 0.0],
+        [t * x * z - s * y, t * y * z + s * x, t * z * z + c, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
+}
+
+fn v64(v: [f32; 3]) -> [f64; 3] {
+    [v[0] as f64, v[1] as f64, v[2] as f64]
+}
+
+/// The matrix a legacy `Matrix4f` lists: its 16 numbers run down the columns (row index varies
+/// fastest), so entry i is `m[i % 4][i / 4]`.
+pub fn matrix4f(values: &[f32; 16]) -> M4 {
+    let mut m = [[0.0; 4]; 4];
+    for (i, v) in values.iter().enumerate() {
+        m[i % 4][i / 4] = *v as f64;
+    }
+    m
+}
+
+/// The matrix of one legacy step (Matrix4f as stored).
+pub fn legacy_op_matrix(op: &Op) -> M4 {
+    match *op {
+        Op::Scale(s) => scaling(v64(s)),
+        Op::UniformScale(s) => scaling([s as f64; 3]),
+        Op::Translate(t) => translation(v64(t)),
+        Op::XRotate(d) => rotation([1.0, 0.0, 0.0], d as f64),
+        Op::YRotate(d) => rotation([0.0, 1.0, 0.0], d as f64),
+        Op::ZRotate(d) => rotation([0.0, 0.0, 1.0], d as f64),
+        Op::Rotate(a, d) => rotation(v64(a), d as f64),
+        Op::Matrix4f(ref m) => matrix4f(m),
+    }
+}
+
+/// The object-to-world matrix of one `Transform` block, by the framework's rule: start from the
+/// identity and, for each step in file order, right-multiply (M = M · Op), except `Matrix4f`,
+/// which left-multiplies (M = Mat · M).
+pub fn legacy_block_matrix(ops: &[Op]) -> M4 {
+    ops.iter().fold(identity(), |m, op| match op {
+        Op::Matrix4f(_) => mul(&legacy_op_matrix(op), &m),
+        _ => mul(&m, &legacy_op_matrix(op)),
+    })
+}
+
+/// The matrix of one schema step.
+pub fn schema_op_matrix(op: &TransformOp) -> M4 {
+    match op {
+        TransformOp::Translate(t) => translation(v64(*t)),
+        TransformOp::Rotate(r) => rotation(v64(r.axis), r.degrees as f64),
+        TransformOp::Scale(Scale::Uniform(s)) => scaling([*s as f64; 3]),
+        TransformOp::Scale(Scale::PerAxis(s)) => scaling(v64(*s)),
+        TransformOp::Matrix(m) => m.map(|row| row.map(|x| x as f64)),
+    }
+}
+
+/// Applies schema steps to a point in listed order (the first step acts first).
+pub fn apply_ops(ops: &[TransformOp], p: [f64; 3]) -> [f64; 3] {
+    ops.iter().fold(p, |p, op| apply(&schema_op_matrix(op), p))
+}
+
+/// The world-space point a legacy point light's brightness is matched at: the centre of the
+/// bounding box of the scene's bounded objects (spheres, triangles, lathes by their control
+/// polygon's hull, meshes by their placed origin, since their files are not read here), or
+/// `None` when there are none. Computed from the schema scene alone, so import and export agree.
+pub fn scene_reference_point(scene: &Scene) -> Option<[f64; 3]> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    let mut any = false;
+    for obj in &scene.objects {
+        let local: Vec<[f64; 3]> = match obj {
+            Object::Plane(_) => continue,
+            Object::Sphere(s) => corners(v64(s.center), [s.radius as f64; 3]),
+            Object::Triangle(t) => t.vertices.iter().map(|v| v64(*v)).collect(),
+            Object::Mesh(_) => vec![[0.0; 3]],
+            Object::Lathe(l) => {
+                let pts: &[[f32; 2]] = match &l.profile {
+                    lumo_schema::Profile::Bezier(b) => &b.points,
+                    lumo_schema::Profile::Bspline(b) => &b.points,
+                };
+                if pts.is_empty() {
+                    continue;
+                }
+                let r = pts.iter().map(|p| (p[0] as f64).abs()).fold(0.0, f64::max);
+                let y0 = pts
+                    .iter()
+                    .map(|p| p[1] as f64)
+                    .fold(f64::INFINITY, f64::min);
+                let y1 = pts
+                    .iter()
+                    .map(|p| p[1] as f64)
+                    .fold(f64::NEG_INFINITY, f64::max);
+                corners([0.0, (y0 + y1) / 2.0, 0.0], [r, (y1 - y0) / 2.0, r])
+            }
+        };
+        for p in local {
+            let w = apply_ops(obj.transform(), p);
+            if w.iter().all(|x| x.is_finite()) {
+                any = true;
+                for i in 0..3 {
+                    lo[i] = lo[i].min(w[i]);
+                    hi[i] = hi[i].max(w[i]);
+                }
+            }
+        }
+    }
+    any.then(|| {
+        [
+            (lo[0] + hi[0]) / 2.0,
+            (lo[1] + hi[1]) / 2.0,
+            (lo[2] + hi[2]) / 2.0,
+        ]
+    })
+}
+
+fn corners(c: [f64; 3], h: [f64; 3]) -> Vec<[f64; 3]> {
+    let mut out = Vec::with_capacity(8);
+    for i in 0..8 {
+        let s = |bit: usize| if i & (1 << bit) != 0 { 1.0 } else { -1.0 };
+        out.push([c[0] + s(0) * h[0], c[1] + s(1) * h[1], c[2] + s(2) * h[2]]);
+    }
+    out
+}
+
+/// The distance at which a legacy point light (no falloff) and lumo's inverse-square light give
+/// the same irradiance: from the light to [`scene_reference_point`], else to the camera; 1 when
+/// both coincide with the light.
+pub fn point_light_reference_distance(scene: &Scene, light: [f32; 3]) -> f64 {
+    let l = v64(light);
+    let dist = |p: [f64; 3]| {
+        ((p[0] - l[0]).powi(2) + (p[1] - l[1]).powi(2) + (p[2] - l[2]).powi(2)).sqrt()
+    };
+    let mut d = scene_reference_point(scene).map(dist).unwrap_or(0.0);
+    if !(d > 1e-6 && d.is_finite()) {
+        d = dist(v64(scene.camera.position));
+    }
+    if !(d > 1e-6 && d.is_finite()) {
+        d = 1.0;
+    }
+    d
+}
+
+/// Legacy colour → lumo radiometric quantity. The legacy shading is `kd · colour · cos θ` with
+/// no 1/π, while a lumo Lambertian surface reflects `albedo/π · E · cos θ`; so a directional
+/// light's irradiance is E = π · colour, and a point light's intensity is I = π · colour · d²
+/// with d from [`point_light_reference_distance`].
+pub fn legacy_to_radiometric(color: f32, scale: f64) -> f32 {
+    (std::f64::consts::PI * color as f64 * scale) as f32
+}
+
+/// The next representable f32 above/below (like `f32::next_up`, which needs Rust 1.86).
+fn step(x: f32, up: bool) -> f32 {
+    if x.is_nan() || x.is_infinite() {
+        return x;
+    }
+    if x == 0.0 {
+        let tiny = f32::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let bits = x.to_bits();
+    let towards_larger_magnitude = up == (x > 0.0);
+    f32::from_bits(if towards_larger_magnitude {
+        bits + 1
+    } else {
+        bits - 1
+    })
+}
+
+/// Finds x near `guess` with `forward(x) == target` exactly (searching up to 256 representable
+/// neighbours each way), so that a value written by the exporter reads back as the same f32.
+/// Falls back to `guess` when no exact preimage exists.
+pub fn invert_exact(target: f32, guess: f32, forward: impl Fn(f32) -> f32) -> f32 {
+    if !guess.is_finite() {
+        return guess;
+    }
+    if forward(guess) == target {
+        return guess;
+    }
+    let (mut up, mut down) = (guess, guess);
+    for _ in 0..256 {
+        up = step(up, true);
+        if forward(up) == target {
+            return up;
+        }
+        down = step(down, false);
+        if forward(down) == target {
+            return down;
+        }
+    }
+    guess
+}
+
+/// Shininess → roughness. A Phong exponent s corresponds to a Beckmann width
+/// α = √(2 / (s + 2)) (Walter, Marschner, Li, Torrance 2007, "Microfacet models for refraction
+/// through rough surfaces", §5.2), used as GGX's α; lumo's α = roughness², so
+/// roughness = (2 / (s + 2))^¼. s = 0 gives roughness 1, s → ∞ a mirror.
+pub fn shininess_to_roughness(s: f32) -> f32 {
+    (2.0 / (s as f64 + 2.0)).powf(0.25) as f32
+}
+
+/// The inverse of [`shininess_to_roughness`], exact in f32 where possible.
+pub fn roughness_to_shininess(r: f32) -> f32 {
+    let guess = (2.0 / (r as f64).powi(4) - 2.0) as f32;
+    invert_exact(r, guess.max(0.0), shininess_to_roughness)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_is_right_handed() {
+        let p = apply(&rotation([0.0, 0.0, 1.0], 90.0), [1.0, 0.0, 0.0]);
+        assert!((p[0]).abs() < 1e-12 && (p[1] - 1.0).abs() < 1e-12);
+        let p = apply(&rotation([1.0, 0.0, 0.0], 90.0), [0.0, 1.0, 0.0]);
+        assert!((p[2] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn matrix4f_is_column_by_column_and_left_multiplied() {
+        // A translation by (1, 2, 3) written column by column: the last column comes last.
+        let t = [
+            1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0,
+        ];
+        assert_eq!(apply(&matrix4f(&t), [0.0; 3]), [1.0, 2.0, 3.0]);
+        // Scale 2 then Matrix4f: M = Mat · (I · S), so the object is scaled first, then moved.
+        let m = legacy_block_matrix(&[Op::UniformScale(2.0), Op::Matrix4f(t)]);
+        assert_eq!(apply(&m, [1.0, 1.0, 1.0]), [3.0, 4.0, 5.0]);
+    }
+
+    #[test]
+    fn shininess_round_trips_exactly() {
+        for s in [0.0f32, 1.0, 10.0, 20.0, 25.0, 100.0, 1000.0, 3.7] {
+            let r = shininess_to_roughness(s);
+            assert_eq!(
+                shininess_to_roughness(roughness_to_shininess(r)),
+                r,
+                "s = {s}"
+            );
+        }
+        assert_eq!(shininess_to_roughness(0.0), 1.0);
+        for r in [0.1f32, 0.316_227_77, 0.5, 0.9, 1.0] {
+            assert_eq!(
+                shininess_to_roughness(roughness_to_shininess(r)),
+                r,
+                "r = {r}"
+            );
+        }
+    }
+}
