@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use lumo_converters::gltf::{self, CameraChoice, ImportOptions};
 use lumo_converters::legacy;
 use lumo_schema as schema;
 
@@ -24,13 +25,20 @@ pub enum InputKind {
     Json,
     /// The course's legacy text scene format (`.txt`), converted on the fly.
     Legacy,
+    /// glTF 2.0 (.gltf or .glb).
+    Gltf,
 }
 
-/// Choices that only some input kinds use.
-#[derive(Debug, Clone, Copy, Default)]
+/// Options for inputs that need them.
+#[derive(Debug, Clone, Default)]
 pub struct LoadOptions {
     /// Legacy scenes: keep, drop, or decide per scene whether to use the `Lights` block.
     pub lights: legacy::LightsPolicy,
+    /// glTF: which camera to use (`--camera NAME|INDEX`).
+    pub camera: Option<CameraChoice>,
+    /// glTF: the folder the scene's relative paths should be relative to (where a converted
+    /// scene file will be written). Default: the glTF file's folder.
+    pub scene_dir: Option<PathBuf>,
 }
 
 /// The input kind of a path, by extension.
@@ -39,8 +47,9 @@ pub fn kind_of(path: &Path) -> Result<InputKind, CliError> {
     match ext.as_str() {
         "json" => Ok(InputKind::Json),
         "txt" => Ok(InputKind::Legacy),
+        "gltf" | "glb" => Ok(InputKind::Gltf),
         _ => Err(CliError::invalid(format!(
-            "{}: cannot tell the input kind from the extension `{ext}` (expected .json or .txt)",
+            "{}: cannot tell the input kind from the extension `{ext}` (expected .json, .txt, .gltf or .glb)",
             path.display()
         ))),
     }
@@ -54,6 +63,22 @@ pub fn load(path: &Path) -> Result<Input, CliError> {
 /// Reads and validates a scene from `path` with input-specific options.
 pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Input, CliError> {
     match kind_of(path)? {
+        InputKind::Gltf => {
+            let opts = ImportOptions { camera: options.camera.clone(), scene_dir: options.scene_dir.clone() };
+            let imported = gltf::import(path, &opts).map_err(|e| match e {
+                gltf::GltfError::Io { .. } => CliError::failure(e.to_string()),
+                _ => CliError::invalid(e.to_string()),
+            })?;
+            let base_dir = match &options.scene_dir {
+                Some(d) => d.clone(),
+                None => schema::base_dir_of(path),
+            };
+            let diags = schema::validate(&imported.scene, Some(&base_dir));
+            if let Some(d) = diags.first() {
+                return Err(CliError::invalid(format!("{}: the imported scene is not valid: {d}", path.display())));
+            }
+            Ok(Input { scene: imported.scene, base_dir, warnings: imported.warnings })
+        }
         InputKind::Json => {
             let scene = schema::load_scene_file(path).map_err(CliError::from_load)?;
             Ok(Input { scene, base_dir: schema::base_dir_of(path), warnings: Vec::new() })

@@ -1,6 +1,7 @@
 //! The command-line interface: argument parsing and the subcommands.
 
 pub mod converge;
+pub mod gltf;
 pub mod input;
 
 use std::path::{Path, PathBuf};
@@ -12,7 +13,7 @@ use lumo_schema as schema;
 
 use crate::output::{write_image, ToneMap};
 use crate::render::{render_with_error, RenderOptions};
-use crate::scene::build::{build, ExternalData, NoExternalData};
+use crate::scene::build::{build, ExternalData};
 
 /// Exit code for invalid input.
 pub const EXIT_INVALID: i32 = 2;
@@ -130,6 +131,22 @@ pub enum Command {
     /// Render at a ladder of sample counts and report error against time (CSV and log-log plot).
     #[command(after_help = "Example:\n  lumo converge scenes/cornell.json --reference tests/reference/cornell_mitsuba_4096.exr --spp 1,4,16,64,256 -o converge")]
     Converge(converge::ConvergeArgs),
+    /// Convert a scene between formats, by extension: lumo JSON, legacy text (.txt), glTF (.gltf
+    /// with a .bin beside it, or .glb).
+    #[command(after_help = "Examples:\n  lumo convert legacy.txt -o scene.json\n  lumo convert model.glb -o scene.json --camera 0\n  lumo convert scenes/cornell.json -o cornell.glb")]
+    Convert {
+        /// Input scene (.json, .gltf, .glb).
+        input: PathBuf,
+        /// Output file (.json, .gltf, .glb).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// glTF input: the camera to use, by name or index into `cameras` (default: the first).
+        #[arg(long, value_name = "NAME|INDEX")]
+        camera: Option<String>,
+        /// Legacy input: keep or drop the `Lights` block, or decide per scene (see docs/legacy.md).
+        #[arg(long, value_enum, default_value = "auto")]
+        lights: LightsArg,
+    },
     /// Print the JSON Schema of scene files (draft 2020-12).
     #[command(after_help = "Example:\n  lumo schema -o schema/scene.schema.json")]
     Schema {
@@ -197,6 +214,9 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
+    /// glTF input: the camera to use, by name or index into `cameras` (default: the first).
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub camera: Option<String>,
 }
 
 /// Parses `30s`, `2m`, `1.5h`, `500ms` or a plain number of seconds.
@@ -222,10 +242,79 @@ fn parse_duration(text: &str) -> Result<f32, String> {
 /// Runs the CLI; returns the process exit code.
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
-        Command::Render(args) => render_cmd(&args, &NoExternalData),
+        Command::Render(args) => render_cmd(&args, &gltf::GltfData::default()),
+        Command::Convert { input, output, camera, lights } => convert_cmd(&input, &output, camera.as_deref(), lights),
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
-        Command::Converge(args) => converge::run(&args, &NoExternalData).map(|_| ()),
+        Command::Converge(args) => converge::run(&args, &gltf::GltfData::default()).map(|_| ()),
+    }
+}
+
+fn camera_choice(s: &str) -> lumo_converters::gltf::CameraChoice {
+    match s.parse() {
+        Ok(c) => c,
+        Err(never) => match never {},
+    }
+}
+
+fn convert_cmd(input_path: &Path, output: &Path, camera: Option<&str>, lights: LightsArg) -> Result<(), CliError> {
+    let ext = output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let out_dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !out_dir.is_dir() {
+        return Err(CliError::failure(format!("{}: the output folder does not exist", output.display())));
+    }
+    let (json_out, legacy_out) = match ext.as_str() {
+        "json" => (true, false),
+        "txt" => (false, true),
+        "gltf" | "glb" => (false, false),
+        _ => return Err(CliError::invalid(format!("{}: cannot tell the output format from `{ext}` (expected .json, .txt, .gltf or .glb)", output.display()))),
+    };
+    // A converted scene's paths are written relative to the output's folder.
+    let options = input::LoadOptions { lights: lights.into(), camera: camera.map(camera_choice), scene_dir: json_out.then(|| out_dir.clone()) };
+    let mut inp = input::load_with(input_path, &options)?;
+    for w in &inp.warnings {
+        eprintln!("warning: {}: {w}", input_path.display());
+    }
+    if json_out {
+        rebase_paths(&mut inp.scene, &inp.base_dir, &out_dir);
+        write_text_atomically(output, &schema::to_json(&inp.scene))?;
+    } else if legacy_out {
+        rebase_paths(&mut inp.scene, &inp.base_dir, &out_dir);
+        let text = lumo_converters::legacy::export(&inp.scene).map_err(|e| CliError::invalid(format!("{}: {e}", output.display())))?;
+        write_text_atomically(output, &text)?;
+    } else {
+        let warnings = lumo_converters::gltf::export(&inp.scene, &inp.base_dir, output).map_err(|e| match e {
+            lumo_converters::gltf::GltfError::Io { .. } => CliError::failure(e.to_string()),
+            _ => CliError::invalid(e.to_string()),
+        })?;
+        for w in warnings {
+            eprintln!("warning: {}: {w}", output.display());
+        }
+    }
+    eprintln!("wrote {}", output.display());
+    Ok(())
+}
+
+/// Rewrites the scene's file paths (relative to `from`) to be relative to `to`.
+fn rebase_paths(scene: &mut schema::Scene, from: &Path, to: &Path) {
+    let rel = |f: &mut String| *f = lumo_converters::gltf::relative_path(&from.join(&*f), to);
+    if lumo_converters::gltf::relative_path(from, to) == "." {
+        return;
+    }
+    for t in scene.textures.values_mut() {
+        rel(&mut t.file);
+    }
+    for o in &mut scene.objects {
+        if let schema::Object::Mesh(m) = o {
+            match &mut m.source {
+                schema::MeshSource::Obj(f) => rel(f),
+                schema::MeshSource::Gltf(g) => rel(&mut g.file),
+                schema::MeshSource::Inline(_) => {}
+            }
+        }
     }
 }
 
@@ -281,7 +370,8 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
 
 fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliError> {
     crate::output::format_of(&args.output).map_err(|e| CliError::invalid(e.to_string()))?;
-    let mut inp = input::load_with(&args.scene, &input::LoadOptions { lights: args.lights.into() })?;
+    let options = input::LoadOptions { lights: args.lights.into(), camera: args.camera.as_deref().map(camera_choice), scene_dir: None };
+    let mut inp = input::load_with(&args.scene, &options)?;
     let s = &mut inp.scene;
     if let Some(v) = args.spp {
         s.render.spp = v;

@@ -12,6 +12,7 @@ use crate::math::{Ray, Rgb};
 use crate::texture::Texture;
 
 pub use build::{build, BuildError};
+pub use obj::MeshData;
 
 /// The light-transport algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
