@@ -24,7 +24,7 @@ fn load(name: &str, spp: u32) -> lumo::scene::Scene {
 fn bench_scene(c: &mut Criterion, name: &str, spp: u32) {
     let scene = load(name, spp);
     let samples = u64::from(scene.settings.width) * u64::from(scene.settings.height) * u64::from(spp);
-    let options = RenderOptions { progress: None };
+    let options = RenderOptions::default();
     let (_, stats) = render(&scene, &options);
     eprintln!(
         "{name} at {spp} spp: {:.2} s, {:.2} M rays/s, {:.2} M samples/s (all cores, one render)",

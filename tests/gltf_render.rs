@@ -37,7 +37,7 @@ fn every_sample_model_renders_without_error_or_nan() {
         inp.scene.image.height = 48;
         inp.scene.render.spp = 4;
         let (scene, _warnings) = lumo::scene::build(&inp.scene, &inp.base_dir, &external).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
-        let (image, stats) = lumo::render::render(&scene, &lumo::render::RenderOptions { progress: None });
+        let (image, stats) = lumo::render::render(&scene, &lumo::render::RenderOptions::default());
         assert_eq!(stats.nan_samples, 0, "{}: NaN samples", f.display());
         assert!(image.pixels.iter().all(|p| p.is_finite()), "{}: non-finite pixel", f.display());
         // Something is visible: not every pixel is the background.
@@ -62,7 +62,7 @@ fn convert_writes_gltf_that_renders_like_the_scene() {
         inp.scene.image.height = 24;
         inp.scene.render.spp = 2;
         let (scene, _) = lumo::scene::build(&inp.scene, &inp.base_dir, &external).unwrap();
-        imgs.push(lumo::render::render(&scene, &lumo::render::RenderOptions { progress: None }).0);
+        imgs.push(lumo::render::render(&scene, &lumo::render::RenderOptions::default()).0);
     }
     assert_eq!(imgs[0].pixels, imgs[1].pixels);
 }
