@@ -30,14 +30,7 @@ fn cornell_box_matches_mitsuba_within_noise() {
     let reference = lumo::output::read_image(&common::root().join("tests/reference/cornell_mitsuba_4096.exr")).unwrap();
     assert_eq!((reference.width, reference.height), (256, 256));
     let reference = downsample(&reference, 2);
-    let render = |seed| {
-        let mut desc = common::load_scene(&common::root().join("scenes/cornell.json"));
-        desc.image.width = 128;
-        desc.image.height = 128;
-        desc.render.spp = 64;
-        desc.render.seed = seed;
-        common::render(&common::build(&desc, &common::root().join("scenes")))
-    };
+    let render = |seed| common::render(&common::cornell(128, 64, seed, lumo_schema::SamplerKind::Sobol));
     let (a, b) = (render(1), render(2));
     // Pixels on the light's edge are left out of the RMSE: their error is the random coverage
     // of a radiance-18 emitter, a handful of them would decide the noise estimate. The mean

@@ -5,15 +5,7 @@ mod common;
 use assert_cmd::Command;
 use lumo::render::{render_with_error, RenderOptions};
 
-fn cornell(size: u32, spp: u32, seed: u64, sampler: lumo_schema::SamplerKind) -> lumo::scene::Scene {
-    let mut desc = common::load_scene(&common::root().join("scenes/cornell.json"));
-    desc.image.width = size;
-    desc.image.height = size;
-    desc.render.spp = spp;
-    desc.render.seed = seed;
-    desc.render.sampler = sampler;
-    common::build(&desc, &common::root().join("scenes"))
-}
+use common::cornell;
 
 #[test]
 fn estimated_error_tracks_the_true_error_within_a_factor_of_one_and_a_half() {

@@ -115,13 +115,9 @@ fn lambertian_plane_under_a_directional_light() {
     }
 }
 
-fn cornell(width: u32, spp: u32, seed: u64) -> lumo::scene::Scene {
-    let mut desc = common::load_scene(&common::root().join("scenes/cornell.json"));
-    desc.image.width = width;
-    desc.image.height = width;
-    desc.render.spp = spp;
-    desc.render.seed = seed;
-    common::build(&desc, &common::root().join("scenes"))
+/// The Cornell box with the default (Sobol) sampler.
+fn cornell(size: u32, spp: u32, seed: u64) -> lumo::scene::Scene {
+    common::cornell(size, spp, seed, lumo_schema::SamplerKind::Sobol)
 }
 
 #[test]

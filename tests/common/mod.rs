@@ -36,3 +36,15 @@ pub fn build(desc: &lumo_schema::Scene, base: &Path) -> lumo::scene::Scene {
 pub fn render(scene: &lumo::scene::Scene) -> lumo::render::Image {
     lumo::render::render(scene, &Default::default()).0
 }
+
+/// The reference Cornell box (`scenes/cornell.json`) at `size`² pixels with the given samples,
+/// seed and sample sequence, ready to render.
+pub fn cornell(size: u32, spp: u32, seed: u64, sampler: lumo_schema::SamplerKind) -> lumo::scene::Scene {
+    let mut desc = load_scene(&root().join("scenes/cornell.json"));
+    desc.image.width = size;
+    desc.image.height = size;
+    desc.render.spp = spp;
+    desc.render.seed = seed;
+    desc.render.sampler = sampler;
+    build(&desc, &root().join("scenes"))
+}
