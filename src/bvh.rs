@@ -409,10 +409,7 @@ fn partition(s: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
 mod tests {
     use super::*;
 
-    fn lcg(state: &mut u64) -> f32 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*state >> 40) as f32) / (1u64 << 24) as f32
-    }
+    use crate::sampler::test_lcg as lcg;
 
     fn random_boxes(n: usize, s: &mut u64) -> Vec<Aabb> {
         (0..n)

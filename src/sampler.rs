@@ -45,6 +45,13 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// A tiny LCG for the oracle tests' random scenes and rays (fixed, reproducible cases).
+#[cfg(test)]
+pub(crate) fn test_lcg(state: &mut u64) -> f32 {
+    *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    ((*state >> 40) as f32) / (1u64 << 24) as f32
+}
+
 /// Which sample sequence the renderer draws from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SamplerKind {

@@ -288,10 +288,7 @@ pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 mod tests {
     use super::*;
 
-    fn lcg(state: &mut u64) -> f32 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*state >> 40) as f32) / (1u64 << 24) as f32
-    }
+    use crate::sampler::test_lcg as lcg;
 
     /// The BVH-accelerated mesh must agree with testing every triangle (the oracle).
     #[test]

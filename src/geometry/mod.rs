@@ -331,10 +331,7 @@ impl Accel for BruteForce<'_> {
 mod tests {
     use super::*;
 
-    fn lcg(state: &mut u64) -> f32 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*state >> 40) as f32) / (1u64 << 24) as f32
-    }
+    use crate::sampler::test_lcg as lcg;
 
     #[test]
     fn two_level_bvh_agrees_with_brute_force_under_transforms() {

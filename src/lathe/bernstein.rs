@@ -106,39 +106,36 @@ pub fn eval_curve_with_derivative(p: &[DVec2], t: f64) -> (DVec2, DVec2) {
     (s * w[0] + t * w[1], m as f64 * (w[1] - w[0]))
 }
 
-/// Splits a planar Bézier curve at `t` into the control points of its pieces over [0, t] and
-/// [t, 1] (de Casteljau). `left` and `right` must hold `p.len()` points.
-pub fn split_curve(p: &[DVec2], t: f64, left: &mut [DVec2], right: &mut [DVec2]) {
-    let m = p.len() - 1;
-    let mut w = [DVec2::ZERO; MAX_POINTS];
-    w[..=m].copy_from_slice(p);
+/// Splits Bernstein coefficients (points or scalars) at `t` into those of the pieces over
+/// [0, t] and [t, 1] (de Casteljau). `left` and `right` must hold `c.len()` values.
+fn split<T>(c: &[T], t: f64, left: &mut [T], right: &mut [T])
+where
+    T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+{
+    let m = c.len() - 1;
+    let mut w = [T::default(); MAX_COEFFS];
+    w[..=m].copy_from_slice(c);
     let s = 1.0 - t;
     left[0] = w[0];
     right[m] = w[m];
     for level in 1..=m {
         for i in 0..=(m - level) {
-            w[i] = s * w[i] + t * w[i + 1];
+            w[i] = w[i] * s + w[i + 1] * t;
         }
         left[level] = w[0];
         right[m - level] = w[m - level];
     }
 }
 
+/// Splits a planar Bézier curve at `t` into the control points of its pieces over [0, t] and
+/// [t, 1] (de Casteljau). `left` and `right` must hold `p.len()` points.
+pub fn split_curve(p: &[DVec2], t: f64, left: &mut [DVec2], right: &mut [DVec2]) {
+    split(p, t, left, right);
+}
+
 /// Splits a scalar Bernstein polynomial at `t` (de Casteljau), like [`split_curve`].
 pub fn split_scalar(b: &[f64], t: f64, left: &mut [f64], right: &mut [f64]) {
-    let m = b.len() - 1;
-    let mut w = [0.0f64; MAX_COEFFS];
-    w[..=m].copy_from_slice(b);
-    let s = 1.0 - t;
-    left[0] = w[0];
-    right[m] = w[m];
-    for level in 1..=m {
-        for i in 0..=(m - level) {
-            w[i] = s * w[i] + t * w[i + 1];
-        }
-        left[level] = w[0];
-        right[m - level] = w[m - level];
-    }
+    split(b, t, left, right);
 }
 
 /// Solves f(t) = 0 on [lo, hi] where f changes sign (or vanishes at an end) and is monotone:

@@ -738,7 +738,13 @@ pub fn camera_values(c: &Camera, image: &Image) -> (f32, f32) {
 pub fn camera_node_trs(c: &Camera) -> ([f32; 3], [f32; 4]) {
     let p = math::f64x3(c.position);
     let f = math::normalize(math::sub(math::f64x3(c.look_at), p)).unwrap_or([0.0, 0.0, -1.0]);
-    let r = math::normalize(math::cross(f, math::f64x3(c.up))).unwrap_or([1.0, 0.0, 0.0]);
+    (c.position, look_rotation(f, math::f64x3(c.up)))
+}
+
+/// The rotation quaternion (x, y, z, w) mapping −z to the unit direction `f` and +y to `up` made
+/// orthogonal to it (glTF's camera and light convention).
+fn look_rotation(f: [f64; 3], up: [f64; 3]) -> [f32; 4] {
+    let r = math::normalize(math::cross(f, up)).unwrap_or([1.0, 0.0, 0.0]);
     let u = math::cross(r, f);
     let mut m = math::IDENTITY;
     for i in 0..3 {
@@ -746,7 +752,7 @@ pub fn camera_node_trs(c: &Camera) -> ([f32; 3], [f32; 4]) {
         m[i][1] = u[i];
         m[i][2] = -f[i];
     }
-    (c.position, math::quat_from_rotation(&m).map(|x| x as f32))
+    math::quat_from_rotation(&m).map(|x| x as f32)
 }
 
 /// The f32 world matrix of the camera node the exporter writes.
@@ -762,15 +768,7 @@ pub fn light_node_trs(l: &Light) -> (Option<[f32; 3]>, Option<[f32; 4]>) {
         let f = math::normalize(math::f64x3(d)).unwrap_or([0.0, 0.0, -1.0]);
         // Any up not parallel to f.
         let up = if f[1].abs() < 0.9 { [0.0, 1.0, 0.0] } else { [1.0, 0.0, 0.0] };
-        let r = math::normalize(math::cross(f, up)).unwrap_or([1.0, 0.0, 0.0]);
-        let u = math::cross(r, f);
-        let mut m = math::IDENTITY;
-        for i in 0..3 {
-            m[i][0] = r[i];
-            m[i][1] = u[i];
-            m[i][2] = -f[i];
-        }
-        math::quat_from_rotation(&m).map(|x| x as f32)
+        look_rotation(f, up)
     };
     match l {
         Light::Point(p) => (Some(p.position), None),
