@@ -100,6 +100,9 @@ pub struct Rendered {
     pub image: Image,
     /// Standard error of each pixel's mean, per channel.
     pub std_error: Image,
+    /// Samples taken per pixel (row-major, top row first): uniform renders take the same
+    /// number everywhere, adaptive ones show where the budget went.
+    pub counts: Vec<u32>,
     /// Counters.
     pub stats: Stats,
 }
@@ -226,7 +229,7 @@ fn finish(plan: &Plan, sums: &[PixelSum], rays: u64, elapsed: Duration) -> Rende
         estimated_rmse,
         estimated_rel_error,
     };
-    Rendered { image, std_error, stats }
+    Rendered { image, std_error, counts: sums.iter().map(PixelSum::taken).collect(), stats }
 }
 
 /// Takes all samples of a render, pass by pass; `sample(x, y, indices, stats)` returns the sums
