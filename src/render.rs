@@ -114,6 +114,9 @@ struct PixelSum {
     sum_sq: DVec3,
     good: u32,
     bad: u32,
+    /// Wall time these samples took, in nanoseconds: the cost model of time-budgeted adaptive
+    /// passes (a render against the clock is not reproducible anyway).
+    nanos: u64,
 }
 
 impl PixelSum {
@@ -261,6 +264,9 @@ where
     let mut pass_spp = plan.spp.min(2);
     // Samples per second of the last pass, to size the next one to the time left.
     let mut rate: Option<f64> = None;
+    // Whether that rate was measured on an adaptive pass (adaptive samples gather where paths
+    // are long, so a uniform pass's rate overestimates theirs, by 2–3× on the glass lathe).
+    let mut rate_adaptive = false;
     let mut pass_index = 0u64;
     while taken_total < total_budget {
         let elapsed = start.elapsed();
@@ -276,7 +282,11 @@ where
         if let (Some(b), Some(r)) = (plan.budget, rate) {
             // The pilot of an adaptive render ends at a quarter of the budget.
             let deadline = if options.adaptive && !adaptive_phase { b / 4 } else { b };
-            let fit = (r * deadline.saturating_sub(elapsed).as_secs_f64()) as u64;
+            let mut fit = (r * deadline.saturating_sub(elapsed).as_secs_f64()) as u64;
+            if adaptive_phase && !rate_adaptive {
+                // First adaptive pass: plan a third of the time left, then measure.
+                fit /= 3;
+            }
             time_bound = fit < pass_samples;
             pass_samples = pass_samples.min(fit);
         }
@@ -329,6 +339,7 @@ where
         let t0 = Instant::now();
         render_pass(plan, &mut sums, &counts, &rays, &done, options, &sample);
         rate = Some(this_pass as f64 / t0.elapsed().as_secs_f64().max(1e-6));
+        rate_adaptive = adaptive_phase;
         taken_total += this_pass;
         pass_index += 1;
         if let Some(target) = options.target_rel_error {
@@ -353,6 +364,7 @@ fn estimate(sums: &[PixelSum]) -> (f64, f64) {
 #[derive(Default)]
 struct Scratch {
     per_sample: Vec<f64>,
+    cost: Vec<f64>,
     weights: Vec<f64>,
 }
 
@@ -379,36 +391,59 @@ struct Scratch {
 /// Fractional counts are rounded stochastically with a hash of (seed, pass, pixel), so rounding
 /// does not couple pixels either (error diffusion would carry a neighbour's wish into the count).
 /// A floor of a tenth of the mean weight keeps every pixel converging.
+///
+/// **Time budgets.** When the budget is time, not samples, the sum to minimise is the same but
+/// the constraint is Σ cᵢnᵢ = T with cᵢ the cost of a sample of pixel i, so nᵢ ∝ √(aᵢ/cᵢ):
+/// a sample through a glass lathe casts more (and costlier) rays than one that sees the floor.
+/// cᵢ is the neighbourhood's measured time per sample (the pixel's own is left out for the same
+/// reason as its variance: path length correlates with radiance). Timing makes the allocation
+/// depend on the machine, which a render against the clock does anyway; sample budgets
+/// (`--spp`) keep nᵢ ∝ √aᵢ and stay reproducible.
 fn allocate_adaptive(sums: &[PixelSum], plan: &Plan, source: ErrorSource, budget: u64, pass: u64, scratch: &mut Scratch, counts: &mut [u32]) {
     let (w, h) = (plan.width as usize, plan.height as usize);
     let n = sums.len();
     let per_sample = &mut scratch.per_sample;
     per_sample.clear();
     per_sample.extend(sums.iter().map(PixelSum::rel_var_per_sample));
+    // Seconds per sample, the cost cᵢ of a sample of pixel i (under a time budget only).
+    let cost = &mut scratch.cost;
+    cost.clear();
+    if plan.budget.is_some() {
+        cost.extend(sums.iter().map(|p| if p.taken() > 0 && p.nanos > 0 { p.nanos as f64 / f64::from(p.taken()) } else { f64::NAN }));
+    }
     let known: Vec<f64> = per_sample.iter().copied().filter(|v| v.is_finite()).collect();
     let global = if known.is_empty() { 0.0 } else { known.iter().sum::<f64>() / known.len() as f64 };
     let weights = &mut scratch.weights;
     weights.clear();
     weights.extend((0..n).map(|i| {
-        let a = match source {
+        let (a, c) = match source {
             #[cfg(test)]
-            ErrorSource::Own => per_sample[i],
+            ErrorSource::Own => (per_sample[i], cost.get(i).copied().unwrap_or(f64::NAN)),
             ErrorSource::Neighbours => {
                 let (x, y) = (i % w, i / w);
-                let (mut sum, mut k) = (0.0, 0u32);
+                let (mut sum, mut k, mut c_sum, mut c_k) = (0.0, 0u32, 0.0, 0u32);
                 for ny in y.saturating_sub(1)..(y + 2).min(h) {
                     for nx in x.saturating_sub(1)..(x + 2).min(w) {
-                        let v = per_sample[ny * w + nx];
-                        if (nx, ny) != (x, y) && v.is_finite() {
-                            sum += v;
+                        let j = ny * w + nx;
+                        if j == i {
+                            continue;
+                        }
+                        if per_sample[j].is_finite() {
+                            sum += per_sample[j];
                             k += 1;
+                        }
+                        if let Some(&cj) = cost.get(j).filter(|c| c.is_finite()) {
+                            c_sum += cj;
+                            c_k += 1;
                         }
                     }
                 }
-                if k == 0 { global } else { sum / f64::from(k) }
+                (if k == 0 { global } else { sum / f64::from(k) }, if c_k == 0 { f64::NAN } else { c_sum / f64::from(c_k) })
             }
         };
-        if a.is_finite() { a.max(0.0).sqrt() } else { global.sqrt() }
+        let a = if a.is_finite() { a.max(0.0) } else { global };
+        // Equal time: minimising Σ aᵢ/nᵢ subject to Σ cᵢnᵢ = T gives nᵢ ∝ √(aᵢ/cᵢ).
+        if c.is_finite() && c > 0.0 { (a / c).sqrt() } else { a.sqrt() }
     }));
     let mean_w = weights.iter().sum::<f64>() / n as f64;
     if mean_w <= 0.0 || !mean_w.is_finite() {
@@ -460,7 +495,14 @@ where
                 for x in x0..x1 {
                     let i = (y * w + x) as usize;
                     let first = sums[i].taken();
-                    out.push(if counts[i] == 0 { PixelSum::default() } else { sample(x, y, first..first + counts[i], &mut stats) });
+                    out.push(if counts[i] == 0 {
+                        PixelSum::default()
+                    } else {
+                        let t = Instant::now();
+                        let mut add = sample(x, y, first..first + counts[i], &mut stats);
+                        add.nanos = t.elapsed().as_nanos() as u64;
+                        add
+                    });
                     n += u64::from(counts[i]);
                 }
             }
@@ -482,6 +524,7 @@ where
             p.sum_sq += add.sum_sq;
             p.good += add.good;
             p.bad += add.bad;
+            p.nanos += add.nanos;
         }
     }
 }
