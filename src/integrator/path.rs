@@ -47,8 +47,10 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
         let bsdf = material.bsdf(&scene.textures, &hit);
 
-        // Next-event estimation: one light, chosen by power.
-        let u_pick = sampler.get_1d();
+        // Next-event estimation: one light, chosen by power. The light choice and the lobe
+        // choice below are two 1D decisions of this vertex: one 2D draw serves both.
+        let u_choice = sampler.get_2d();
+        let u_pick = u_choice.x;
         let u_light = sampler.get_2d();
         if bsdf.has_smooth_lobe() {
             if let Some((index, pmf)) = scene.light_sampler.pick(u_pick) {
@@ -79,7 +81,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
 
         // Continue the path by sampling the BSDF.
-        let u_lobe = sampler.get_1d();
+        let u_lobe = u_choice.y;
         let u_dir = sampler.get_2d();
         let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else { break };
         beta *= s.weight;
