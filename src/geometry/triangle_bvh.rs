@@ -299,7 +299,7 @@ impl TriangleBvh {
     pub fn intersect(&self, ray: &TriRay, t_min: f32, t_max: f32) -> Option<([u32; 2], TriHit)> {
         let mut best: Option<(u32, TriHit)> = None;
         let mut t_max = t_max;
-        self.traverse(ray, t_min, &mut t_max, |p, t_max| {
+        self.traverse::<true>(ray, t_min, &mut t_max, |p, t_max| {
             let h = p.hits(ray, t_min, *t_max);
             if h.mask != 0 {
                 let nearest = h.t.min_element();
@@ -317,14 +317,15 @@ impl TriangleBvh {
     #[inline]
     pub fn occluded(&self, ray: &TriRay, t_min: f32, t_max: f32) -> bool {
         let mut t_max = t_max;
-        self.traverse(ray, t_min, &mut t_max, |p, t_max| p.hits(ray, t_min, *t_max).mask != 0)
+        // Any hit ends the search, so the order of children does not matter.
+        self.traverse::<false>(ray, t_min, &mut t_max, |p, t_max| p.hits(ray, t_min, *t_max).mask != 0)
     }
 
-    /// Visits, nearest box first, the packets whose boxes the ray meets within
-    /// (t_min, *t_max); `leaf` shrinks `*t_max` on closer hits and returns `true` to stop (any-hit
+    /// Visits the packets whose boxes the ray meets within (t_min, *t_max), nearest box first
+    /// when `ORDERED`; `leaf` shrinks `*t_max` on closer hits and returns `true` to stop (any-hit
     /// queries). Returns whether it was stopped.
     #[inline(always)]
-    fn traverse(&self, r: &TriRay, t_min: f32, t_max: &mut f32, leaf: impl FnMut(&Packet, &mut f32) -> bool) -> bool {
+    fn traverse<const ORDERED: bool>(&self, r: &TriRay, t_min: f32, t_max: &mut f32, leaf: impl FnMut(&Packet, &mut f32) -> bool) -> bool {
         if self.ids.is_empty() {
             return false;
         }
@@ -333,18 +334,18 @@ impl TriangleBvh {
         if self.depth <= INLINE_DEPTH {
             let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); 3 * INLINE_DEPTH + 1];
             if r.robust {
-                self.traverse_with::<true>(r, t_min, t_max, leaf, &mut stack)
+                self.traverse_with::<true, ORDERED>(r, t_min, t_max, leaf, &mut stack)
             } else {
-                self.traverse_with::<false>(r, t_min, t_max, leaf, &mut stack)
+                self.traverse_with::<false, ORDERED>(r, t_min, t_max, leaf, &mut stack)
             }
         } else {
             let mut stack = vec![MaybeUninit::<(u32, f32)>::uninit(); 3 * self.depth + 1];
-            self.traverse_with::<true>(r, t_min, t_max, leaf, &mut stack)
+            self.traverse_with::<true, ORDERED>(r, t_min, t_max, leaf, &mut stack)
         }
     }
 
     #[inline(always)]
-    fn traverse_with<const ROBUST: bool>(
+    fn traverse_with<const ROBUST: bool, const ORDERED: bool>(
         &self,
         r: &TriRay,
         t_min: f32,
@@ -373,6 +374,16 @@ impl TriangleBvh {
                     let a = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     if mask == 0 {
+                        cur = node.child[a];
+                        continue;
+                    }
+                    if !ORDERED {
+                        // Push all but the first, in any order.
+                        while mask != 0 {
+                            let c = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            push!((node.child[c], near[c]));
+                        }
                         cur = node.child[a];
                         continue;
                     }
