@@ -47,15 +47,13 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
         let bsdf = material.bsdf(&scene.textures, &hit);
 
-        // Next-event estimation: one light, chosen by power. The light choice and the lobe
-        // choice below are two 1D decisions of this vertex: one 2D draw serves both.
-        let u_choice = sampler.get_2d();
-        let u_pick = u_choice.x;
+        // Next-event estimation: one light, chosen by power with the first coordinate of the
+        // light's 2D sample, which is then remapped to sample a point on it.
         let u_light = sampler.get_2d();
         if bsdf.has_smooth_lobe() {
-            if let Some((index, pmf)) = scene.light_sampler.pick(u_pick) {
+            if let Some((index, pmf, u_x)) = scene.light_sampler.pick_remapped(u_light.x) {
                 let light = &scene.lights[index];
-                if let Some(ls) = light.sample(hit.p, u_light) {
+                if let Some(ls) = light.sample(hit.p, glam::Vec2::new(u_x, u_light.y)) {
                     let li = if ls.delta {
                         ls.li
                     } else {
@@ -81,7 +79,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
 
         // Continue the path by sampling the BSDF.
-        let u_lobe = u_choice.y;
+        let u_lobe = sampler.get_1d();
         let u_dir = sampler.get_2d();
         let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else { break };
         beta *= s.weight;
