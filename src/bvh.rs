@@ -253,18 +253,10 @@ impl Bvh {
                     continue;
                 }
             }
-            // Pop the next node that may still hold a closer hit.
-            loop {
-                if sp == 0 {
-                    return false;
-                }
-                sp -= 1;
-                // SAFETY: entries 0..sp were written by the push above before sp passed them.
-                let (next, t) = unsafe { stack[sp].assume_init() };
-                if t <= *t_max {
-                    node = next as usize;
-                    break;
-                }
+            // SAFETY: entries below `sp` were all written by the push above.
+            match unsafe { pop_nearer(&stack, &mut sp, *t_max) } {
+                Some(next) => node = next as usize,
+                None => return false,
             }
         }
     }
@@ -285,6 +277,25 @@ impl Bvh {
         let c = n.first() as usize;
         self.sub_traverse::<ROBUST>(c, ray, t_min, t_max, leaf) || self.sub_traverse::<ROBUST>(c + 1, ray, t_min, t_max, leaf)
     }
+}
+
+/// Pops traversal-stack entries (node, entry distance) until one may still hold a hit closer
+/// than `t_max`; returns its node, or `None` when the stack runs empty.
+///
+/// # Safety
+/// Every entry below `*sp` must have been initialised (the traversals write an entry before
+/// they raise `sp` past it).
+#[inline(always)]
+pub(crate) unsafe fn pop_nearer(stack: &[MaybeUninit<(u32, f32)>], sp: &mut usize, t_max: f32) -> Option<u32> {
+    while *sp > 0 {
+        *sp -= 1;
+        // SAFETY: the caller guarantees entries below the initial `*sp` were initialised.
+        let (node, t) = unsafe { stack[*sp].assume_init() };
+        if t <= t_max {
+            return Some(node);
+        }
+    }
+    None
 }
 
 struct Ctx<'a> {

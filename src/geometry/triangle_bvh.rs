@@ -17,7 +17,8 @@ use std::mem::MaybeUninit;
 use glam::{BVec4A, Vec3A, Vec4};
 
 use crate::bvh::{Bvh, LeafCost};
-use crate::geometry::triangle::TriHit;
+use crate::bvh::pop_nearer;
+use crate::geometry::triangle::{shear_axes, TriHit};
 use crate::math::{Aabb, Vec3};
 
 /// A ray prepared for [`TriangleBvh`] queries: the box-test and the watertight-shear constants,
@@ -43,14 +44,7 @@ impl TriRay {
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> TriRay {
         let inv = [1.0 / d.x, 1.0 / d.y, 1.0 / d.z];
-        let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            // Keep the winding: the scalar test swaps the same way.
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let [kx, ky, kz] = shear_axes(d);
         TriRay {
             org: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
             inv: inv.map(Vec4::splat),
@@ -418,18 +412,10 @@ impl TriangleBvh {
                     continue;
                 }
             }
-            // Pop the next node that may still hold a closer hit.
-            loop {
-                if sp == 0 {
-                    return false;
-                }
-                sp -= 1;
-                // SAFETY: entries 0..sp were written by `push!` before sp passed them.
-                let (next, t) = unsafe { stack[sp].assume_init() };
-                if t <= *t_max {
-                    cur = next;
-                    break;
-                }
+            // SAFETY: entries below `sp` were all written by `push!`.
+            match unsafe { pop_nearer(stack, &mut sp, *t_max) } {
+                Some(next) => cur = next,
+                None => return false,
             }
         }
     }
