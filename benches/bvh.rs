@@ -1,6 +1,7 @@
-//! BVH build time and traversal throughput: lumo's binned-SAH BVH (the [`TriangleBvh`] every
-//! scene's world-space triangles go into) against the `obvhs` crate (PLOC build, CWBVH
-//! traversal), on the same triangles and the same rays.
+//! BVH build time and traversal throughput: lumo's triangle BVH (the [`TriangleBvh`] every
+//! scene's world-space triangles go into: binned SAH collapsed to a 4-wide BVH with 4-triangle
+//! SIMD leaves) against the `obvhs` crate (PLOC build, CWBVH traversal, lumo's scalar watertight
+//! test in its leaves), on the same triangles and the same rays.
 //!
 //! Meshes: `../shared/meshes/bunny_small.obj` and `teapot.obj` (skipped loudly when
 //! `../shared` is missing), and an icosphere of 327,680 triangles generated here; builds also of

@@ -235,6 +235,16 @@ impl Bsdf {
             cosine_hemisphere(u)
         };
         let wi_world = self.frame.to_world(Vec3::new(wi_up.x, wi_up.y, wi_up.z * side));
+        if self.w_specular == 0.0 && self.w_transmission == 0.0 {
+            // Purely Lambertian (the common case): f·cos/pdf = base·w_diffuse exactly, with
+            // pdf = cos/π; only the checks of `eval` remain (a direction on the rim, or on
+            // the other side of the geometric normal, is not sampled).
+            let pdf = wi_up.z * FRAC_1_PI;
+            if pdf <= 0.0 || wo_world.dot(self.ng) * wi_world.dot(self.ng) <= 0.0 || self.base == Vec3::ZERO {
+                return None;
+            }
+            return Some(BsdfSample { wi: wi_world, weight: self.base * self.w_diffuse, pdf, delta: false, transmitted: false });
+        }
         let (f, pdf) = self.eval(wo_world, wi_world);
         if pdf <= 0.0 || f == Vec3::ZERO {
             return None;
@@ -316,6 +326,26 @@ mod tests {
             assert!((s - b.base).abs().max_element() < 1e-4, "sampled {s:?}");
             assert!((e - b.base).abs().max_element() < 0.01, "evaluated {e:?}");
         }
+    }
+
+    /// The Lambertian shortcut in `sample` returns what `eval` says for the sampled direction,
+    /// on both sides of the surface and with a tilted shading normal.
+    #[test]
+    fn lambertian_samples_agree_with_eval() {
+        let mut rng = Pcg32::new(5, 5);
+        let mut b = bsdf(0.7, 0.0, 0.0, 0.0, Vec3::new(0.8, 0.5, 0.2));
+        b.frame = Frame::from_normal(Vec3::new(0.2, 0.1, 1.0).normalize());
+        let mut taken = 0;
+        for wo in [dir(10.0), dir(70.0), -dir(35.0)] {
+            for _ in 0..2000 {
+                let Some(s) = b.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32())) else { continue };
+                let (f, pdf) = b.eval(wo, s.wi);
+                assert!((s.pdf - pdf).abs() <= 1e-4 * pdf.max(1.0), "pdf {} vs eval {pdf}", s.pdf);
+                assert!((s.weight - f / pdf).abs().max_element() < 1e-3, "weight {:?} vs eval {:?}", s.weight, f / pdf);
+                taken += 1;
+            }
+        }
+        assert!(taken > 5000);
     }
 
     #[test]

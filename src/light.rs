@@ -263,6 +263,18 @@ impl LightSampler {
         (p > 0.0).then_some((i, p))
     }
 
+    /// Picks a light with `u` and also returns `u` remapped to [0, 1) within the chosen light's
+    /// share of the unit interval, a fresh uniform number for sampling that light (pbrt-v4's
+    /// `SampleDiscrete`): one 2D sample point then covers the choice of light and a point on it,
+    /// so stratification carries over to the union of all lights (the two triangles of a quad
+    /// light are sampled like one rectangle).
+    pub fn pick_remapped(&self, u: f32) -> Option<(usize, f32, f32)> {
+        let (i, p) = self.pick(u)?;
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let remapped = ((u * self.total - lo) / (self.cdf[i] - lo)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        Some((i, p, remapped))
+    }
+
     /// Probability of picking light `i`.
     pub fn pmf(&self, i: usize) -> f32 {
         if self.total <= 0.0 {
@@ -288,6 +300,16 @@ mod tests {
         assert!((s.pmf(0) - 0.25).abs() < 1e-6 && s.pmf(1) == 0.0 && (s.pmf(2) - 0.75).abs() < 1e-6);
         assert_eq!(s.pick(0.1).unwrap().0, 0);
         assert_eq!(s.pick(0.3).unwrap().0, 2);
+        // The remapped number is uniform within the chosen light's share: u = 0.25 + 0.75·v
+        // picks light 2 with v back, for v across [0, 1).
+        for k in 0..100 {
+            let v = k as f32 / 100.0;
+            let (i, p, r) = s.pick_remapped(0.25 + 0.75 * v).unwrap();
+            assert_eq!((i, p), (2, 0.75));
+            assert!((r - v).abs() < 1e-5 && (0.0..1.0).contains(&r), "{v} → {r}");
+        }
+        assert_eq!(s.pick_remapped(0.999_999_9).unwrap().0, 2);
+        assert!(s.pick_remapped(0.999_999_9).unwrap().2 < 1.0);
     }
 
     #[test]

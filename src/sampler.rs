@@ -70,8 +70,8 @@ pub struct Sampler {
     rng: Pcg32,
     /// Seed of this pixel's scrambles.
     pixel_seed: u32,
-    /// Sample index within the pixel.
-    index: u32,
+    /// Sample index within the pixel, bit-reversed (the form the index scramble works on).
+    reversed_index: u32,
     /// Next dimension pair.
     dimension: u32,
 }
@@ -85,7 +85,7 @@ impl Sampler {
     /// The stream of the given kind.
     pub fn with_kind(kind: SamplerKind, seed: u64, pixel: u64, sample: u64) -> Sampler {
         let key = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)));
-        Sampler { kind, rng: Pcg32::new(mix64(key ^ sample), key), pixel_seed: (key >> 32) as u32 ^ key as u32, index: sample as u32, dimension: 0 }
+        Sampler { kind, rng: Pcg32::new(mix64(key ^ sample), key), pixel_seed: (key >> 32) as u32 ^ key as u32, reversed_index: (sample as u32).reverse_bits(), dimension: 0 }
     }
 
     /// One uniform number in [0, 1).
@@ -93,7 +93,10 @@ impl Sampler {
     pub fn get_1d(&mut self) -> f32 {
         match self.kind {
             SamplerKind::Independent => self.rng.next_f32(),
-            SamplerKind::Sobol => self.get_2d().x,
+            SamplerKind::Sobol => {
+                let hash = self.next_dimension_hash();
+                to_unit(owen_sobol_x(shuffled_index(self.reversed_index, hash), hash))
+            }
         }
     }
 
@@ -102,35 +105,82 @@ impl Sampler {
     pub fn get_2d(&mut self) -> glam::Vec2 {
         match self.kind {
             SamplerKind::Independent => glam::Vec2::new(self.rng.next_f32(), self.rng.next_f32()),
-            SamplerKind::Sobol => {
-                let seed = mix64(u64::from(self.pixel_seed) << 32 | u64::from(self.dimension)) as u32;
-                self.dimension += 1;
-                owen_sobol_2d(self.index, seed)
-            }
+            SamplerKind::Sobol => owen_sobol_2d_reversed(self.reversed_index, self.next_dimension_hash()),
         }
+    }
+
+    /// The scrambling hash of the next dimension (pair) of this pixel.
+    #[inline]
+    fn next_dimension_hash(&mut self) -> u64 {
+        let hash = mix64(u64::from(self.pixel_seed) << 32 | u64::from(self.dimension));
+        self.dimension += 1;
+        hash
     }
 }
 
 /// The first two dimensions of the Sobol sequence (a (0, 2)-sequence in base 2), each
 /// Owen-scrambled, with the sample order itself scrambled so that successive dimension pairs are
 /// decorrelated: the construction of Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4),
-/// 2020, with the Laine–Karras style hash permutation.
-pub fn owen_sobol_2d(index: u32, seed: u32) -> glam::Vec2 {
-    let shuffled = nested_uniform_scramble(index, hash_u32(seed));
-    // Dimension 0 is the bit reversal of the index and the scramble works on reversed bits,
-    // so the two reversals cancel: x = reverse(LK(shuffled)).
-    let x = laine_karras(shuffled, hash_u32(seed ^ 0xa511_e9b3)).reverse_bits();
-    let y = nested_uniform_scramble(sobol_dim1(shuffled), hash_u32(seed ^ 0x63d8_3595));
-    let to_f = |v: u32| (v >> 8) as f32 * (1.0 / 16_777_216.0);
-    glam::Vec2::new(to_f(x), to_f(y))
+/// 2020, with the Laine–Karras style hash permutation. `hash` (64 random bits) seeds the three
+/// scrambles: of the index, of x and of y.
+pub fn owen_sobol_2d(index: u32, hash: u64) -> glam::Vec2 {
+    owen_sobol_2d_reversed(index.reverse_bits(), hash)
 }
 
-/// Sobol dimension 1: generator matrix with direction numbers vₖ = vₖ₋₁ ⊕ (vₖ₋₁ ≫ 1), v₀ = 2³¹.
-/// The XOR over the index's set bits is done a byte at a time with precomputed tables (the result
-/// is identical to the bit loop, [`sobol_dim1_loop`], at a fraction of the cost for 32-bit
-/// scrambled indices).
+/// [`owen_sobol_2d`] given the bit-reversed index (a sampler reverses it once for all its
+/// dimensions).
+///
+/// Bit reversals are the main cost here (x86-64 has no instruction for them), so the terms are
+/// arranged to need three: the index scramble works on reversed bits and yields the shuffled
+/// index reversed, which is reversed once; x = rev(LK(shuffled)) because dimension 0 is the
+/// bit reversal of the index and the scramble works on reversed bits, so those two cancel; and
+/// y = rev(LK(rev(sobol₁(shuffled)))) where the tables produce rev(sobol₁(·)) directly (the
+/// reversal of an XOR of direction numbers is the XOR of the reversed numbers).
 #[inline]
-fn sobol_dim1(i: u32) -> u32 {
+fn owen_sobol_2d_reversed(reversed_index: u32, hash: u64) -> glam::Vec2 {
+    let shuffled = shuffled_index(reversed_index, hash);
+    let x = owen_sobol_x(shuffled, hash);
+    let y = laine_karras(sobol_dim1_reversed(shuffled), scramble_seed_y(hash)).reverse_bits();
+    glam::Vec2::new(to_unit(x), to_unit(y))
+}
+
+/// The Owen-scrambled sample index (its nested uniform scramble, seeded by the low half of
+/// `hash`), from the reversed index.
+#[inline(always)]
+fn shuffled_index(reversed_index: u32, hash: u64) -> u32 {
+    laine_karras(reversed_index, hash as u32).reverse_bits()
+}
+
+/// Scrambled dimension 0 of the shuffled index (seeded by the high half of `hash`).
+#[inline(always)]
+fn owen_sobol_x(shuffled: u32, hash: u64) -> u32 {
+    laine_karras(shuffled, (hash >> 32) as u32).reverse_bits()
+}
+
+/// The seed of dimension 1's scramble: a third 32-bit value from the 64-bit hash (a bijective
+/// integer hash, "lowbias32" of C. Wellons, of its two halves combined).
+#[inline(always)]
+fn scramble_seed_y(hash: u64) -> u32 {
+    let mut x = (hash as u32) ^ ((hash >> 32) as u32).rotate_left(16) ^ 0x63d8_3595;
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+/// The top 24 bits of a 32-bit fixed-point value as a float in [0, 1) (exact, never 1).
+#[inline(always)]
+fn to_unit(v: u32) -> f32 {
+    (v >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Sobol dimension 1, bit-reversed: rev(sobol₁(i)). Dimension 1 has the generator matrix with
+/// direction numbers vₖ = vₖ₋₁ ⊕ (vₖ₋₁ ≫ 1), v₀ = 2³¹; the XOR over the index's set bits is done
+/// a byte at a time with precomputed tables of reversed direction numbers (identical to the bit
+/// loop, [`sobol_dim1_loop`], reversed, at a fraction of the cost for 32-bit scrambled indices).
+#[inline]
+fn sobol_dim1_reversed(i: u32) -> u32 {
     SOBOL1_TABLES[0][(i & 0xff) as usize]
         ^ SOBOL1_TABLES[1][((i >> 8) & 0xff) as usize]
         ^ SOBOL1_TABLES[2][((i >> 16) & 0xff) as usize]
@@ -148,7 +198,8 @@ const fn sobol1_direction(k: u32) -> u32 {
     v
 }
 
-/// `SOBOL1_TABLES[b][x]`: XOR of the direction numbers of the set bits of byte `x` at byte `b`.
+/// `SOBOL1_TABLES[b][x]`: XOR of the reversed direction numbers of the set bits of byte `x` at
+/// byte `b`.
 static SOBOL1_TABLES: [[u32; 256]; 4] = {
     let mut t = [[0u32; 256]; 4];
     let mut b = 0;
@@ -159,7 +210,7 @@ static SOBOL1_TABLES: [[u32; 256]; 4] = {
             let mut bit = 0;
             while bit < 8 {
                 if x & (1 << bit) != 0 {
-                    out ^= sobol1_direction(8 * b as u32 + bit);
+                    out ^= sobol1_direction(8 * b as u32 + bit).reverse_bits();
                 }
                 bit += 1;
             }
@@ -186,16 +237,10 @@ fn sobol_dim1_loop(mut i: u32) -> u32 {
     out
 }
 
-/// Nested uniform (Owen) scrambling of a 32-bit fixed-point value: a random permutation of each
-/// subinterval that depends on all higher bits, realised with a hash that only propagates
-/// information from low to high bits, applied in bit-reversed order.
-#[inline]
-fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
-    laine_karras(x.reverse_bits(), seed).reverse_bits()
-}
-
-/// The hash permutation on bit-reversed values: each output bit depends only on the same and
-/// lower input bits.
+/// The hash permutation of Laine and Karras (2011) on bit-reversed values: each output bit
+/// depends only on the same and lower input bits, so applied to reversed bits it is a nested
+/// uniform (Owen) scramble — a random permutation of each subinterval that depends on all
+/// higher bits.
 #[inline]
 fn laine_karras(mut v: u32, seed: u32) -> u32 {
     v ^= v.wrapping_mul(0x3d20_adea);
@@ -204,11 +249,6 @@ fn laine_karras(mut v: u32, seed: u32) -> u32 {
     v ^= v.wrapping_mul(0x0552_6c56);
     v ^= v.wrapping_mul(0x53a2_2864);
     v
-}
-
-#[inline]
-fn hash_u32(x: u32) -> u32 {
-    mix64(u64::from(x)) as u32
 }
 
 #[cfg(test)]
@@ -230,8 +270,8 @@ mod tests {
     #[test]
     fn sobol_points_are_stratified_and_integrate_well() {
         let n = 256u32;
-        for seed in [1u32, 99, 12345] {
-            let pts: Vec<glam::Vec2> = (0..n).map(|i| owen_sobol_2d(i, seed)).collect();
+        for seed in [1u64, 99, 12345] {
+            let pts: Vec<glam::Vec2> = (0..n).map(|i| owen_sobol_2d(i, mix64(seed))).collect();
             for a in 0..=8 {
                 let (nx, ny) = (1u32 << a, 1u32 << (8 - a));
                 let mut cells = vec![0u32; (nx * ny) as usize];
@@ -247,11 +287,35 @@ mod tests {
         }
     }
 
+    /// Through the sampler, a pixel's samples are stratified in every 1D and 2D dimension the
+    /// integrator draws (one stream per sample index, dimensions in order).
+    #[test]
+    fn sampler_dimensions_are_stratified_across_a_pixels_samples() {
+        let n = 256u64;
+        let mut samplers: Vec<Sampler> = (0..n).map(|i| Sampler::with_kind(SamplerKind::Sobol, 3, 41, i)).collect();
+        for dim in 0..6 {
+            if dim % 2 == 0 {
+                let mut cells = vec![0u32; n as usize];
+                for s in &mut samplers {
+                    cells[(s.get_1d() * n as f32) as usize] += 1;
+                }
+                assert!(cells.iter().all(|&c| c == 1), "1D dimension {dim} not stratified");
+            } else {
+                let mut cells = vec![0u32; n as usize];
+                for s in &mut samplers {
+                    let p = s.get_2d();
+                    cells[(p.y * 16.0) as usize * 16 + (p.x * 16.0) as usize] += 1;
+                }
+                assert!(cells.iter().all(|&c| c == 1), "2D dimension {dim} not stratified");
+            }
+        }
+    }
+
     #[test]
     fn sobol_tables_equal_the_definition() {
         let mut r = Pcg32::new(4, 4);
         for i in (0..5000).map(|_| r.next_u32()).chain([0, 1, 2, 3, u32::MAX, 1 << 31]) {
-            assert_eq!(sobol_dim1(i), sobol_dim1_loop(i), "index {i}");
+            assert_eq!(sobol_dim1_reversed(i), sobol_dim1_loop(i).reverse_bits(), "index {i}");
         }
     }
 

@@ -82,4 +82,32 @@ fn cli_reports_error_against_a_reference_and_converge_writes_csv_and_plots() {
     assert!(rmse[1] < rmse[0], "error must fall with more samples: {rmse:?}");
     assert!(image::open(dir.path().join("conv/converge.png")).is_ok());
     assert!(std::fs::read_to_string(dir.path().join("conv/converge.svg")).unwrap().contains("<svg"));
+
+    // A second run drawn beside the first (`--compare`): both series are in the legend.
+    Command::cargo_bin("lumo")
+        .unwrap()
+        .current_dir(&root)
+        .args(["converge", "scenes/cornell.json", "--reference", "tests/reference/cornell_mitsuba_4096.exr", "--spp", "1,2", "--sampler", "independent", "--label", "lumo-independent", "--compare"])
+        .arg(dir.path().join("conv/converge.csv"))
+        .arg("-o")
+        .arg(dir.path().join("both"))
+        .assert()
+        .success();
+    let svg = std::fs::read_to_string(dir.path().join("both/converge.svg")).unwrap();
+    assert!(svg.contains("lumo-independent") && svg.matches("lumo").count() >= 2, "both labels must be in the legend");
+
+    // A comparison file without the needed columns is refused, naming the file and the column.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "renderer,spp,time\nx,1,0.5\n").unwrap();
+    let out = Command::cargo_bin("lumo")
+        .unwrap()
+        .current_dir(&root)
+        .args(["converge", "scenes/cornell.json", "--reference", "tests/reference/cornell_mitsuba_4096.exr", "--spp", "1", "--compare"])
+        .arg(&bad)
+        .arg("-o")
+        .arg(dir.path().join("bad"))
+        .assert()
+        .failure();
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(err.contains("bad.csv:1") && err.contains("`peer` or `label`"), "{err}");
 }

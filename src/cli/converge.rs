@@ -59,10 +59,65 @@ pub struct ConvergeArgs {
     /// Label of this run in the CSV (e.g. `lumo-sobol`).
     #[arg(long, default_value = "lumo")]
     pub label: String,
+    /// Other runs to draw beside this one: CSV files whose header names a `seconds`, an `rmse`
+    /// and a `peer` or `label` column (e.g. `benches/peers/results.csv`, or an earlier
+    /// `converge.csv`); one line per label. Rows labelled like this run are left out.
+    #[arg(long, value_name = "CSV")]
+    pub compare: Vec<PathBuf>,
+}
+
+/// A labelled error-against-time series for the plot.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Name in the legend.
+    pub label: String,
+    /// (seconds, RMSE) points in ladder order.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Reads the series of another run from a CSV file (see [`ConvergeArgs::compare`]).
+pub fn read_series(path: &Path, skip_label: &str) -> Result<Vec<Series>, CliError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else {
+        return Err(CliError::invalid(format!("{}: empty file (expected a CSV header naming seconds, rmse and peer or label)", path.display())));
+    };
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let column = |wanted: &[&str]| {
+        names.iter().position(|n| wanted.contains(n)).ok_or_else(|| {
+            CliError::invalid(format!("{}:1: the header has no `{}` column (it has: {})", path.display(), wanted.join("` or `"), names.join(", ")))
+        })
+    };
+    let (label_at, seconds_at, rmse_at) = (column(&["peer", "label"])?, column(&["seconds"])?, column(&["rmse"])?);
+    let mut series: Vec<Series> = Vec::new();
+    for (i, line) in lines {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let field = |at: usize, what: &str| {
+            fields.get(at).copied().ok_or_else(|| CliError::invalid(format!("{}:{}: missing the `{what}` field", path.display(), i + 1)))
+        };
+        let number = |at: usize, what: &str| -> Result<f64, CliError> {
+            let f = field(at, what)?;
+            f.parse().map_err(|_| CliError::invalid(format!("{}:{}: `{what}` is `{f}`, expected a number", path.display(), i + 1)))
+        };
+        let label = field(label_at, "label")?;
+        if label == skip_label {
+            continue;
+        }
+        let point = (number(seconds_at, "seconds")?, number(rmse_at, "rmse")?);
+        match series.iter_mut().find(|s| s.label == label) {
+            Some(s) => s.points.push(point),
+            None => series.push(Series { label: label.to_string(), points: vec![point] }),
+        }
+    }
+    Ok(series)
 }
 
 /// Runs the ladder and writes the CSV and plots.
 pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>, CliError> {
+    let mut others = Vec::new();
+    for path in &args.compare {
+        others.extend(read_series(path, &args.label)?);
+    }
     let mut inp = input::load(&args.scene)?;
     if let Some(k) = args.sampler {
         inp.scene.render.sampler = k.into();
@@ -113,25 +168,30 @@ pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>
         csv.push_str(&format!("{},{},{:.6},{:.1},{:.6},{:.8},{:.6}\n", args.label, r.spp, r.seconds, r.samples_per_second, r.rmse, r.rel_mse, r.estimated_rmse));
     }
     super::write_text_atomically(&args.out_dir.join("converge.csv"), &csv)?;
-    plot(&rungs, &args.out_dir.join("converge.svg"), &args.out_dir.join("converge.png"), &args.label)?;
+    let this = Series { label: args.label.clone(), points: rungs.iter().map(|r| (r.seconds, r.rmse)).collect() };
+    plot(&this, &others, &args.out_dir.join("converge.svg"), &args.out_dir.join("converge.png"))?;
     eprintln!("wrote {}/converge.{{csv,svg,png}}", args.out_dir.display());
     Ok(rungs)
 }
 
-/// Log-log plot of RMSE against seconds, with the ideal slope −1/2 through the first rung.
-fn plot(rungs: &[Rung], svg: &Path, png: &Path, label: &str) -> Result<(), CliError> {
+/// Log-log plot of RMSE against seconds of this run and the others, with the ideal slope −1/2
+/// through this run's first rung.
+fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), CliError> {
     let fail = |e: String| CliError::failure(format!("plot: {e}"));
     plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).map_err(|_| fail("cannot load the bundled font".into()))?;
-    let pts: Vec<(f64, f64)> = rungs.iter().filter(|r| r.seconds > 0.0 && r.rmse > 0.0).map(|r| (r.seconds, r.rmse)).collect();
-    if pts.is_empty() {
+    let positive = |s: &Series| Series { label: s.label.clone(), points: s.points.iter().copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect() };
+    let series: Vec<Series> = std::iter::once(this).chain(others).map(positive).filter(|s| !s.points.is_empty()).collect();
+    if series.first().is_none_or(|s| s.label != this.label) {
         return Err(fail("no rung has a positive time and error".into()));
     }
-    let (t0, e0) = pts[0];
-    let tmin = pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min) / 1.5;
-    let tmax = pts.iter().map(|p| p.0).fold(0.0, f64::max) * 1.5;
-    let emin = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min).min(e0 * (t0 / tmax).sqrt()) / 1.5;
-    let emax = pts.iter().map(|p| p.1).fold(0.0, f64::max).max(e0 * (t0 / tmin).sqrt()) * 1.5;
-    fn draw<B: DrawingBackend>(root: DrawingArea<B, plotters::coord::Shift>, pts: &[(f64, f64)], x: (f64, f64), y: (f64, f64), label: &str) -> Result<(), String> {
+    let all = || series.iter().flat_map(|s| s.points.iter().copied());
+    let (t0, e0) = series[0].points[0];
+    let tmin = all().map(|p| p.0).fold(f64::INFINITY, f64::min) / 1.5;
+    let tmax = all().map(|p| p.0).fold(0.0, f64::max) * 1.5;
+    let emin = all().map(|p| p.1).fold(f64::INFINITY, f64::min).min(e0 * (t0 / tmax).sqrt()) / 1.5;
+    let emax = all().map(|p| p.1).fold(0.0, f64::max).max(e0 * (t0 / tmin).sqrt()) * 1.5;
+    fn draw<B: DrawingBackend>(root: DrawingArea<B, plotters::coord::Shift>, series: &[Series], x: (f64, f64), y: (f64, f64)) -> Result<(), String> {
+        const COLOURS: [RGBColor; 6] = [BLUE, RED, RGBColor(0, 140, 0), RGBColor(230, 120, 0), MAGENTA, RGBColor(0, 150, 160)];
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let mut chart = ChartBuilder::on(&root)
             .caption("Error against time", ("sans-serif", 22))
@@ -140,22 +200,43 @@ fn plot(rungs: &[Rung], svg: &Path, png: &Path, label: &str) -> Result<(), CliEr
             .y_label_area_size(60)
             .build_cartesian_2d((x.0..x.1).log_scale(), (y.0..y.1).log_scale())
             .map_err(|e| e.to_string())?;
-        chart.configure_mesh().x_desc("wall time (s)").y_desc("RMSE vs reference").label_style(("sans-serif", 14)).draw().map_err(|e| e.to_string())?;
-        let (t0, e0) = pts[0];
+        // Ticks with at most three significant digits (log axes put them at 0.3, not 0.30…04).
+        let tick = |v: &f64| {
+            let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+            let s = format!("{v:.digits$}");
+            if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+        };
+        chart
+            .configure_mesh()
+            .x_desc("wall time (s)")
+            .y_desc("RMSE vs reference")
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let (t0, e0) = series[0].points[0];
         chart
             .draw_series(LineSeries::new([x.0, x.1].map(|t| (t, e0 * (t0 / t).sqrt())), BLACK.mix(0.4).stroke_width(1)))
             .map_err(|e| e.to_string())?
             .label("ideal 1/√t")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.mix(0.4)));
-        chart.draw_series(LineSeries::new(pts.iter().copied(), BLUE.stroke_width(2))).map_err(|e| e.to_string())?.label(label.to_string()).legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLUE));
-        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, BLUE.filled()))).map_err(|e| e.to_string())?;
+        for (i, s) in series.iter().enumerate() {
+            let colour = COLOURS[i % COLOURS.len()];
+            chart
+                .draw_series(LineSeries::new(s.points.iter().copied(), colour.stroke_width(2)))
+                .map_err(|e| e.to_string())?
+                .label(s.label.clone())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour));
+            chart.draw_series(s.points.iter().map(|p| Circle::new(*p, 4, colour.filled()))).map_err(|e| e.to_string())?;
+        }
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).label_font(("sans-serif", 14)).draw().map_err(|e| e.to_string())?;
         root.present().map_err(|e| e.to_string())
     }
-    draw(SVGBackend::new(svg, (720, 480)).into_drawing_area(), &pts, (tmin, tmax), (emin, emax), label).map_err(fail)?;
+    draw(SVGBackend::new(svg, (720, 480)).into_drawing_area(), &series, (tmin, tmax), (emin, emax)).map_err(fail)?;
     let (w, h) = (720u32, 480u32);
     let mut buffer = vec![0u8; (w * h * 3) as usize];
-    draw(BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area(), &pts, (tmin, tmax), (emin, emax), label).map_err(fail)?;
+    draw(BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area(), &series, (tmin, tmax), (emin, emax)).map_err(fail)?;
     let img = image::RgbImage::from_raw(w, h, buffer).ok_or_else(|| fail("bitmap size mismatch".into()))?;
     let mut bytes = std::io::Cursor::new(Vec::new());
     img.write_to(&mut bytes, image::ImageFormat::Png).map_err(|e| fail(e.to_string()))?;
@@ -163,4 +244,3 @@ fn plot(rungs: &[Rung], svg: &Path, png: &Path, label: &str) -> Result<(), CliEr
     std::fs::write(&tmp, bytes.into_inner()).and_then(|_| std::fs::rename(&tmp, png)).map_err(|e| fail(format!("{}: {e}", png.display())))?;
     Ok(())
 }
-

@@ -1,104 +1,11 @@
-//! Triangle meshes in object space, each with its own BVH, shared between instances; and
-//! [`TriangleBvh`], a BVH over triangles whose corners are copied into leaf order (the form
-//! both a mesh's BVH and the world-space triangle set of a scene take).
+//! Triangle meshes in object space, each with its own BVH, shared between instances.
 
 use std::sync::OnceLock;
 
 use glam::Vec3A;
 
-use crate::bvh::{Bvh, TraversalRay};
-use crate::geometry::triangle::{self, RayShear, TriHit};
+use crate::geometry::triangle_bvh::{TriRay, TriangleBvh};
 use crate::math::{Aabb, Vec2, Vec3};
-
-/// A ray prepared for triangle BVHs: the box-test and the watertight-shear constants.
-#[derive(Debug, Clone, Copy)]
-pub struct TriRay {
-    /// Box-test constants.
-    pub boxes: TraversalRay,
-    /// Triangle-test constants.
-    pub shear: RayShear,
-}
-
-impl TriRay {
-    /// Prepares the ray o + t d.
-    #[inline]
-    pub fn new(o: Vec3, d: Vec3) -> TriRay {
-        TriRay { boxes: TraversalRay::new(o, d), shear: RayShear::new(o, d) }
-    }
-}
-
-/// A BVH over triangles, with the corners of each triangle stored at its slot (leaf order), so
-/// the leaf test reads 48 contiguous bytes per triangle without looking up vertex indices.
-/// Each triangle carries a caller-defined id (for a mesh, its triangle index; for a scene's
-/// world-space set, the instance and the triangle index).
-#[derive(Debug, Clone, Default)]
-pub struct TriangleBvh {
-    bvh: Bvh,
-    corners: Vec<[Vec3A; 3]>,
-    ids: Vec<[u32; 2]>,
-}
-
-impl TriangleBvh {
-    /// Builds the BVH over triangles given by their corners and ids.
-    pub fn new(corners: Vec<[Vec3A; 3]>, ids: Vec<[u32; 2]>) -> TriangleBvh {
-        debug_assert_eq!(corners.len(), ids.len());
-        let boxes: Vec<Aabb> = corners
-            .iter()
-            .map(|c| {
-                let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
-                Aabb { min: lo.into(), max: hi.into() }
-            })
-            .collect();
-        let bvh = Bvh::build(&boxes);
-        let corners = bvh.prims.iter().map(|&p| corners[p as usize]).collect();
-        let ids = bvh.prims.iter().map(|&p| ids[p as usize]).collect();
-        TriangleBvh { bvh, corners, ids }
-    }
-
-    /// Number of triangles.
-    pub fn len(&self) -> usize {
-        self.ids.len()
-    }
-
-    /// Whether there are no triangles.
-    pub fn is_empty(&self) -> bool {
-        self.ids.is_empty()
-    }
-
-    /// Bounds of all triangles.
-    pub fn bounds(&self) -> Aabb {
-        self.bvh.bounds()
-    }
-
-    /// The underlying hierarchy.
-    pub fn bvh(&self) -> &Bvh {
-        &self.bvh
-    }
-
-    /// Closest hit within (t_min, t_max): the triangle's id and the hit.
-    #[inline]
-    pub fn intersect(&self, ray: &TriRay, t_min: f32, t_max: f32) -> Option<([u32; 2], TriHit)> {
-        let mut best: Option<(u32, TriHit)> = None;
-        let mut t_max = t_max;
-        self.bvh.traverse(&ray.boxes, t_min, &mut t_max, |slot, t_max| {
-            if let Some(h) = triangle::intersect_a(&ray.shear, &self.corners[slot as usize], t_min, *t_max) {
-                *t_max = h.t;
-                best = Some((slot, h));
-            }
-            false
-        });
-        best.map(|(slot, h)| (self.ids[slot as usize], h))
-    }
-
-    /// Whether any triangle is hit within (t_min, t_max).
-    #[inline]
-    pub fn occluded(&self, ray: &TriRay, t_min: f32, t_max: f32) -> bool {
-        let mut t_max = t_max;
-        self.bvh.traverse(&ray.boxes, t_min, &mut t_max, |slot, t_max| {
-            triangle::intersect_a(&ray.shear, &self.corners[slot as usize], t_min, *t_max).is_some()
-        })
-    }
-}
 
 /// An indexed triangle mesh with optional per-vertex normals and texture coordinates.
 #[derive(Debug, Clone)]
@@ -288,6 +195,7 @@ pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 mod tests {
     use super::*;
 
+    use crate::geometry::triangle::{self, RayShear};
     use crate::sampler::test_lcg as lcg;
 
     /// The BVH-accelerated mesh must agree with testing every triangle (the oracle).

@@ -4,6 +4,7 @@
 pub mod mesh;
 pub mod sphere;
 pub mod triangle;
+pub mod triangle_bvh;
 
 use std::sync::Arc;
 
@@ -11,7 +12,8 @@ use glam::Vec3A;
 
 use crate::bvh::{Bvh, TraversalRay};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
-pub use mesh::{Mesh, TriRay, TriangleBvh};
+pub use mesh::Mesh;
+pub use triangle_bvh::{TriRay, TriangleBvh};
 pub use sphere::{Plane, Sphere};
 
 /// A shape in its own object space.

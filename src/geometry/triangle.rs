@@ -21,17 +21,21 @@ pub struct RayShear {
     m: Mat3A,
 }
 
+/// The shear's axis permutation [kx, ky, kz] for direction `d`: kz is the dominant axis, and kx,
+/// ky follow it cyclically, swapped when d[kz] < 0 so the triangles' winding is kept.
+#[inline]
+pub fn shear_axes(d: Vec3) -> [usize; 3] {
+    let a = d.abs();
+    let kz = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if d[kz] < 0.0 { [ky, kx, kz] } else { [kx, ky, kz] }
+}
+
 impl RayShear {
     /// Precomputes the shear for a ray with origin `o` and direction `d`.
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> RayShear {
-        let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let [kx, ky, kz] = shear_axes(d);
         let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
         let mut cols = [Vec3A::ZERO; 3];
         cols[kx] = Vec3A::X;

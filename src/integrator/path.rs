@@ -47,13 +47,13 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
         let bsdf = material.bsdf(&scene.textures, &hit);
 
-        // Next-event estimation: one light, chosen by power.
-        let u_pick = sampler.get_1d();
+        // Next-event estimation: one light, chosen by power with the first coordinate of the
+        // light's 2D sample, which is then remapped to sample a point on it.
         let u_light = sampler.get_2d();
         if bsdf.has_smooth_lobe() {
-            if let Some((index, pmf)) = scene.light_sampler.pick(u_pick) {
+            if let Some((index, pmf, u_x)) = scene.light_sampler.pick_remapped(u_light.x) {
                 let light = &scene.lights[index];
-                if let Some(ls) = light.sample(hit.p, u_light) {
+                if let Some(ls) = light.sample(hit.p, glam::Vec2::new(u_x, u_light.y)) {
                     let li = if ls.delta {
                         ls.li
                     } else {

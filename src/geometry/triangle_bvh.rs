@@ -1,0 +1,562 @@
+//! [`TriangleBvh`]: triangles in a 4-wide BVH whose leaves are packets of four triangles, the
+//! layout of Embree (Wald, Woop, Benthin, Johnson and Ernst, "Embree: A Kernel Framework for
+//! Efficient CPU Ray Tracing", ACM TOG 33(4), 2014).
+//!
+//! A binary SAH tree, priced for leaves tested four triangles at a time ([`LeafCost::PACKET4`]),
+//! is collapsed into nodes of up to four children by repeatedly opening the child with the
+//! largest surface area. A node stores its children's boxes structure-of-arrays, so one ray meets
+//! all four with a few SIMD instructions; a leaf is one packet of up to four triangles whose
+//! corners are stored structure-of-arrays and tested together by the watertight test of Woop,
+//! Benthin and Wald ("Watertight Ray/Triangle Intersection", JCGT 2(1), 2013) in SIMD lanes.
+//! Each lane computes exactly the products and sums of the scalar test in
+//! [`triangle::intersect`](super::triangle::intersect), including its double-precision
+//! fallback on edges, so the two agree bit for bit.
+
+use std::mem::MaybeUninit;
+
+use glam::{BVec4A, Vec3A, Vec4};
+
+use crate::bvh::{Bvh, LeafCost};
+use crate::bvh::pop_nearer;
+use crate::geometry::triangle::{shear_axes, TriHit};
+use crate::math::{Aabb, Vec3};
+
+/// A ray prepared for [`TriangleBvh`] queries: the box-test and the watertight-shear constants,
+/// splatted across SIMD lanes.
+#[derive(Debug, Clone, Copy)]
+pub struct TriRay {
+    /// Origin, one coordinate per axis in all lanes.
+    org: [Vec4; 3],
+    /// Reciprocal direction per axis in all lanes (±∞ for zero components).
+    inv: [Vec4; 3],
+    /// Per axis, 1 when the ray runs towards −axis (its near box plane is then the upper one).
+    negative: [usize; 3],
+    /// Whether a direction component is zero: box tests must then handle 0·∞.
+    robust: bool,
+    /// The shear's axis permutation (kx, ky, kz): kz is the direction's dominant axis.
+    k: [usize; 3],
+    /// The shear constants d[kx]/d[kz], d[ky]/d[kz], 1/d[kz] in all lanes.
+    shear: [Vec4; 3],
+}
+
+impl TriRay {
+    /// Prepares the ray o + t d.
+    #[inline]
+    pub fn new(o: Vec3, d: Vec3) -> TriRay {
+        let inv = [1.0 / d.x, 1.0 / d.y, 1.0 / d.z];
+        let [kx, ky, kz] = shear_axes(d);
+        TriRay {
+            org: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            inv: inv.map(Vec4::splat),
+            negative: inv.map(|i| usize::from(i < 0.0)),
+            robust: !inv.iter().all(|i| i.is_finite()),
+            k: [kx, ky, kz],
+            shear: [Vec4::splat(d[kx] / d[kz]), Vec4::splat(d[ky] / d[kz]), Vec4::splat(1.0 / d[kz])],
+        }
+    }
+}
+
+/// Child reference bit marking a leaf (the rest is a packet index).
+const LEAF: u32 = 1 << 31;
+/// Reference of an unused child slot (its box is empty, so it is never entered).
+const EMPTY: u32 = u32::MAX;
+/// Trees up to this depth traverse with a stack on the call stack; deeper ones allocate.
+const INLINE_DEPTH: usize = 42;
+
+/// A node of up to four children, their boxes stored structure-of-arrays: planes
+/// `[lo x, hi x, lo y, hi y, lo z, hi z]`, lane i for child i.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Node4 {
+    planes: [Vec4; 6],
+    child: [u32; 4],
+}
+
+impl Node4 {
+    /// No children: empty boxes (lower corner +∞, upper −∞) meet no ray.
+    const EMPTY: Node4 = Node4 {
+        planes: [Vec4::INFINITY, Vec4::NEG_INFINITY, Vec4::INFINITY, Vec4::NEG_INFINITY, Vec4::INFINITY, Vec4::NEG_INFINITY],
+        child: [EMPTY; 4],
+    };
+
+    fn set_child(&mut self, lane: usize, b: Aabb, child: u32) {
+        for axis in 0..3 {
+            self.planes[2 * axis][lane] = b.min[axis];
+            self.planes[2 * axis + 1][lane] = b.max[axis];
+        }
+        self.child[lane] = child;
+    }
+
+    /// Entry distances into the four boxes and the bit mask of boxes the ray meets within
+    /// (t_min, t_max): the slab test (Kay and Kajiya 1986) with the near plane per axis chosen by
+    /// the direction's sign, and the far distance scaled up by 1 + 2γ₃ (pbrt-v4 §6.8.2) so that
+    /// rounding never culls a box the ray touches. Empty lanes give +∞ entry and −∞ exit
+    /// distances. When `ROBUST` is set (a zero direction component, infinite reciprocal), the
+    /// NaNs of 0·∞ — the ray lies in a slab's plane — become "this slab does not limit", as in
+    /// the binary [`Bvh`]; without it the lanes are known to be NaN-free.
+    #[inline(always)]
+    fn hit<const ROBUST: bool>(&self, r: &TriRay, t_min: f32, t_max: f32) -> (Vec4, u32) {
+        let p = &self.planes;
+        let slab = |axis: usize, neg: usize| {
+            let near = (p[2 * axis + (neg & 1)] - r.org[axis]) * r.inv[axis];
+            let far = (p[2 * axis + (!neg & 1)] - r.org[axis]) * r.inv[axis];
+            if ROBUST {
+                (Vec4::select(near.is_nan_mask(), Vec4::NEG_INFINITY, near), Vec4::select(far.is_nan_mask(), Vec4::INFINITY, far))
+            } else {
+                (near, far)
+            }
+        };
+        let (nx, fx) = slab(0, r.negative[0]);
+        let (ny, fy) = slab(1, r.negative[1]);
+        let (nz, fz) = slab(2, r.negative[2]);
+        let near = nx.max(ny).max(nz.max(Vec4::splat(t_min)));
+        let far = fx.min(fy).min(fz.min(Vec4::splat(t_max)));
+        (near, near.cmple(far * Vec4::splat(1.000_000_4)).bitmask())
+    }
+}
+
+/// Up to four triangles, corners structure-of-arrays: `v[3 * corner + axis]`, lane i for the
+/// triangle in slot `first + i`. Lanes past `count` repeat lane 0 (a repeated triangle changes
+/// no answer, and lane 0 wins ties).
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(16))]
+struct Packet {
+    v: [Vec4; 9],
+    first: u32,
+}
+
+/// The lanes of a packet a ray hits within (t_min, t_max), with what is needed to finish a hit.
+struct PacketHits {
+    mask: u32,
+    /// Hit distances, +∞ in lanes without a hit.
+    t: Vec4,
+    v: Vec4,
+    w: Vec4,
+    inv_det: Vec4,
+}
+
+impl Packet {
+    fn new(corners: &[[Vec3A; 3]], first: usize, count: usize) -> Packet {
+        let mut v = [Vec4::ZERO; 9];
+        for lane in 0..4 {
+            let tri = corners[first + if lane < count { lane } else { 0 }];
+            for (c, corner) in tri.iter().enumerate() {
+                for axis in 0..3 {
+                    v[3 * c + axis][lane] = corner[axis];
+                }
+            }
+        }
+        Packet { v, first: first as u32 }
+    }
+
+    /// The watertight test on four triangles at once. Per lane the operations are those of the
+    /// scalar test: corners relative to the origin, sheared so the ray runs along +z; edge
+    /// functions u, v, w in 2D, recomputed in f64 when one is exactly zero (a hit exactly on an
+    /// edge), so neighbouring triangles agree; a hit when all three have one sign.
+    #[inline(always)]
+    fn hits(&self, r: &TriRay, t_min: f32, t_max: f32) -> PacketHits {
+        let [kx, ky, kz] = r.k;
+        let [sx, sy, sz] = r.shear;
+        let corner = |c: usize| {
+            let z = self.v[3 * c + (kz % 3)] - r.org[kz % 3];
+            let x = (self.v[3 * c + (kx % 3)] - r.org[kx % 3]) - sx * z;
+            let y = (self.v[3 * c + (ky % 3)] - r.org[ky % 3]) - sy * z;
+            (x, y, sz * z)
+        };
+        let (ax, ay, az) = corner(0);
+        let (bx, by, bz) = corner(1);
+        let (cx, cy, cz) = corner(2);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        let zero = u.cmpeq(Vec4::ZERO) | v.cmpeq(Vec4::ZERO) | w.cmpeq(Vec4::ZERO);
+        if zero.any() {
+            let m = zero.bitmask();
+            let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
+            let f = |x: Vec4, lane: usize| f64::from(x[lane]);
+            for lane in (0..4).filter(|l| m & (1 << l) != 0) {
+                let (ax, ay, bx, by, cx, cy) = (f(ax, lane), f(ay, lane), f(bx, lane), f(by, lane), f(cx, lane), f(cy, lane));
+                ua[lane] = (cx * by - cy * bx) as f32;
+                va[lane] = (ax * cy - ay * cx) as f32;
+                wa[lane] = (bx * ay - by * ax) as f32;
+            }
+            (u, v, w) = (Vec4::from_array(ua), Vec4::from_array(va), Vec4::from_array(wa));
+        }
+        let negative = u.cmplt(Vec4::ZERO) | v.cmplt(Vec4::ZERO) | w.cmplt(Vec4::ZERO);
+        let positive = u.cmpgt(Vec4::ZERO) | v.cmpgt(Vec4::ZERO) | w.cmpgt(Vec4::ZERO);
+        let det = u + v + w;
+        let t_scaled = u * az + v * bz + w * cz;
+        let inv_det = Vec4::ONE / det;
+        let t = t_scaled * inv_det;
+        let inside = !(negative & positive) & det.cmpne(Vec4::ZERO);
+        let in_range: BVec4A = t.cmpgt(Vec4::splat(t_min)) & t.cmplt(Vec4::splat(t_max));
+        let hit = inside & in_range;
+        PacketHits { mask: hit.bitmask(), t: Vec4::select(hit, t, Vec4::INFINITY), v, w, inv_det }
+    }
+}
+
+/// A BVH over triangles (see the module documentation). Each triangle carries a caller-defined
+/// id (for a mesh, its triangle index; for a scene's world-space set, the instance and the
+/// triangle index).
+#[derive(Debug, Clone)]
+pub struct TriangleBvh {
+    nodes: Vec<Node4>,
+    packets: Vec<Packet>,
+    /// Id of each slot (packet lanes name slots).
+    ids: Vec<[u32; 2]>,
+    /// The root: a node index, or a leaf when there are at most four triangles.
+    root: u32,
+    /// Levels of nodes on the longest root-to-leaf path.
+    depth: usize,
+    bounds: Aabb,
+}
+
+impl Default for TriangleBvh {
+    fn default() -> TriangleBvh {
+        TriangleBvh { nodes: Vec::new(), packets: Vec::new(), ids: Vec::new(), root: 0, depth: 0, bounds: Aabb::EMPTY }
+    }
+}
+
+impl TriangleBvh {
+    /// Builds the BVH over triangles given by their corners and ids. Degenerate or non-finite
+    /// triangles are left out (they cannot be hit).
+    pub fn new(corners: Vec<[Vec3A; 3]>, ids: Vec<[u32; 2]>) -> TriangleBvh {
+        debug_assert_eq!(corners.len(), ids.len());
+        let boxes: Vec<Aabb> = corners
+            .iter()
+            .map(|c| {
+                let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                Aabb { min: lo.into(), max: hi.into() }
+            })
+            .collect();
+        let bin = Bvh::build_with(&boxes, LeafCost::PACKET4);
+        if bin.prims.is_empty() {
+            return TriangleBvh::default();
+        }
+        let slot_corners: Vec<[Vec3A; 3]> = bin.prims.iter().map(|&p| corners[p as usize]).collect();
+        let ids = bin.prims.iter().map(|&p| ids[p as usize]).collect();
+        let mut out = TriangleBvh { bounds: bin.bounds(), ids, ..TriangleBvh::default() };
+        out.root = out.collapse(&bin, 0, &slot_corners, 1);
+        out
+    }
+
+    /// Turns binary node `index` (and its subtree) into 4-wide nodes; returns its reference.
+    fn collapse(&mut self, bin: &Bvh, index: usize, corners: &[[Vec3A; 3]], depth: usize) -> u32 {
+        let n = bin.nodes[index];
+        if n.count() > 0 {
+            self.packets.push(Packet::new(corners, n.first() as usize, n.count() as usize));
+            return LEAF | (self.packets.len() - 1) as u32;
+        }
+        self.depth = self.depth.max(depth);
+        // Open the interior child with the largest surface area until there are four children
+        // (the greedy collapse of Wald et al. 2008, "Getting Rid of Packets").
+        let mut kids = [n.first() as usize, n.first() as usize + 1, 0, 0];
+        let mut len = 2;
+        while len < 4 {
+            let widest = (0..len).filter(|&i| bin.nodes[kids[i]].count() == 0).max_by(|&a, &b| {
+                bin.nodes[kids[a]].aabb().half_area().total_cmp(&bin.nodes[kids[b]].aabb().half_area())
+            });
+            let Some(i) = widest else { break };
+            let first = bin.nodes[kids[i]].first() as usize;
+            kids[i] = first;
+            kids[len] = first + 1;
+            len += 1;
+        }
+        let me = self.nodes.len();
+        self.nodes.push(Node4::EMPTY);
+        let mut node = Node4::EMPTY;
+        for (lane, &kid) in kids[..len].iter().enumerate() {
+            let child = self.collapse(bin, kid, corners, depth + 1);
+            node.set_child(lane, bin.nodes[kid].aabb(), child);
+        }
+        self.nodes[me] = node;
+        me as u32
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Whether there are no triangles.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// Bounds of all triangles.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Closest hit within (t_min, t_max): the triangle's id and the hit.
+    #[inline]
+    pub fn intersect(&self, ray: &TriRay, t_min: f32, t_max: f32) -> Option<([u32; 2], TriHit)> {
+        let mut best: Option<(u32, TriHit)> = None;
+        let mut t_max = t_max;
+        self.traverse::<true>(ray, t_min, &mut t_max, |p, t_max| {
+            let h = p.hits(ray, t_min, *t_max);
+            if h.mask != 0 {
+                let nearest = h.t.min_element();
+                let lane = (h.t.cmpeq(Vec4::splat(nearest)).bitmask() & h.mask).trailing_zeros() as usize;
+                let inv = h.inv_det[lane];
+                *t_max = nearest;
+                best = Some((p.first + lane as u32, TriHit { t: nearest, b1: h.v[lane] * inv, b2: h.w[lane] * inv }));
+            }
+            false
+        });
+        best.map(|(slot, h)| (self.ids[slot as usize], h))
+    }
+
+    /// Whether any triangle is hit within (t_min, t_max).
+    #[inline]
+    pub fn occluded(&self, ray: &TriRay, t_min: f32, t_max: f32) -> bool {
+        let mut t_max = t_max;
+        // Any hit ends the search, so the order of children does not matter.
+        self.traverse::<false>(ray, t_min, &mut t_max, |p, t_max| p.hits(ray, t_min, *t_max).mask != 0)
+    }
+
+    /// Visits the packets whose boxes the ray meets within (t_min, *t_max), nearest box first
+    /// when `ORDERED`; `leaf` shrinks `*t_max` on closer hits and returns `true` to stop (any-hit
+    /// queries). Returns whether it was stopped.
+    #[inline(always)]
+    fn traverse<const ORDERED: bool>(&self, r: &TriRay, t_min: f32, t_max: &mut f32, leaf: impl FnMut(&Packet, &mut f32) -> bool) -> bool {
+        if self.ids.is_empty() {
+            return false;
+        }
+        // A node pushes at most three children, so 3·depth + 1 entries always suffice.
+        // Left uninitialised: only entries below the stack pointer are read, each written first.
+        if self.depth <= INLINE_DEPTH {
+            let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); 3 * INLINE_DEPTH + 1];
+            if r.robust {
+                self.traverse_with::<true, ORDERED>(r, t_min, t_max, leaf, &mut stack)
+            } else {
+                self.traverse_with::<false, ORDERED>(r, t_min, t_max, leaf, &mut stack)
+            }
+        } else {
+            let mut stack = vec![MaybeUninit::<(u32, f32)>::uninit(); 3 * self.depth + 1];
+            self.traverse_with::<true, ORDERED>(r, t_min, t_max, leaf, &mut stack)
+        }
+    }
+
+    #[inline(always)]
+    fn traverse_with<const ROBUST: bool, const ORDERED: bool>(
+        &self,
+        r: &TriRay,
+        t_min: f32,
+        t_max: &mut f32,
+        mut leaf: impl FnMut(&Packet, &mut f32) -> bool,
+        stack: &mut [MaybeUninit<(u32, f32)>],
+    ) -> bool {
+        let mut sp = 0usize;
+        macro_rules! push {
+            ($entry:expr) => {{
+                stack[sp] = MaybeUninit::new($entry);
+                sp += 1;
+            }};
+        }
+        let mut cur = self.root;
+        loop {
+            if cur & LEAF != 0 {
+                if leaf(&self.packets[(cur & !LEAF) as usize], t_max) {
+                    return true;
+                }
+            } else {
+                let node = &self.nodes[cur as usize];
+                let (near, mut mask) = node.hit::<ROBUST>(r, t_min, *t_max);
+                if mask != 0 {
+                    let near = near.to_array();
+                    let a = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        cur = node.child[a];
+                        continue;
+                    }
+                    if !ORDERED {
+                        // Push all but the first, in any order.
+                        while mask != 0 {
+                            let c = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            push!((node.child[c], near[c]));
+                        }
+                        cur = node.child[a];
+                        continue;
+                    }
+                    let b = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        let (first, second) = if near[a] <= near[b] { (a, b) } else { (b, a) };
+                        push!((node.child[second], near[second]));
+                        cur = node.child[first];
+                        continue;
+                    }
+                    // Three or four children: push all but the nearest, farthest first.
+                    let mut hits = [(node.child[a], near[a]), (node.child[b], near[b]), (0, 0.0), (0, 0.0)];
+                    let mut len = 2;
+                    while mask != 0 {
+                        let c = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        hits[len] = (node.child[c], near[c]);
+                        len += 1;
+                    }
+                    for i in 1..len {
+                        let mut j = i;
+                        while j > 0 && hits[j - 1].1 < hits[j].1 {
+                            hits.swap(j - 1, j);
+                            j -= 1;
+                        }
+                    }
+                    for &h in &hits[..len - 1] {
+                        push!(h);
+                    }
+                    cur = hits[len - 1].0;
+                    continue;
+                }
+            }
+            // SAFETY: entries below `sp` were all written by `push!`.
+            match unsafe { pop_nearer(stack, &mut sp, *t_max) } {
+                Some(next) => cur = next,
+                None => return false,
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::geometry::triangle::{self, RayShear};
+    use crate::sampler::test_lcg as lcg;
+
+    fn bvh_of(tris: &[[Vec3; 3]]) -> TriangleBvh {
+        let corners = tris.iter().map(|t| t.map(Vec3A::from)).collect();
+        TriangleBvh::new(corners, (0..tris.len() as u32).map(|i| [7, i]).collect())
+    }
+
+    /// The closest hit by testing every triangle with the scalar test (the oracle).
+    fn brute(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, t_max: f32) -> Option<(u32, TriHit)> {
+        let shear = RayShear::new(o, d);
+        let mut best: Option<(u32, TriHit)> = None;
+        for (i, [a, b, c]) in tris.iter().enumerate() {
+            if let Some(h) = triangle::intersect(&shear, *a, *b, *c, 0.0, best.map_or(t_max, |b| b.1.t)) {
+                best = Some((i as u32, h));
+            }
+        }
+        best
+    }
+
+    fn check(bvh: &TriangleBvh, tris: &[[Vec3; 3]], o: Vec3, d: Vec3) -> bool {
+        let fast = bvh.intersect(&TriRay::new(o, d), 0.0, f32::INFINITY);
+        let slow = brute(tris, o, d, f32::INFINITY);
+        match (fast, slow) {
+            (Some((id, f)), Some((i, s))) => {
+                assert_eq!(id[0], 7);
+                if id[1] == i {
+                    // The same triangle: bit-identical results (the same arithmetic per lane).
+                    assert_eq!((f.t.to_bits(), f.b1.to_bits(), f.b2.to_bits()), (s.t.to_bits(), s.b1.to_bits(), s.b2.to_bits()), "ray {o} {d}");
+                } else {
+                    // A tie at a shared edge or vertex may name either neighbour; each
+                    // neighbour's distance is computed from its own corners.
+                    assert!((f.t - s.t).abs() <= 1e-6 * s.t.abs(), "ray {o} {d}: {f:?} vs {s:?} (triangles {} and {i})", id[1]);
+                }
+            }
+            (None, None) => {}
+            (f, s) => panic!("ray {o} {d}: BVH {f:?}, brute force {s:?}"),
+        }
+        let occluded = bvh.occluded(&TriRay::new(o, d), 0.0, f32::INFINITY);
+        assert_eq!(occluded, slow.is_some(), "any-hit disagrees for ray {o} {d}");
+        slow.is_some()
+    }
+
+    /// Random triangle soup and random rays: the 4-wide BVH answers exactly as the oracle.
+    #[test]
+    fn random_soup_matches_brute_force() {
+        let mut s = 11u64;
+        for n in [1usize, 3, 4, 5, 17, 3000] {
+            let tris: Vec<[Vec3; 3]> = (0..n)
+                .map(|_| {
+                    let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.0;
+                    [0; 3].map(|_| c + Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 0.3)
+                })
+                .collect();
+            let bvh = bvh_of(&tris);
+            assert_eq!(bvh.len(), n);
+            let mut hits = 0;
+            for k in 0..2000 {
+                let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 6.0 - 1.0;
+                // Half the rays aim at a triangle's centroid so that small sets are hit too.
+                let d = if k % 2 == 0 {
+                    Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5)
+                } else {
+                    let [a, b, c] = tris[(lcg(&mut s) * n as f32) as usize % n];
+                    (a + b + c) / 3.0 - o
+                };
+                hits += check(&bvh, &tris, o, d) as u32;
+            }
+            assert!(hits > 0, "{n} triangles: the test must exercise hits");
+        }
+    }
+
+    /// Axis-aligned grids of squares hit by axis-parallel rays lying in box faces and aimed at
+    /// shared edges and corners: zero direction components (no 0·∞ in the box test), flat boxes
+    /// and the f64 edge fallback in SIMD lanes, all against the oracle; and no ray aimed at the
+    /// inside of the grid slips through it.
+    #[test]
+    fn axis_parallel_rays_on_a_grid_match_brute_force() {
+        let n = 12;
+        let mut tris = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = (i as f32, j as f32);
+                let p = |a: f32, b: f32| Vec3::new(a, b, 0.0);
+                tris.push([p(x, y), p(x + 1.0, y), p(x + 1.0, y + 1.0)]);
+                tris.push([p(x, y), p(x + 1.0, y + 1.0), p(x, y + 1.0)]);
+            }
+        }
+        let bvh = bvh_of(&tris);
+        let mut s = 5u64;
+        for k in 0..4000 {
+            // Targets on lattice points, edges and diagonals (all exactly representable).
+            let target = Vec3::new((lcg(&mut s) * 24.0).floor() * 0.5, (lcg(&mut s) * 24.0).floor() * 0.5, 0.0);
+            let (o, d) = match k % 4 {
+                0 => (target + Vec3::Z * 3.0, Vec3::new(0.0, 0.0, -1.0)),
+                1 => (target - Vec3::Z * 2.0, Vec3::new(0.0, -0.0, 1.0)),
+                2 => (target + Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.0, 0.5, -1.0)),
+                // In the grid's plane: edge-on, never a hit.
+                _ => (Vec3::new(-1.0, target.y, 0.0), Vec3::X),
+            };
+            let hit = check(&bvh, &tris, o, d);
+            let p = o + d * (-o.z / d.z);
+            let interior = d.z != 0.0 && p.x > 0.0 && p.y > 0.0 && p.x < n as f32 && p.y < n as f32;
+            if interior {
+                assert!(hit, "ray {o} {d} slipped through the grid at {p}");
+            }
+        }
+    }
+
+    /// From inside a closed icosphere every ray hits it (watertightness), including rays along
+    /// the axes and through vertices.
+    #[test]
+    fn rays_from_inside_a_closed_mesh_always_hit() {
+        let (positions, triangles) = super::super::mesh::icosphere(3);
+        let tris: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
+        let bvh = bvh_of(&tris);
+        let mut s = 9u64;
+        let mut dirs: Vec<Vec3> = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        dirs.extend(positions.iter().copied());
+        dirs.extend((0..3000).map(|_| Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5)));
+        for o in [Vec3::ZERO, Vec3::new(0.1, -0.2, 0.05)] {
+            for &d in &dirs {
+                assert!(check(&bvh, &tris, o, d), "ray {o} {d} escaped the closed sphere");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_set_hits_nothing() {
+        let bvh = bvh_of(&[]);
+        assert!(bvh.is_empty());
+        assert!(bvh.intersect(&TriRay::new(Vec3::ZERO, Vec3::X), 0.0, f32::INFINITY).is_none());
+        assert!(!bvh.occluded(&TriRay::new(Vec3::ZERO, Vec3::X), 0.0, f32::INFINITY));
+    }
+}
