@@ -253,7 +253,7 @@ where
     let progressive = plan.budget.is_some() || options.target_rel_error.is_some() || options.adaptive;
     if !progressive || n == 0 {
         counts.fill(plan.spp);
-        render_pass(plan, &mut sums, &counts, &rays, &done, options, &sample);
+        render_pass(plan, &mut sums, &counts, &rays, &done, options, false, &sample);
         return (sums, rays.into_inner());
     }
     // Uniform pilot of adaptive renders: a quarter of the samples, at most 64 spp (the
@@ -337,7 +337,9 @@ where
             break;
         }
         let t0 = Instant::now();
-        render_pass(plan, &mut sums, &counts, &rays, &done, options, &sample);
+        // Per-pixel timing feeds only the cost model of time-budgeted adaptive passes.
+        let timed = options.adaptive && plan.budget.is_some();
+        render_pass(plan, &mut sums, &counts, &rays, &done, options, timed, &sample);
         rate = Some(this_pass as f64 / t0.elapsed().as_secs_f64().max(1e-6));
         rate_adaptive = adaptive_phase;
         taken_total += this_pass;
@@ -474,8 +476,10 @@ fn allocate_adaptive(sums: &[PixelSum], plan: &Plan, source: ErrorSource, budget
     }
 }
 
-/// Adds `counts[i]` more samples to pixel i, tile by tile in parallel.
-fn render_pass<F>(plan: &Plan, sums: &mut [PixelSum], counts: &[u32], rays: &AtomicU64, done: &AtomicU64, options: &RenderOptions, sample: &F)
+/// Adds `counts[i]` more samples to pixel i, tile by tile in parallel; with `timed`, also
+/// records the wall time each pixel's samples took.
+#[allow(clippy::too_many_arguments)]
+fn render_pass<F>(plan: &Plan, sums: &mut [PixelSum], counts: &[u32], rays: &AtomicU64, done: &AtomicU64, options: &RenderOptions, timed: bool, sample: &F)
 where
     F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
 {
@@ -497,11 +501,13 @@ where
                     let first = sums[i].taken();
                     out.push(if counts[i] == 0 {
                         PixelSum::default()
-                    } else {
+                    } else if timed {
                         let t = Instant::now();
                         let mut add = sample(x, y, first..first + counts[i], &mut stats);
                         add.nanos = t.elapsed().as_nanos() as u64;
                         add
+                    } else {
+                        sample(x, y, first..first + counts[i], &mut stats)
                     });
                     n += u64::from(counts[i]);
                 }
