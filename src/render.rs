@@ -88,8 +88,9 @@ pub struct RenderOptions<'a> {
     /// Stop once the estimated relative error falls below this (checked after each pass;
     /// `spp` still caps the samples).
     pub target_rel_error: Option<f64>,
-    /// After a uniform start, give each pass's samples to the pixels with the largest
-    /// estimated relative error.
+    /// After a uniform start, give each pass's samples to the pixels whose neighbourhood shows
+    /// the largest estimated relative error (per unit of time under a time budget). The image
+    /// mean stays unbiased: a pixel's own samples never decide how many it gets.
     pub adaptive: bool,
 }
 
