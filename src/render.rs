@@ -271,7 +271,9 @@ where
     let mut pass_index = 0u64;
     while taken_total < total_budget {
         let elapsed = start.elapsed();
-        if plan.budget.is_some_and(|b| elapsed >= b) {
+        // Even a spent budget gets a first pass of two samples per pixel: an image, and an error
+        // estimate for every pixel.
+        if plan.budget.is_some_and(|b| elapsed >= b) && taken_total >= (2 * n).min(total_budget) {
             break;
         }
         let mean_taken = taken_total / n;

@@ -165,8 +165,9 @@ pub struct LightValues {
     pub cone: Option<(f32, f32)>,
 }
 
-/// Largest f32 not above π/2 (the validator compares the f32 widened to double).
-const HALF_PI_F32: f32 = 1.570_796_3;
+/// Largest f32 not above π/2 (the validator compares the f32 widened to double): one ulp below
+/// `FRAC_PI_2`, which rounds up.
+const HALF_PI_F32: f32 = f32::from_bits(std::f32::consts::FRAC_PI_2.to_bits() - 1);
 
 /// lumo light → glTF values: intensity = largest channel × 683, colour = channels / largest.
 pub fn light_values(l: &Light) -> LightValues {
