@@ -497,6 +497,30 @@ mod tests {
         }
     }
 
+    /// The same soup and rays at tiny and huge scales (1e-15 to 1e15): the box and triangle
+    /// tests stay in range and agree with the oracle.
+    #[test]
+    fn tiny_and_huge_scales_match_brute_force() {
+        for scale in [1e-15f32, 1e-6, 1e6, 1e15] {
+            let mut s = 21u64;
+            let tris: Vec<[Vec3; 3]> = (0..500)
+                .map(|_| {
+                    let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.0;
+                    [0; 3].map(|_| (c + Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 0.5) * scale)
+                })
+                .collect();
+            let bvh = bvh_of(&tris);
+            let mut hits = 0;
+            for k in 0..1000 {
+                let o = (Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 6.0 - 1.0) * scale;
+                let [a, b, c] = tris[k % tris.len()];
+                let d = (a + b + c) / 3.0 - o;
+                hits += check(&bvh, &tris, o, d) as u32;
+            }
+            assert!(hits > 900, "scale {scale}: {hits} of 1000 rays aimed at centroids hit");
+        }
+    }
+
     /// Axis-aligned grids of squares hit by axis-parallel rays lying in box faces and aimed at
     /// shared edges and corners: zero direction components (no 0·∞ in the box test), flat boxes
     /// and the f64 edge fallback in SIMD lanes, all against the oracle; and no ray aimed at the
