@@ -7,28 +7,16 @@
 #[path = "../src/lathe/reference.rs"]
 #[allow(dead_code)]
 mod reference;
+/// `reference.rs` is shared with the library's tests, where the sampler is `crate::sampler`.
+mod sampler {
+    pub use lumo::sampler::mix64;
+}
 
 use glam::{DVec2, DVec3};
 use lumo::lathe::{Lathe, Profile};
-use reference::{RefCurve, Reference};
+use reference::{RefCurve, Reference, Rng};
 use std::time::Instant;
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        (lumo::sampler::mix64(self.0) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-    fn unit(&mut self) -> DVec3 {
-        let z = self.range(-1.0, 1.0);
-        let phi = self.range(0.0, std::f64::consts::TAU);
-        let r = (1.0 - z * z).sqrt();
-        DVec3::new(r * phi.cos(), z, r * phi.sin())
-    }
-}
 
 fn vase() -> (Lathe, RefCurve) {
     let pts = [[0.0, 0.0], [0.5, 0.0], [0.9, 0.0], [1.0, 0.3], [0.5, 1.2], [0.35, 1.8], [0.6, 2.2]];

@@ -10,6 +10,8 @@
 
 use glam::{DVec2, DVec3};
 
+use crate::sampler::mix64;
+
 /// Profile description, the same plain data the production constructors take.
 #[derive(Clone, Debug)]
 pub enum RefCurve {
@@ -300,5 +302,27 @@ impl Reference {
             speed: dp.length(),
             radius: p.x.abs(),
         })
+    }
+}
+
+/// Small deterministic generator (SplitMix64) for the lathe tests and benchmark, so they need no
+/// extra dependency and draw the same cases.
+pub struct Rng(pub u64);
+impl Rng {
+    /// Uniform in [0, 1).
+    pub fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        (mix64(self.0) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in [a, b).
+    pub fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next()
+    }
+    /// Uniform direction on the unit sphere.
+    pub fn unit(&mut self) -> DVec3 {
+        let z = self.range(-1.0, 1.0);
+        let phi = self.range(0.0, std::f64::consts::TAU);
+        let r = (1.0 - z * z).sqrt();
+        DVec3::new(r * phi.cos(), z, r * phi.sin())
     }
 }

@@ -8,27 +8,10 @@
 //! false misses, no false hits, relative distance error ≤ 1e-6, normals within 1e-4 rad.
 //! Every ray, ambiguous or not, must give finite output.
 
-use super::reference::{RefCurve, RefHit, Reference};
+use super::reference::{RefCurve, RefHit, Reference, Rng};
 use super::{Lathe, LatheHit, PieceKind, Profile};
 use glam::{DVec2, DVec3};
 
-/// Small deterministic generator (SplitMix64) so the suite needs no extra dependency.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        (crate::sampler::mix64(self.0) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-    fn unit(&mut self) -> DVec3 {
-        let z = self.range(-1.0, 1.0);
-        let phi = self.range(0.0, std::f64::consts::TAU);
-        let r = (1.0 - z * z).sqrt();
-        DVec3::new(r * phi.cos(), z, r * phi.sin())
-    }
-}
 
 /// A test profile: name, plain data, scaled copies.
 #[derive(Clone)]
