@@ -266,8 +266,8 @@ proptest! {
             return Ok(());
         }
         let bytes = &seeds[seed % seeds.len()];
-        let jl = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-        let mut json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + jl]).unwrap();
+        let (json_chunk, rest) = common::split_glb(bytes);
+        let mut json: serde_json::Value = serde_json::from_slice(json_chunk).unwrap();
         let mut paths = Vec::new();
         number_paths(&json, &mut Vec::new(), &mut paths);
         for (pick, kind, val) in edits {
@@ -286,19 +286,7 @@ proptest! {
             };
             *at(&mut json, p) = hostile;
         }
-        let mut text = serde_json::to_string(&json).unwrap();
-        while text.len() % 4 != 0 {
-            text.push(' ');
-        }
-        let rest = &bytes[20 + jl..];
-        let mut d = Vec::new();
-        d.extend_from_slice(b"glTF");
-        d.extend_from_slice(&2u32.to_le_bytes());
-        d.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
-        d.extend_from_slice(&(text.len() as u32).to_le_bytes());
-        d.extend_from_slice(b"JSON");
-        d.extend_from_slice(text.as_bytes());
-        d.extend_from_slice(rest);
+        let d = common::join_glb(&serde_json::to_string(&json).unwrap(), rest);
         let _ = import_bytes(Path::new("fuzz.glb"), &d, &ImportOptions::default());
     }
 }

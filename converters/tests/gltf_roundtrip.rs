@@ -94,12 +94,12 @@ fn strip_extras(out: &Path, scene_dir: &Path) -> Scene {
     let stripped = out.with_file_name(format!("stripped-{}", out.file_name().unwrap().to_string_lossy()));
     let bytes = std::fs::read(out).unwrap();
     let (json_text, bin) = if bytes.starts_with(b"glTF") {
-        let jl = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-        (String::from_utf8(bytes[20..20 + jl].to_vec()).unwrap(), Some(bytes[20 + jl..].to_vec()))
+        let (json, rest) = common::split_glb(&bytes);
+        (json, Some(rest))
     } else {
-        (String::from_utf8(bytes).unwrap(), None)
+        (&bytes[..], None)
     };
-    let mut v: serde_json::Value = serde_json::from_str(&json_text).unwrap();
+    let mut v: serde_json::Value = serde_json::from_slice(json_text).unwrap();
     fn strip(v: &mut serde_json::Value) {
         match v {
             serde_json::Value::Object(m) => {
@@ -111,22 +111,9 @@ fn strip_extras(out: &Path, scene_dir: &Path) -> Scene {
         }
     }
     strip(&mut v);
-    let mut text = serde_json::to_string(&v).unwrap();
+    let text = serde_json::to_string(&v).unwrap();
     let data = match bin {
-        Some(rest) => {
-            while text.len() % 4 != 0 {
-                text.push(' ');
-            }
-            let mut d = Vec::new();
-            d.extend_from_slice(b"glTF");
-            d.extend_from_slice(&2u32.to_le_bytes());
-            d.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
-            d.extend_from_slice(&(text.len() as u32).to_le_bytes());
-            d.extend_from_slice(b"JSON");
-            d.extend_from_slice(text.as_bytes());
-            d.extend_from_slice(&rest);
-            d
-        }
+        Some(rest) => common::join_glb(&text, rest),
         None => text.into_bytes(),
     };
     std::fs::write(&stripped, data).unwrap();

@@ -92,3 +92,28 @@ fn files_with_ext(mut stack: Vec<PathBuf>, exts: &[&str]) -> Vec<PathBuf> {
     out.sort();
     out
 }
+
+/// Splits a binary glTF into its JSON chunk's text and everything after that chunk (the BIN
+/// chunk with its header, if any).
+pub fn split_glb(glb: &[u8]) -> (&[u8], &[u8]) {
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().expect("a GLB header")) as usize;
+    (&glb[20..20 + json_len], &glb[20 + json_len..])
+}
+
+/// A binary glTF with the JSON chunk `json` (padded with spaces to 4 bytes) followed by `rest`
+/// as [`split_glb`] returned it.
+pub fn join_glb(json: &str, rest: &[u8]) -> Vec<u8> {
+    let mut text = json.to_string();
+    while text.len() % 4 != 0 {
+        text.push(' ');
+    }
+    let mut glb = Vec::with_capacity(20 + text.len() + rest.len());
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
+    glb.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(text.as_bytes());
+    glb.extend_from_slice(rest);
+    glb
+}
