@@ -353,28 +353,44 @@ mod tests {
         }
         instances.push(Instance::new(Shape::Plane(Plane { normal: Vec3::Y, offset: -12.0 }), Affine3A::IDENTITY, 0));
         let geo = Geometry::new(instances.clone());
-        let brute = BruteForce(&instances);
-        for _ in 0..4000 {
-            let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 30.0 - 15.0;
-            let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5).normalize();
+        agree_with_brute_force(&geo, &instances, &mut s, 4000, 30.0, |a, b| {
+            assert!((a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
+            // Non-uniformly scaled spheres: the world normal is perpendicular to the surface,
+            // so it matches the gradient of the ellipsoid's implicit function.
+            let inst = &instances[a.instance as usize];
+            if let Shape::Sphere(_) = inst.shape {
+                let q = inst.to_object.transform_point3(a.p);
+                assert!((q.length() - 1.0).abs() < 1e-4);
+                let grad = (Mat3::from(inst.to_object.matrix3).transpose() * q).normalize();
+                assert!((grad - a.ng).length() < 1e-4);
+            }
+        });
+    }
+
+    /// Casts `n` random rays (origins in the cube of side `span` around the origin) at `geo`
+    /// and at the brute-force oracle over `instances`: both must report the same closest
+    /// (instance, triangle) and the same any-hit answer, and a segment ending just before the
+    /// hit is unoccluded. `both_hit` checks each pair of hits further. Returns the number of hits.
+    fn agree_with_brute_force(geo: &Geometry, instances: &[Instance], s: &mut u64, n: usize, span: f32, mut both_hit: impl FnMut(&SurfaceHit, &SurfaceHit)) -> u32 {
+        let brute = BruteForce(instances);
+        let mut hits = 0;
+        for _ in 0..n {
+            let o = Vec3::new(lcg(s), lcg(s), lcg(s)) * span - span / 2.0;
+            let d = Vec3::new(lcg(s) - 0.5, lcg(s) - 0.5, lcg(s) - 0.5).normalize();
             let ray = Ray::new(o, d);
             let a = geo.intersect(&ray, 0.0, f32::INFINITY);
             let b = brute.intersect(&ray, 0.0, f32::INFINITY);
             assert_eq!(a.map(|h| (h.instance, h.prim)), b.map(|h| (h.instance, h.prim)));
-            if let (Some(a), Some(b)) = (a, b) {
-                assert!((a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
-                // Non-uniformly scaled spheres: the world normal is perpendicular to the surface,
-                // so it matches the gradient of the ellipsoid's implicit function.
-                let inst = &instances[a.instance as usize];
-                if let Shape::Sphere(_) = inst.shape {
-                    let q = inst.to_object.transform_point3(a.p);
-                    assert!((q.length() - 1.0).abs() < 1e-4);
-                    let grad = (Mat3::from(inst.to_object.matrix3).transpose() * q).normalize();
-                    assert!((grad - a.ng).length() < 1e-4);
-                }
+            if let (Some(a), Some(b)) = (&a, &b) {
+                hits += 1;
+                both_hit(a, b);
             }
             assert_eq!(geo.occluded(&ray, 0.0, f32::INFINITY), b.is_some());
+            if let Some(b) = b {
+                assert!(!geo.occluded(&ray, 0.0, b.t * 0.999));
+            }
         }
+        hits
     }
     /// Large meshes shared by several instances stay instanced (two-level path), used-once
     /// meshes are flattened to world space; both must agree with the brute-force oracle.
@@ -396,25 +412,9 @@ mod tests {
         let geo = Geometry::new(instances.clone());
         assert_eq!(geo.flat.len(), 4 * tris.len());
         assert_eq!(geo.top_instances.len(), 8);
-        let brute = BruteForce(&instances);
-        let mut hits = 0;
-        for _ in 0..3000 {
-            let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 24.0 - 12.0;
-            let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5).normalize();
-            let ray = Ray::new(o, d);
-            let a = geo.intersect(&ray, 0.0, f32::INFINITY);
-            let b = brute.intersect(&ray, 0.0, f32::INFINITY);
-            assert_eq!(a.map(|h| (h.instance, h.prim)), b.map(|h| (h.instance, h.prim)));
-            if let (Some(a), Some(b)) = (a, b) {
-                hits += 1;
-                assert!((a.t - b.t).abs() < 1e-4 * b.t.max(1.0) && (a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
-            }
-            assert_eq!(geo.occluded(&ray, 0.0, f32::INFINITY), b.is_some());
-            // Segment queries stop at t_max.
-            if let Some(b) = b {
-                assert!(!geo.occluded(&ray, 0.0, b.t * 0.999));
-            }
-        }
+        let hits = agree_with_brute_force(&geo, &instances, &mut s, 3000, 24.0, |a, b| {
+            assert!((a.t - b.t).abs() < 1e-4 * b.t.max(1.0) && (a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
+        });
         assert!(hits > 50, "too few hits to test anything: {hits}");
     }
 
