@@ -69,19 +69,29 @@ pub fn binomials() -> &'static Binomials {
 
 /// Evaluates a scalar Bernstein polynomial and its derivative at `t` (de Casteljau).
 pub fn eval_with_derivative(b: &[f64], t: f64) -> (f64, f64) {
-    let m = b.len() - 1;
+    value_and_derivative(b, t)
+}
+
+/// Value and first derivative at `t` of Bernstein coefficients (points or scalars): de
+/// Casteljau down to the last two points, whose lerp is the value and whose difference times the
+/// degree is the derivative.
+fn value_and_derivative<T>(c: &[T], t: f64) -> (T, T)
+where
+    T: Copy + Default + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<f64, Output = T>,
+{
+    let m = c.len() - 1;
     if m == 0 {
-        return (b[0], 0.0);
+        return (c[0], T::default());
     }
-    let mut w = [0.0f64; MAX_COEFFS];
-    w[..=m].copy_from_slice(b);
+    let mut w = [T::default(); MAX_COEFFS];
+    w[..=m].copy_from_slice(c);
     let s = 1.0 - t;
     for level in 1..m {
         for i in 0..=(m - level) {
-            w[i] = s * w[i] + t * w[i + 1];
+            w[i] = w[i] * s + w[i + 1] * t;
         }
     }
-    (s * w[0] + t * w[1], m as f64 * (w[1] - w[0]))
+    (w[0] * s + w[1] * t, (w[1] - w[0]) * m as f64)
 }
 
 /// Evaluates a planar Bézier curve at `t` (de Casteljau).
@@ -91,19 +101,7 @@ pub fn eval_curve(p: &[DVec2], t: f64) -> DVec2 {
 
 /// Evaluates a planar Bézier curve and its first derivative at `t`.
 pub fn eval_curve_with_derivative(p: &[DVec2], t: f64) -> (DVec2, DVec2) {
-    let m = p.len() - 1;
-    if m == 0 {
-        return (p[0], DVec2::ZERO);
-    }
-    let mut w = [DVec2::ZERO; MAX_POINTS];
-    w[..=m].copy_from_slice(p);
-    let s = 1.0 - t;
-    for level in 1..m {
-        for i in 0..=(m - level) {
-            w[i] = s * w[i] + t * w[i + 1];
-        }
-    }
-    (s * w[0] + t * w[1], m as f64 * (w[1] - w[0]))
+    value_and_derivative(p, t)
 }
 
 /// Splits Bernstein coefficients (points or scalars) at `t` into those of the pieces over
