@@ -100,3 +100,20 @@ def timing_row(peer: str, spp: int, seconds: float, exr_name: str,
 
 
 WIDTH_HEIGHT = 256 * 256
+
+
+def best_of(repeats: int, render):
+    """Calls ``render()`` -> (result, wall seconds, CPU seconds) ``repeats`` times (same seed:
+    same image, only the time varies); returns the first result with the least wall and CPU
+    time seen."""
+    result, dt, cpu = render()
+    for _ in range(repeats - 1):
+        _, dt2, cpu2 = render()
+        dt, cpu = min(dt, dt2), min(cpu, cpu2)
+    return result, dt, cpu
+
+
+def print_rung(peer: str, spp: int, seconds: float, cpu: float) -> None:
+    """One ladder rung's line: time, throughput, CPU time and the machine's load."""
+    print(f"{peer}: {spp:5d} spp  {seconds:8.3f} s  {WIDTH_HEIGHT * spp / seconds / 1e6:6.2f} "
+          f"M samples/s  cpu {cpu:8.3f} s  (load {load1():.2f})", flush=True)

@@ -272,13 +272,10 @@ def main() -> None:
     rows = []
     for spp in ladder:
         name = f"{PEER}_{spp}spp.exr"
-        dt, cpu = render(bpy, scene, timer, spp, spp, folder / name)
-        for _ in range(args.repeats - 1):  # same seed: same image, only the time varies
-            dt2, cpu2 = render(bpy, scene, timer, spp, spp, folder / name)
-            dt, cpu = min(dt, dt2), min(cpu, cpu2)
+        # Each run writes the EXR itself; only the times are kept.
+        _, dt, cpu = common.best_of(args.repeats, lambda: (None, *render(bpy, scene, timer, spp, spp, folder / name)))
         rows.append(common.timing_row(PEER, spp, dt, name, cpu))
-        print(f"{PEER}: {spp:5d} spp  {dt:8.3f} s  {common.WIDTH_HEIGHT * spp / dt / 1e6:6.2f} "
-              f"M samples/s  cpu {cpu:8.3f} s  (load {common.load1():.2f})", flush=True)
+        common.print_rung(PEER, spp, dt, cpu)
     common.write_timings(folder / "timings.csv", rows)
     print(f"wrote {folder / 'timings.csv'}")
 

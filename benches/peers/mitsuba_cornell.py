@@ -224,15 +224,11 @@ def main() -> None:
     folder = args.out / peer
     rows = []
     for spp in ladder:
-        img, dt, cpu = render(mi, scene, spp, seed=spp)
-        for _ in range(args.repeats - 1):  # same seed: same image, only the time varies
-            _, dt2, cpu2 = render(mi, scene, spp, seed=spp)
-            dt, cpu = min(dt, dt2), min(cpu, cpu2)
+        img, dt, cpu = common.best_of(args.repeats, lambda: render(mi, scene, spp, seed=spp))
         name = f"{peer}_{spp}spp.exr"
         common.write_exr(folder / name, img)
         rows.append(common.timing_row(peer, spp, dt, name, cpu))
-        print(f"{peer}: {spp:5d} spp  {dt:8.3f} s  {common.WIDTH_HEIGHT * spp / dt / 1e6:6.2f} "
-              f"M samples/s  cpu {cpu:8.3f} s  (load {common.load1():.2f})", flush=True)
+        common.print_rung(peer, spp, dt, cpu)
     common.write_timings(folder / "timings.csv", rows)
     print(f"wrote {folder / 'timings.csv'}")
 
