@@ -51,7 +51,10 @@ fn lumo_closest(bvh: &TriangleBvh, o: &[Vec3], d: &[Vec3]) -> (u64, Vec<i32>) {
 }
 
 fn lumo_any(bvh: &TriangleBvh, o: &[Vec3], d: &[Vec3]) -> u64 {
-    o.iter().zip(d).filter(|(o, d)| bvh.occluded(&TriRay::new(**o, **d), 0.0, f32::INFINITY)).count() as u64
+    o.iter()
+        .zip(d)
+        .filter(|(o, d)| bvh.occluded(&TriRay::new(**o, **d), 0.0, f32::INFINITY))
+        .count() as u64
 }
 
 mod obv {
@@ -74,17 +77,32 @@ mod obv {
     }
 
     pub fn tris(soup: &super::Soup) -> Vec<Triangle> {
-        soup.tris.iter().map(|t| Triangle { v0: t[0].into(), v1: t[1].into(), v2: t[2].into() }).collect()
+        soup.tris
+            .iter()
+            .map(|t| Triangle {
+                v0: t[0].into(),
+                v1: t[1].into(),
+                v2: t[2].into(),
+            })
+            .collect()
     }
 
     pub fn build(tris: &[Triangle]) -> CwBvh {
-        build_cwbvh_from_tris(tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default())
+        build_cwbvh_from_tris(
+            tris,
+            BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        )
     }
 
     pub fn new(soup: &super::Soup) -> Obvhs {
         let tris = tris(soup);
         let bvh = build(&tris);
-        let corners = bvh.primitive_indices.iter().map(|&i| soup.tris[i as usize].map(Vec3A::from)).collect();
+        let corners = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| soup.tris[i as usize].map(Vec3A::from))
+            .collect();
         Obvhs { bvh, corners }
     }
 
@@ -93,9 +111,12 @@ mod obv {
         for (o, d) in o.iter().zip(d) {
             let shear = RayShear::new(*o, *d);
             let mut hit = RayHit::none();
-            let found = b.bvh.ray_traverse(Ray::new_inf((*o).into(), (*d).into()), &mut hit, |r, id| {
-                intersect_a(&shear, &b.corners[id], r.tmin, r.tmax).map_or(f32::INFINITY, |h| h.t)
-            });
+            let found =
+                b.bvh
+                    .ray_traverse(Ray::new_inf((*o).into(), (*d).into()), &mut hit, |r, id| {
+                        intersect_a(&shear, &b.corners[id], r.tmin, r.tmax)
+                            .map_or(f32::INFINITY, |h| h.t)
+                    });
             hits += found as u64;
         }
         hits
@@ -105,9 +126,12 @@ mod obv {
         let mut hits = 0;
         for (o, d) in o.iter().zip(d) {
             let shear = RayShear::new(*o, *d);
-            let miss = b.bvh.ray_traverse_miss(Ray::new_inf((*o).into(), (*d).into()), |r, id| {
-                intersect_a(&shear, &b.corners[id], r.tmin, r.tmax).map_or(f32::INFINITY, |h| h.t)
-            });
+            let miss = b
+                .bvh
+                .ray_traverse_miss(Ray::new_inf((*o).into(), (*d).into()), |r, id| {
+                    intersect_a(&shear, &b.corners[id], r.tmin, r.tmax)
+                        .map_or(f32::INFINITY, |h| h.t)
+                });
             hits += !miss as u64;
         }
         hits
@@ -117,7 +141,11 @@ mod obv {
 const CHUNK: usize = 4096;
 
 fn par<F: Fn(&[Vec3], &[Vec3]) -> u64 + Sync>(rays: &Rays, f: F) -> u64 {
-    rays.o.par_chunks(CHUNK).zip(rays.d.par_chunks(CHUNK)).map(|(o, d)| f(o, d)).sum()
+    rays.o
+        .par_chunks(CHUNK)
+        .zip(rays.d.par_chunks(CHUNK))
+        .map(|(o, d)| f(o, d))
+        .sum()
 }
 
 fn meshes() -> Vec<Soup> {
@@ -136,25 +164,42 @@ fn build_benches(c: &mut Criterion) {
     let (p, t) = icosphere(8);
     soups.push(Soup::indexed("icosphere8", &p, &t));
     let mut g = c.benchmark_group("build");
-    g.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(4));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(4));
     for soup in &soups {
         g.throughput(Throughput::Elements(soup.tris.len() as u64));
         let corners: Vec<[Vec3A; 3]> = soup.tris.iter().map(|t| t.map(Vec3A::from)).collect();
         let ids: Vec<[u32; 2]> = (0..soup.tris.len() as u32).map(|i| [0, i]).collect();
         g.bench_function(format!("{}/lumo", soup.name), |b| {
-            b.iter_batched(|| (corners.clone(), ids.clone()), |(c, i)| TriangleBvh::new(c, i), BatchSize::LargeInput)
+            b.iter_batched(
+                || (corners.clone(), ids.clone()),
+                |(c, i)| TriangleBvh::new(c, i),
+                BatchSize::LargeInput,
+            )
         });
         let tris = obv::tris(soup);
-        g.bench_function(format!("{}/obvhs", soup.name), |b| b.iter(|| obv::build(&tris)));
+        g.bench_function(format!("{}/obvhs", soup.name), |b| {
+            b.iter(|| obv::build(&tris))
+        });
         // One-line build times on one thread too (the lumo build parallelises big nodes).
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("thread pool");
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("thread pool");
         let t0 = Instant::now();
         pool.install(|| TriangleBvh::new(corners.clone(), ids.clone()));
         let lumo1 = t0.elapsed();
         let t0 = Instant::now();
         pool.install(|| obv::build(&tris));
         let obv1 = t0.elapsed();
-        eprintln!("build {} ({} triangles) on 1 thread: lumo {:.1} ms, obvhs {:.1} ms", soup.name, soup.tris.len(), lumo1.as_secs_f64() * 1e3, obv1.as_secs_f64() * 1e3);
+        eprintln!(
+            "build {} ({} triangles) on 1 thread: lumo {:.1} ms, obvhs {:.1} ms",
+            soup.name,
+            soup.tris.len(),
+            lumo1.as_secs_f64() * 1e3,
+            obv1.as_secs_f64() * 1e3
+        );
     }
     g.finish();
 }
@@ -163,28 +208,53 @@ fn traverse_set(c: &mut Criterion, soup: &Soup, sets: &[(String, Rays, Option<Ve
     let lumo = lumo_bvh(soup);
     let obvhs = obv::new(soup);
     let mut g = c.benchmark_group(format!("traverse/{}", soup.name));
-    g.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
     for (kind, rays, reference) in sets {
         g.throughput(Throughput::Elements(rays.o.len() as u64));
         // Hit counts: the two BVHs (and Embree, when its answers are given) must agree.
         let (hits, prims) = lumo_closest(&lumo, &rays.o, &rays.d);
         let obv_hits = obv::closest(&obvhs, &rays.o, &rays.d);
         let any = lumo_any(&lumo, &rays.o, &rays.d);
-        eprintln!("{} {kind}: {} rays, lumo hits {hits} (any-hit {any}), obvhs hits {obv_hits}", soup.name, rays.o.len());
+        eprintln!(
+            "{} {kind}: {} rays, lumo hits {hits} (any-hit {any}), obvhs hits {obv_hits}",
+            soup.name,
+            rays.o.len()
+        );
         if let Some(r) = reference {
             let embree_hits = r.iter().filter(|&&p| p >= 0).count();
             let same = r.iter().zip(&prims).filter(|(a, b)| a == b).count();
             eprintln!("  Embree: hits {embree_hits}; same triangle as lumo for {same} of {} rays ({:.4}%)", r.len(), 100.0 * same as f64 / r.len() as f64);
         }
-        assert_eq!(hits, any, "closest-hit and any-hit disagree on whether rays hit");
-        g.bench_function(format!("{kind}/closest/1t/lumo"), |b| b.iter(|| lumo_closest(&lumo, &rays.o, &rays.d).0));
-        g.bench_function(format!("{kind}/closest/1t/obvhs"), |b| b.iter(|| obv::closest(&obvhs, &rays.o, &rays.d)));
-        g.bench_function(format!("{kind}/any/1t/lumo"), |b| b.iter(|| lumo_any(&lumo, &rays.o, &rays.d)));
-        g.bench_function(format!("{kind}/any/1t/obvhs"), |b| b.iter(|| obv::any(&obvhs, &rays.o, &rays.d)));
-        g.bench_function(format!("{kind}/closest/all/lumo"), |b| b.iter(|| par(rays, |o, d| lumo_closest(&lumo, o, d).0)));
-        g.bench_function(format!("{kind}/closest/all/obvhs"), |b| b.iter(|| par(rays, |o, d| obv::closest(&obvhs, o, d))));
-        g.bench_function(format!("{kind}/any/all/lumo"), |b| b.iter(|| par(rays, |o, d| lumo_any(&lumo, o, d))));
-        g.bench_function(format!("{kind}/any/all/obvhs"), |b| b.iter(|| par(rays, |o, d| obv::any(&obvhs, o, d))));
+        assert_eq!(
+            hits, any,
+            "closest-hit and any-hit disagree on whether rays hit"
+        );
+        g.bench_function(format!("{kind}/closest/1t/lumo"), |b| {
+            b.iter(|| lumo_closest(&lumo, &rays.o, &rays.d).0)
+        });
+        g.bench_function(format!("{kind}/closest/1t/obvhs"), |b| {
+            b.iter(|| obv::closest(&obvhs, &rays.o, &rays.d))
+        });
+        g.bench_function(format!("{kind}/any/1t/lumo"), |b| {
+            b.iter(|| lumo_any(&lumo, &rays.o, &rays.d))
+        });
+        g.bench_function(format!("{kind}/any/1t/obvhs"), |b| {
+            b.iter(|| obv::any(&obvhs, &rays.o, &rays.d))
+        });
+        g.bench_function(format!("{kind}/closest/all/lumo"), |b| {
+            b.iter(|| par(rays, |o, d| lumo_closest(&lumo, o, d).0))
+        });
+        g.bench_function(format!("{kind}/closest/all/obvhs"), |b| {
+            b.iter(|| par(rays, |o, d| obv::closest(&obvhs, o, d)))
+        });
+        g.bench_function(format!("{kind}/any/all/lumo"), |b| {
+            b.iter(|| par(rays, |o, d| lumo_any(&lumo, o, d)))
+        });
+        g.bench_function(format!("{kind}/any/all/obvhs"), |b| {
+            b.iter(|| par(rays, |o, d| obv::any(&obvhs, o, d)))
+        });
     }
     g.finish();
 }
@@ -192,7 +262,14 @@ fn traverse_set(c: &mut Criterion, soup: &Soup, sets: &[(String, Rays, Option<Ve
 fn traverse_benches(c: &mut Criterion) {
     for soup in meshes() {
         let side = (RAYS as f64).sqrt() as usize;
-        let sets = vec![("coherent".to_string(), common::coherent(&soup, side), None), ("incoherent".to_string(), common::incoherent(&soup, RAYS, 20261123), None)];
+        let sets = vec![
+            ("coherent".to_string(), common::coherent(&soup, side), None),
+            (
+                "incoherent".to_string(),
+                common::incoherent(&soup, RAYS, 20261123),
+                None,
+            ),
+        ];
         traverse_set(c, &soup, &sets);
     }
     // Embree's exact rays, when available.

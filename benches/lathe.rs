@@ -17,19 +17,33 @@ use lumo::lathe::{Lathe, Profile};
 use reference::{RefCurve, Reference, Rng};
 use std::time::Instant;
 
-
 fn vase() -> (Lathe, RefCurve) {
-    let pts = [[0.0, 0.0], [0.5, 0.0], [0.9, 0.0], [1.0, 0.3], [0.5, 1.2], [0.35, 1.8], [0.6, 2.2]];
+    let pts = [
+        [0.0, 0.0],
+        [0.5, 0.0],
+        [0.9, 0.0],
+        [1.0, 0.3],
+        [0.5, 1.2],
+        [0.35, 1.8],
+        [0.6, 2.2],
+    ];
     let knots = [0.0, 0.0, 0.0, 0.0, 0.25, 0.5, 0.75, 1.0, 1.0, 1.0, 1.0];
     let lathe = Lathe::new(Profile::bspline(3, &pts, Some(&knots)).expect("valid"));
-    let curve = RefCurve::Bspline(3, pts.iter().map(|p| DVec2::new(p[0], p[1])).collect(), knots.to_vec());
+    let curve = RefCurve::Bspline(
+        3,
+        pts.iter().map(|p| DVec2::new(p[0], p[1])).collect(),
+        knots.to_vec(),
+    );
     (lathe, curve)
 }
 
 fn egg() -> (Lathe, RefCurve) {
     let pts = [[0.0, -1.0], [1.4, -1.0], [1.4, 1.2], [0.0, 1.2]];
     let lathe = Lathe::new(Profile::bezier(&pts).expect("valid"));
-    (lathe, RefCurve::Bezier(pts.iter().map(|p| DVec2::new(p[0], p[1])).collect()))
+    (
+        lathe,
+        RefCurve::Bezier(pts.iter().map(|p| DVec2::new(p[0], p[1])).collect()),
+    )
 }
 
 /// The seed's approach: Newton on (s, v) from one initial guess (entry into the bounding box,
@@ -83,7 +97,9 @@ fn reference_answer(r: &Reference, o: DVec3, d: DVec3) -> Option<Option<f64>> {
     let e1 = d.normalize().any_orthonormal_vector();
     let e2 = d.normalize().cross(e1);
     for off in [e1, -e1, e2, -e2] {
-        let p = r.intersect(o + 1e-6 * r.scale * off, d, 0.0, f64::INFINITY).map(|h| h.s);
+        let p = r
+            .intersect(o + 1e-6 * r.scale * off, d, 0.0, f64::INFINITY)
+            .map(|h| h.s);
         match (base, p) {
             (None, None) => {}
             (Some(a), Some(b)) if (a - b).abs() * d.length() <= 1e-3 * r.scale => {}
@@ -119,7 +135,11 @@ fn ray_sets(lathe: &Lathe, seed: u64, n: usize) -> Vec<(&'static str, Vec<(DVec3
     let random = (0..n)
         .map(|_| {
             let o = c + far * rng.unit();
-            let t = DVec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
+            let t = DVec3::new(
+                rng.range(lo.x, hi.x),
+                rng.range(lo.y, hi.y),
+                rng.range(lo.z, hi.z),
+            );
             (o, t - o)
         })
         .collect();
@@ -135,7 +155,9 @@ fn ray_sets(lathe: &Lathe, seed: u64, n: usize) -> Vec<(&'static str, Vec<(DVec3
             let phi = rng.range(0.0, 6.3);
             let d = DVec3::new(phi.cos(), [0.0, 1e-9, -1e-6, 1e-3][i % 4], phi.sin());
             let side = DVec3::new(-phi.sin(), 0.0, phi.cos());
-            let o = DVec3::new(0.0, rng.range(lo.y, hi.y), 0.0) + rng.range(-1.0, 1.0) * hi.x * side - far * d;
+            let o = DVec3::new(0.0, rng.range(lo.y, hi.y), 0.0)
+                + rng.range(-1.0, 1.0) * hi.x * side
+                - far * d;
             (o, d)
         })
         .collect();
@@ -155,9 +177,17 @@ fn ray_sets(lathe: &Lathe, seed: u64, n: usize) -> Vec<(&'static str, Vec<(DVec3
         let e_t = DVec3::new(-s, 0.0, -co);
         let d = (e_t + rng.range(-0.5, 0.5) * nrm.cross(e_t)).normalize();
         let delta = [1e-5, -1e-5, 1e-3, -1e-3][grazing.len() % 4] * size;
-        grazing.push((DVec3::new(p.x * co, p.y, -p.x * s) + delta * nrm - far * d, d));
+        grazing.push((
+            DVec3::new(p.x * co, p.y, -p.x * s) + delta * nrm - far * d,
+            d,
+        ));
     }
-    vec![("random", random), ("through axis", axis), ("horizontal", horizontal), ("grazing", grazing)]
+    vec![
+        ("random", random),
+        ("through axis", axis),
+        ("horizontal", horizontal),
+        ("grazing", grazing),
+    ]
 }
 
 // ---- A small BVH over the tessellation, for the speed comparison only ----
@@ -169,8 +199,18 @@ struct Tri {
 }
 
 enum Node {
-    Leaf { lo: DVec3, hi: DVec3, first: usize, count: usize },
-    Inner { lo: DVec3, hi: DVec3, left: usize, right: usize },
+    Leaf {
+        lo: DVec3,
+        hi: DVec3,
+        first: usize,
+        count: usize,
+    },
+    Inner {
+        lo: DVec3,
+        hi: DVec3,
+        left: usize,
+        right: usize,
+    },
 }
 
 struct MeshBvh {
@@ -183,13 +223,24 @@ impl MeshBvh {
         let mut items: Vec<(DVec3, [DVec3; 3])> = indices
             .iter()
             .map(|t| {
-                let v = [positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]];
+                let v = [
+                    positions[t[0] as usize],
+                    positions[t[1] as usize],
+                    positions[t[2] as usize],
+                ];
                 ((v[0] + v[1] + v[2]) / 3.0, v)
             })
             .collect();
         let mut nodes = Vec::new();
         Self::build(&mut items, 0, &mut nodes);
-        let tris = items.iter().map(|(_, v)| Tri { v0: v[0], e1: v[1] - v[0], e2: v[2] - v[0] }).collect();
+        let tris = items
+            .iter()
+            .map(|(_, v)| Tri {
+                v0: v[0],
+                e1: v[1] - v[0],
+                e2: v[2] - v[0],
+            })
+            .collect();
         MeshBvh { tris, nodes }
     }
 
@@ -203,18 +254,39 @@ impl MeshBvh {
         }
         let id = nodes.len();
         if items.len() <= 4 {
-            nodes.push(Node::Leaf { lo, hi, first, count: items.len() });
+            nodes.push(Node::Leaf {
+                lo,
+                hi,
+                first,
+                count: items.len(),
+            });
             return id;
         }
-        nodes.push(Node::Leaf { lo, hi, first, count: 0 });
+        nodes.push(Node::Leaf {
+            lo,
+            hi,
+            first,
+            count: 0,
+        });
         let ext = hi - lo;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
         items.sort_by(|a, b| a.0[axis].total_cmp(&b.0[axis]));
         let mid = items.len() / 2;
         let (l, r) = items.split_at_mut(mid);
         let left = Self::build(l, first, nodes);
         let right = Self::build(r, first + mid, nodes);
-        nodes[id] = Node::Inner { lo, hi, left, right };
+        nodes[id] = Node::Inner {
+            lo,
+            hi,
+            left,
+            right,
+        };
         id
     }
 
@@ -231,7 +303,12 @@ impl MeshBvh {
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             match &self.nodes[i] {
-                Node::Leaf { lo, hi, first, count } => {
+                Node::Leaf {
+                    lo,
+                    hi,
+                    first,
+                    count,
+                } => {
                     if !slab(*lo, *hi, best) {
                         continue;
                     }
@@ -259,7 +336,12 @@ impl MeshBvh {
                         }
                     }
                 }
-                Node::Inner { lo, hi, left, right } => {
+                Node::Inner {
+                    lo,
+                    hi,
+                    left,
+                    right,
+                } => {
                     if slab(*lo, *hi, best) {
                         stack.push(*right);
                         stack.push(*left);
@@ -280,7 +362,10 @@ fn tessellation_for(lathe: &Lathe, tol: f64) -> (usize, usize) {
     loop {
         let mut worst: f64 = 0.0;
         for j in 0..samples - 1 {
-            let (v0, v1) = (j as f64 / (samples - 1) as f64, (j + 1) as f64 / (samples - 1) as f64);
+            let (v0, v1) = (
+                j as f64 / (samples - 1) as f64,
+                (j + 1) as f64 / (samples - 1) as f64,
+            );
             let (a, b) = (lathe.profile().eval(v0).0, lathe.profile().eval(v1).0);
             let m = lathe.profile().eval(0.5 * (v0 + v1)).0;
             worst = worst.max((m - 0.5 * (a + b)).length());
@@ -301,20 +386,28 @@ fn time_per_ray(rays: &[(DVec3, DVec3)], mut f: impl FnMut(DVec3, DVec3) -> bool
             hits += f(*o, *d) as usize;
         }
     }
-    (start.elapsed().as_nanos() as f64 / (reps * rays.len()) as f64, hits / reps)
+    (
+        start.elapsed().as_nanos() as f64 / (reps * rays.len()) as f64,
+        hits / reps,
+    )
 }
 
 fn main() {
     println!("## Robustness: decided rays (reference stable under 1e-6·size perturbation)\n");
     println!("| profile | rays | decided | exact: false miss / false hit / wrong distance | Newton (single guess): false miss / false hit / wrong distance |");
     println!("|---|---|---|---|---|");
-    for (name, (lathe, curve)) in [("vase (cubic B-spline)", vase()), ("egg (cubic Bézier)", egg())] {
+    for (name, (lathe, curve)) in [
+        ("vase (cubic B-spline)", vase()),
+        ("egg (cubic Bézier)", egg()),
+    ] {
         let r = Reference::new(curve, 6000);
         for (set, rays) in ray_sets(&lathe, 7, 1000) {
             let (mut ex, mut nw) = (Tally::default(), Tally::default());
             for (o, d) in &rays {
                 ex.rays += 1;
-                let Some(want) = reference_answer(&r, *o, *d) else { continue };
+                let Some(want) = reference_answer(&r, *o, *d) else {
+                    continue;
+                };
                 let got = lathe.intersect(*o, *d, 0.0, f64::INFINITY).map(|h| h.s);
                 if let (Some(g), Some(w)) = (got, want) {
                     if (g - w).abs() > 1e-6 * w {
@@ -326,7 +419,15 @@ fn main() {
             }
             println!(
                 "| {name}, {set} | {} | {} | {} / {} / {} (max rel. err {:.1e}) | {} / {} / {} |",
-                ex.rays, ex.decided, ex.false_miss, ex.false_hit, ex.wrong_hit, ex.max_rel, nw.false_miss, nw.false_hit, nw.wrong_hit
+                ex.rays,
+                ex.decided,
+                ex.false_miss,
+                ex.false_hit,
+                ex.wrong_hit,
+                ex.max_rel,
+                nw.false_miss,
+                nw.false_hit,
+                nw.wrong_hit
             );
         }
     }
@@ -334,13 +435,18 @@ fn main() {
     println!("\n## Speed: ns per ray (single thread, random rays at the object)\n");
     println!("| profile | exact | tessellated (tol 1e-3·size: segments × samples, triangles) | BVH over mesh |");
     println!("|---|---|---|---|");
-    for (name, (lathe, _)) in [("vase (cubic B-spline)", vase()), ("egg (cubic Bézier)", egg())] {
+    for (name, (lathe, _)) in [
+        ("vase (cubic B-spline)", vase()),
+        ("egg (cubic Bézier)", egg()),
+    ] {
         let rays = ray_sets(&lathe, 11, 20000).remove(0).1;
         let size = (lathe.bounds().1 - lathe.bounds().0).max_element();
         let (seg, samples) = tessellation_for(&lathe, 1e-3 * size);
         let mesh = lathe.tessellate(seg, samples);
         let bvh = MeshBvh::new(&mesh.positions, &mesh.indices);
-        let (t_exact, h1) = time_per_ray(&rays, |o, d| lathe.intersect(o, d, 0.0, f64::INFINITY).is_some());
+        let (t_exact, h1) = time_per_ray(&rays, |o, d| {
+            lathe.intersect(o, d, 0.0, f64::INFINITY).is_some()
+        });
         let (t_mesh, h2) = time_per_ray(&rays, |o, d| bvh.intersect(o, d).is_some());
         println!(
             "| {name} | {t_exact:.0} ns ({h1} hits) | {seg} × {samples}, {} triangles | {t_mesh:.0} ns ({h2} hits) |",
@@ -355,5 +461,9 @@ fn main() {
 fn exact_vase_random_rays(bencher: divan::Bencher) {
     let (lathe, _) = vase();
     let rays = ray_sets(&lathe, 3, 1000).remove(0).1;
-    bencher.bench(|| rays.iter().filter(|(o, d)| lathe.intersect(*o, *d, 0.0, f64::INFINITY).is_some()).count());
+    bencher.bench(|| {
+        rays.iter()
+            .filter(|(o, d)| lathe.intersect(*o, *d, 0.0, f64::INFINITY).is_some())
+            .count()
+    });
 }

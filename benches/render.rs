@@ -13,17 +13,23 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use lumo::render::{render, RenderOptions};
 
 fn load(name: &str, spp: u32) -> lumo::scene::Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    let desc = lumo_schema::load_scene_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    let desc =
+        lumo_schema::load_scene_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let base = path.parent().expect("scene folder");
-    let (mut scene, _warnings) = lumo::scene::build(&desc, base, &lumo::scene::build::NoExternalData).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let (mut scene, _warnings) =
+        lumo::scene::build(&desc, base, &lumo::scene::build::NoExternalData)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     scene.settings.spp = spp;
     scene
 }
 
 fn bench_scene(c: &mut Criterion, name: &str, spp: u32) {
     let scene = load(name, spp);
-    let samples = u64::from(scene.settings.width) * u64::from(scene.settings.height) * u64::from(spp);
+    let samples =
+        u64::from(scene.settings.width) * u64::from(scene.settings.height) * u64::from(spp);
     let options = RenderOptions::default();
     let (_, stats) = render(&scene, &options);
     eprintln!(
@@ -33,11 +39,20 @@ fn bench_scene(c: &mut Criterion, name: &str, spp: u32) {
         samples as f64 / stats.elapsed.as_secs_f64() / 1e6
     );
     let mut g = c.benchmark_group(format!("render/{}", name.trim_end_matches(".json")));
-    g.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(10));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(10));
     g.throughput(Throughput::Elements(samples));
-    g.bench_function(format!("{spp}spp/all"), |b| b.iter(|| render(&scene, &options).1.rays));
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("thread pool");
-    g.bench_function(format!("{spp}spp/1t"), |b| b.iter(|| one.install(|| render(&scene, &options).1.rays)));
+    g.bench_function(format!("{spp}spp/all"), |b| {
+        b.iter(|| render(&scene, &options).1.rays)
+    });
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("thread pool");
+    g.bench_function(format!("{spp}spp/1t"), |b| {
+        b.iter(|| one.install(|| render(&scene, &options).1.rays))
+    });
     g.finish();
 }
 

@@ -13,7 +13,8 @@ const LAT: usize = 170;
 
 fn radius(p: [f64; 3]) -> f64 {
     let [x, y, z] = p;
-    1.0 + 0.18 * (3.0 * x + 0.4).sin() * (2.0 * y + 1.0).sin() * (2.5 * z + 0.5).sin() + 0.07 * (7.0 * y + 2.0 * x).sin() * (5.0 * z - 1.0).cos()
+    1.0 + 0.18 * (3.0 * x + 0.4).sin() * (2.0 * y + 1.0).sin() * (2.5 * z + 0.5).sin()
+        + 0.07 * (7.0 * y + 2.0 * x).sin() * (5.0 * z - 1.0).cos()
         - 0.12 * y * y
 }
 
@@ -30,7 +31,14 @@ fn main() -> std::io::Result<()> {
         let theta = std::f64::consts::PI * i as f64 / LAT as f64;
         for j in 0..LON {
             let phi = 2.0 * std::f64::consts::PI * j as f64 / LON as f64;
-            vertex([theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin()], &mut obj);
+            vertex(
+                [
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    -theta.sin() * phi.sin(),
+                ],
+                &mut obj,
+            );
         }
     }
     vertex([0.0, -1.0, 0.0], &mut obj);
@@ -39,12 +47,22 @@ fn main() -> std::io::Result<()> {
     let mut faces = 0;
     for j in 0..LON {
         let _ = writeln!(obj, "f 1 {} {}", ring(1, j), ring(1, j + 1));
-        let _ = writeln!(obj, "f {south} {} {}", ring(LAT - 1, j + 1), ring(LAT - 1, j));
+        let _ = writeln!(
+            obj,
+            "f {south} {} {}",
+            ring(LAT - 1, j + 1),
+            ring(LAT - 1, j)
+        );
         faces += 2;
     }
     for i in 1..LAT - 1 {
         for j in 0..LON {
-            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j), ring(i + 1, j + 1));
+            let (a, b, c, d) = (
+                ring(i, j),
+                ring(i, j + 1),
+                ring(i + 1, j),
+                ring(i + 1, j + 1),
+            );
             let _ = writeln!(obj, "f {a} {c} {b}");
             let _ = writeln!(obj, "f {b} {c} {d}");
             faces += 2;

@@ -53,7 +53,11 @@ pub struct BsdfSample {
 /// reflection.
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     let cos_i = cos_i.clamp(-1.0, 1.0);
-    let (cos_i, eta) = if cos_i < 0.0 { (-cos_i, 1.0 / eta) } else { (cos_i, eta) };
+    let (cos_i, eta) = if cos_i < 0.0 {
+        (-cos_i, 1.0 / eta)
+    } else {
+        (cos_i, eta)
+    };
     let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
     if sin2_t >= 1.0 {
         return 1.0;
@@ -106,7 +110,11 @@ fn ggx_g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
 /// Distribution of Visible Normals", JCGT 7(4), 2018.
 fn ggx_sample_visible(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     let wh = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
-    let t1 = if wh.z < 0.99999 { Vec3::Z.cross(wh).normalize() } else { Vec3::X };
+    let t1 = if wh.z < 0.99999 {
+        Vec3::Z.cross(wh).normalize()
+    } else {
+        Vec3::X
+    };
     let t2 = wh.cross(t1);
     let p = concentric_disk(u);
     let h = (1.0 - p.x * p.x).max(0.0).sqrt();
@@ -131,7 +139,10 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     let (r, theta) = if o.x.abs() > o.y.abs() {
         (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
     } else {
-        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
+        (
+            o.y,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
+        )
     };
     Vec2::new(r * theta.cos(), r * theta.sin())
 }
@@ -146,7 +157,13 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
 #[inline]
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
-    if a == 0.0 { 0.0 } else if a.is_infinite() { 1.0 } else { a / (a + b) }
+    if a == 0.0 {
+        0.0
+    } else if a.is_infinite() {
+        1.0
+    } else {
+        a / (a + b)
+    }
 }
 
 impl Bsdf {
@@ -211,19 +228,33 @@ impl Bsdf {
         }
         let pick = u_lobe * w_total;
         if pick < self.w_transmission {
-            return self.sample_dielectric(wo, wo_world, u_lobe * w_total / self.w_transmission.max(f32::MIN_POSITIVE), w_total);
+            return self.sample_dielectric(
+                wo,
+                wo_world,
+                u_lobe * w_total / self.w_transmission.max(f32::MIN_POSITIVE),
+                w_total,
+            );
         }
         let side = wo.z.signum();
         let wo_up = Vec3::new(wo.x, wo.y, wo.z.abs());
         let wi_up = if pick < self.w_transmission + self.w_specular {
             if self.mirror_is_delta() {
                 let wi_up = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
-                let wi_world = self.frame.to_world(Vec3::new(wi_up.x, wi_up.y, wi_up.z * side));
+                let wi_world = self
+                    .frame
+                    .to_world(Vec3::new(wi_up.x, wi_up.y, wi_up.z * side));
                 if wo_world.dot(self.ng) * wi_world.dot(self.ng) <= 0.0 {
                     return None;
                 }
-                let weight = fresnel_schlick(self.base, wo_up.z) * (self.w_specular / (self.w_specular / w_total));
-                return Some(BsdfSample { wi: wi_world, weight, pdf: self.w_specular / w_total, delta: true, transmitted: false });
+                let weight = fresnel_schlick(self.base, wo_up.z)
+                    * (self.w_specular / (self.w_specular / w_total));
+                return Some(BsdfSample {
+                    wi: wi_world,
+                    weight,
+                    pdf: self.w_specular / w_total,
+                    delta: true,
+                    transmitted: false,
+                });
             }
             let wm = ggx_sample_visible(wo_up, self.alpha, u);
             let wi_up = 2.0 * wo_up.dot(wm) * wm - wo_up;
@@ -234,25 +265,48 @@ impl Bsdf {
         } else {
             cosine_hemisphere(u)
         };
-        let wi_world = self.frame.to_world(Vec3::new(wi_up.x, wi_up.y, wi_up.z * side));
+        let wi_world = self
+            .frame
+            .to_world(Vec3::new(wi_up.x, wi_up.y, wi_up.z * side));
         if self.w_specular == 0.0 && self.w_transmission == 0.0 {
             // Purely Lambertian (the common case): f·cos/pdf = base·w_diffuse exactly, with
             // pdf = cos/π; only the checks of `eval` remain (a direction on the rim, or on
             // the other side of the geometric normal, is not sampled).
             let pdf = wi_up.z * FRAC_1_PI;
-            if pdf <= 0.0 || wo_world.dot(self.ng) * wi_world.dot(self.ng) <= 0.0 || self.base == Vec3::ZERO {
+            if pdf <= 0.0
+                || wo_world.dot(self.ng) * wi_world.dot(self.ng) <= 0.0
+                || self.base == Vec3::ZERO
+            {
                 return None;
             }
-            return Some(BsdfSample { wi: wi_world, weight: self.base * self.w_diffuse, pdf, delta: false, transmitted: false });
+            return Some(BsdfSample {
+                wi: wi_world,
+                weight: self.base * self.w_diffuse,
+                pdf,
+                delta: false,
+                transmitted: false,
+            });
         }
         let (f, pdf) = self.eval(wo_world, wi_world);
         if pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
-        Some(BsdfSample { wi: wi_world, weight: f / pdf, pdf, delta: false, transmitted: false })
+        Some(BsdfSample {
+            wi: wi_world,
+            weight: f / pdf,
+            pdf,
+            delta: false,
+            transmitted: false,
+        })
     }
 
-    fn sample_dielectric(&self, wo: Vec3, wo_world: Vec3, u: f32, w_total: f32) -> Option<BsdfSample> {
+    fn sample_dielectric(
+        &self,
+        wo: Vec3,
+        wo_world: Vec3,
+        u: f32,
+        w_total: f32,
+    ) -> Option<BsdfSample> {
         // Entering when wo is on the front (outside) side of the geometric normal.
         let entering = wo_world.dot(self.ng) > 0.0;
         let eta = if entering { self.ior } else { 1.0 / self.ior };
@@ -264,7 +318,13 @@ impl Bsdf {
         if u < r {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             let wi_world = self.frame.to_world(wi);
-            return Some(BsdfSample { wi: wi_world, weight: Vec3::splat(self.w_transmission / lobe_p), pdf: lobe_p * r, delta: true, transmitted: false });
+            return Some(BsdfSample {
+                wi: wi_world,
+                weight: Vec3::splat(self.w_transmission / lobe_p),
+                pdf: lobe_p * r,
+                delta: true,
+                transmitted: false,
+            });
         }
         // Snell: wt = −wo/η + (cos_o/η − cos_t) n, with n on wo's side.
         let sin2_t = (1.0 - cos_o * cos_o) / (eta * eta);
@@ -277,7 +337,13 @@ impl Bsdf {
         let wi_world = self.frame.to_world(wt).normalize();
         // Radiance is compressed by 1/η² when entering a denser medium (pbrt-v4 §9.5.2).
         let weight = self.base * (self.w_transmission / lobe_p / (eta * eta));
-        Some(BsdfSample { wi: wi_world, weight, pdf: lobe_p * (1.0 - r), delta: true, transmitted: true })
+        Some(BsdfSample {
+            wi: wi_world,
+            weight,
+            pdf: lobe_p * (1.0 - r),
+            delta: true,
+            transmitted: true,
+        })
     }
 }
 
@@ -287,7 +353,16 @@ mod tests {
     use crate::sampler::Pcg32;
 
     fn bsdf(w_d: f32, w_s: f32, w_t: f32, alpha: f32, base: Rgb) -> Bsdf {
-        Bsdf { frame: Frame::from_normal(Vec3::Z), ng: Vec3::Z, base, w_diffuse: w_d, w_specular: w_s, w_transmission: w_t, alpha, ior: 1.5 }
+        Bsdf {
+            frame: Frame::from_normal(Vec3::Z),
+            ng: Vec3::Z,
+            base,
+            w_diffuse: w_d,
+            w_specular: w_s,
+            w_transmission: w_t,
+            alpha,
+            ior: 1.5,
+        }
     }
 
     fn dir(theta_deg: f32) -> Vec3 {
@@ -303,8 +378,16 @@ mod tests {
         let mut by_sampling = glam::DVec3::ZERO;
         let mut by_eval = glam::DVec3::ZERO;
         for _ in 0..n {
-            if let Some(s) = b.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32())) {
-                assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0, "bad weight {:?}", s.weight);
+            if let Some(s) = b.sample(
+                wo,
+                rng.next_f32(),
+                Vec2::new(rng.next_f32(), rng.next_f32()),
+            ) {
+                assert!(
+                    s.weight.is_finite() && s.weight.min_element() >= 0.0,
+                    "bad weight {:?}",
+                    s.weight
+                );
                 by_sampling += s.weight.as_dvec3();
             }
             let z = 1.0 - 2.0 * rng.next_f32();
@@ -315,7 +398,10 @@ mod tests {
             assert!(f.is_finite() && f.min_element() >= 0.0 && pdf.is_finite() && pdf >= 0.0);
             by_eval += (f * (4.0 * PI)).as_dvec3();
         }
-        ((by_sampling / n as f64).as_vec3(), (by_eval / n as f64).as_vec3())
+        (
+            (by_sampling / n as f64).as_vec3(),
+            (by_eval / n as f64).as_vec3(),
+        )
     }
 
     #[test]
@@ -338,10 +424,25 @@ mod tests {
         let mut taken = 0;
         for wo in [dir(10.0), dir(70.0), -dir(35.0)] {
             for _ in 0..2000 {
-                let Some(s) = b.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32())) else { continue };
+                let Some(s) = b.sample(
+                    wo,
+                    rng.next_f32(),
+                    Vec2::new(rng.next_f32(), rng.next_f32()),
+                ) else {
+                    continue;
+                };
                 let (f, pdf) = b.eval(wo, s.wi);
-                assert!((s.pdf - pdf).abs() <= 1e-4 * pdf.max(1.0), "pdf {} vs eval {pdf}", s.pdf);
-                assert!((s.weight - f / pdf).abs().max_element() < 1e-3, "weight {:?} vs eval {:?}", s.weight, f / pdf);
+                assert!(
+                    (s.pdf - pdf).abs() <= 1e-4 * pdf.max(1.0),
+                    "pdf {} vs eval {pdf}",
+                    s.pdf
+                );
+                assert!(
+                    (s.weight - f / pdf).abs().max_element() < 1e-3,
+                    "weight {:?} vs eval {:?}",
+                    s.weight,
+                    f / pdf
+                );
                 taken += 1;
             }
         }
@@ -358,9 +459,17 @@ mod tests {
             let b = bsdf(0.0, 1.0, 0.0, alpha, Vec3::ONE);
             for theta in [0.0, 45.0, 75.0] {
                 let (s, e) = albedo_two_ways(&b, dir(theta), 400_000);
-                assert!(s.x <= 1.0 + 1e-4 && s.x > 0.3, "alpha {alpha} theta {theta}: {s:?}");
+                assert!(
+                    s.x <= 1.0 + 1e-4 && s.x > 0.3,
+                    "alpha {alpha} theta {theta}: {s:?}"
+                );
                 let tol = if alpha < 0.2 { 0.04 } else { 0.02 };
-                assert!((s.x - e.x).abs() < tol, "alpha {alpha} theta {theta}: sampled {} vs eval {}", s.x, e.x);
+                assert!(
+                    (s.x - e.x).abs() < tol,
+                    "alpha {alpha} theta {theta}: sampled {} vs eval {}",
+                    s.x,
+                    e.x
+                );
             }
         }
     }
@@ -372,7 +481,11 @@ mod tests {
         let mut rng = Pcg32::new(1, 2);
         let wo = dir(40.0);
         for _ in 0..10_000 {
-            if let Some(s) = b.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32())) {
+            if let Some(s) = b.sample(
+                wo,
+                rng.next_f32(),
+                Vec2::new(rng.next_f32(), rng.next_f32()),
+            ) {
                 let (_, pdf) = b.eval(wo, s.wi);
                 assert!((pdf - s.pdf).abs() <= 1e-3 * pdf.max(1.0));
             }
@@ -391,7 +504,11 @@ mod tests {
             let (s, _) = albedo_two_ways(&glass, dir(theta), 200_000);
             let r = fresnel_dielectric(theta.to_radians().cos(), 1.5);
             let expect = r + (1.0 - r) / (1.5 * 1.5);
-            assert!((s.x - expect).abs() < 5e-3, "theta {theta}: {} vs {expect}", s.x);
+            assert!(
+                (s.x - expect).abs() < 5e-3,
+                "theta {theta}: {} vs {expect}",
+                s.x
+            );
         }
     }
 

@@ -31,7 +31,10 @@ pub struct Node {
 
 impl Node {
     fn new(b: &Bx, first: u32, count: u32) -> Node {
-        Node { lo: b.min.extend(f32::from_bits(first)), hi: b.max.extend(f32::from_bits(count)) }
+        Node {
+            lo: b.min.extend(f32::from_bits(first)),
+            hi: b.max.extend(f32::from_bits(count)),
+        }
     }
 
     /// First child (interior node) or first slot (leaf).
@@ -48,7 +51,10 @@ impl Node {
 
     /// The node's box.
     pub fn aabb(&self) -> Aabb {
-        Aabb { min: self.lo.truncate(), max: self.hi.truncate() }
+        Aabb {
+            min: self.lo.truncate(),
+            max: self.hi.truncate(),
+        }
     }
 
     fn set_first(&mut self, first: u32) {
@@ -69,13 +75,20 @@ impl Node {
         let t1 = (Vec3A::from_vec4(self.hi) - r.o) * r.inv_d;
         let (tn, tf) = if ROBUST {
             let nan = t0.is_nan_mask() | t1.is_nan_mask();
-            (Vec3A::select(nan, Vec3A::NEG_INFINITY, t0.min(t1)), Vec3A::select(nan, Vec3A::INFINITY, t0.max(t1)))
+            (
+                Vec3A::select(nan, Vec3A::NEG_INFINITY, t0.min(t1)),
+                Vec3A::select(nan, Vec3A::INFINITY, t0.max(t1)),
+            )
         } else {
             (t0.min(t1), t0.max(t1))
         };
         let near = tn.max_element().max(t_min);
         let far = tf.min_element().min(t_max);
-        if near <= far * 1.000_000_4 { near } else { f32::INFINITY }
+        if near <= far * 1.000_000_4 {
+            near
+        } else {
+            f32::INFINITY
+        }
     }
 }
 
@@ -92,7 +105,11 @@ impl TraversalRay {
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> TraversalRay {
         let inv_d = Vec3A::from(d).recip();
-        TraversalRay { o: o.into(), inv_d, robust: !inv_d.is_finite() }
+        TraversalRay {
+            o: o.into(),
+            inv_d,
+            robust: !inv_d.is_finite(),
+        }
     }
 }
 
@@ -121,14 +138,23 @@ struct Bx {
 }
 
 impl Bx {
-    const EMPTY: Bx = Bx { min: Vec3A::INFINITY, max: Vec3A::NEG_INFINITY };
+    const EMPTY: Bx = Bx {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+    };
     #[inline]
     fn union(self, o: Bx) -> Bx {
-        Bx { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Bx {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
     #[inline]
     fn grow(self, p: Vec3A) -> Bx {
-        Bx { min: self.min.min(p), max: self.max.max(p) }
+        Bx {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
     #[inline]
     fn half_area(&self) -> f32 {
@@ -149,9 +175,15 @@ pub struct LeafCost {
 
 impl LeafCost {
     /// One primitive test per primitive, at most 4 per leaf.
-    pub const SCALAR: LeafCost = LeafCost { max_leaf: 4, block: 1 };
+    pub const SCALAR: LeafCost = LeafCost {
+        max_leaf: 4,
+        block: 1,
+    };
     /// Leaves of up to 4 primitives tested together in one SIMD packet.
-    pub const PACKET4: LeafCost = LeafCost { max_leaf: 4, block: 4 };
+    pub const PACKET4: LeafCost = LeafCost {
+        max_leaf: 4,
+        block: 4,
+    };
 
     #[inline]
     fn tests(&self, n: usize) -> f32 {
@@ -168,7 +200,13 @@ impl Bvh {
 
     /// [`Bvh::build`] with a given leaf pricing.
     pub fn build_with(boxes: &[Aabb], leaf_cost: LeafCost) -> Bvh {
-        let bx: Vec<Bx> = boxes.iter().map(|b| Bx { min: b.min.into(), max: b.max.into() }).collect();
+        let bx: Vec<Bx> = boxes
+            .iter()
+            .map(|b| Bx {
+                min: b.min.into(),
+                max: b.max.into(),
+            })
+            .collect();
         let mut prims: Vec<u32> = (0..boxes.len() as u32)
             .filter(|&i| {
                 let b = boxes[i as usize];
@@ -176,10 +214,17 @@ impl Bvh {
             })
             .collect();
         if prims.is_empty() {
-            return Bvh { nodes: vec![Node::new(&Bx::EMPTY, 0, 0)], prims };
+            return Bvh {
+                nodes: vec![Node::new(&Bx::EMPTY, 0, 0)],
+                prims,
+            };
         }
         let centers: Vec<Vec3A> = bx.iter().map(|b| (b.min + b.max) * 0.5).collect();
-        let ctx = Ctx { boxes: &bx, centers: &centers, leaf_cost };
+        let ctx = Ctx {
+            boxes: &bx,
+            centers: &centers,
+            leaf_cost,
+        };
         let nodes = build_subtree(&ctx, &mut prims, 0);
         Bvh { nodes, prims }
     }
@@ -194,7 +239,13 @@ impl Bvh {
     /// shrinks `*t_max` when it finds a closer hit, and returns `true` to stop the traversal
     /// (any-hit queries). Returns whether it was stopped.
     #[inline]
-    pub fn traverse(&self, ray: &TraversalRay, t_min: f32, t_max: &mut f32, leaf: impl FnMut(u32, &mut f32) -> bool) -> bool {
+    pub fn traverse(
+        &self,
+        ray: &TraversalRay,
+        t_min: f32,
+        t_max: &mut f32,
+        leaf: impl FnMut(u32, &mut f32) -> bool,
+    ) -> bool {
         if self.prims.is_empty() {
             return false;
         }
@@ -206,7 +257,13 @@ impl Bvh {
     }
 
     #[inline(always)]
-    fn traverse_impl<const ROBUST: bool>(&self, ray: &TraversalRay, t_min: f32, t_max: &mut f32, mut leaf: impl FnMut(u32, &mut f32) -> bool) -> bool {
+    fn traverse_impl<const ROBUST: bool>(
+        &self,
+        ray: &TraversalRay,
+        t_min: f32,
+        t_max: &mut f32,
+        mut leaf: impl FnMut(u32, &mut f32) -> bool,
+    ) -> bool {
         let nodes = &self.nodes[..];
         // Entries are (node, entry distance): a popped node farther than the current closest
         // hit is skipped without retesting its box.
@@ -241,7 +298,11 @@ impl Bvh {
                         node = a;
                         continue;
                     }
-                    let (near, far, t_far) = if ta <= tb { (a, a + 1, tb) } else { (a + 1, a, ta) };
+                    let (near, far, t_far) = if ta <= tb {
+                        (a, a + 1, tb)
+                    } else {
+                        (a + 1, a, ta)
+                    };
                     if sp < STACK {
                         stack[sp] = MaybeUninit::new((far as u32, t_far));
                         sp += 1;
@@ -261,7 +322,14 @@ impl Bvh {
         }
     }
 
-    fn sub_traverse<const ROBUST: bool>(&self, start: usize, ray: &TraversalRay, t_min: f32, t_max: &mut f32, leaf: &mut impl FnMut(u32, &mut f32) -> bool) -> bool {
+    fn sub_traverse<const ROBUST: bool>(
+        &self,
+        start: usize,
+        ray: &TraversalRay,
+        t_min: f32,
+        t_max: &mut f32,
+        leaf: &mut impl FnMut(u32, &mut f32) -> bool,
+    ) -> bool {
         let n = self.nodes[start];
         if n.hit::<ROBUST>(ray, t_min, *t_max) == f32::INFINITY {
             return false;
@@ -275,7 +343,8 @@ impl Bvh {
             return false;
         }
         let c = n.first() as usize;
-        self.sub_traverse::<ROBUST>(c, ray, t_min, t_max, leaf) || self.sub_traverse::<ROBUST>(c + 1, ray, t_min, t_max, leaf)
+        self.sub_traverse::<ROBUST>(c, ray, t_min, t_max, leaf)
+            || self.sub_traverse::<ROBUST>(c + 1, ray, t_min, t_max, leaf)
     }
 }
 
@@ -286,7 +355,11 @@ impl Bvh {
 /// Every entry below `*sp` must have been initialised (the traversals write an entry before
 /// they raise `sp` past it).
 #[inline(always)]
-pub(crate) unsafe fn pop_nearer(stack: &[MaybeUninit<(u32, f32)>], sp: &mut usize, t_max: f32) -> Option<u32> {
+pub(crate) unsafe fn pop_nearer(
+    stack: &[MaybeUninit<(u32, f32)>],
+    sp: &mut usize,
+    t_max: f32,
+) -> Option<u32> {
     while *sp > 0 {
         *sp -= 1;
         // SAFETY: the caller guarantees entries below the initial `*sp` were initialised.
@@ -325,7 +398,13 @@ fn split(ctx: &Ctx, prims: &mut [u32]) -> (Bx, Split) {
         return (bounds, Split::Leaf);
     }
     let extent = cbounds.max - cbounds.min;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
     let (lo, span) = (cbounds.min[axis], extent[axis]);
     let mut mid = None;
     if span > 0.0 {
@@ -358,7 +437,8 @@ fn split(ctx: &Ctx, prims: &mut [u32]) -> (Bx, Split) {
             if left_n == 0 || right_n[i + 1] == 0 {
                 continue;
             }
-            let cost = left.half_area() * lc.tests(left_n) + right_area[i + 1] * lc.tests(right_n[i + 1]);
+            let cost =
+                left.half_area() * lc.tests(left_n) + right_area[i + 1] * lc.tests(right_n[i + 1]);
             if cost < best.0 {
                 best = (cost, i);
             }
@@ -394,7 +474,10 @@ fn build_subtree(ctx: &Ctx, prims: &mut [u32], offset: usize) -> Vec<Node> {
         Split::At(mid) => mid,
     };
     let (lp, rp) = prims.split_at_mut(mid);
-    let (left, right) = rayon::join(|| build_subtree(ctx, lp, offset), || build_subtree(ctx, rp, offset + mid));
+    let (left, right) = rayon::join(
+        || build_subtree(ctx, lp, offset),
+        || build_subtree(ctx, rp, offset + mid),
+    );
     // Layout: [this, left root, right root, rest of left, rest of right]. A child index c ≥ 1
     // of the left array moves to c + 2, of the right array to c + left.len() + 1.
     let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
@@ -413,7 +496,13 @@ fn build_subtree(ctx: &Ctx, prims: &mut [u32], offset: usize) -> Vec<Node> {
     nodes
 }
 
-fn build_sequential(ctx: &Ctx, nodes: &mut Vec<Node>, index: usize, prims: &mut [u32], offset: usize) {
+fn build_sequential(
+    ctx: &Ctx,
+    nodes: &mut Vec<Node>,
+    index: usize,
+    prims: &mut [u32],
+    offset: usize,
+) {
     let (bounds, decision) = split(ctx, prims);
     let mid = match decision {
         Split::Leaf => {
@@ -454,7 +543,10 @@ mod tests {
             .map(|_| {
                 let c = Vec3::new(lcg(s), lcg(s), lcg(s)) * 10.0;
                 let e = Vec3::new(lcg(s), lcg(s), lcg(s)) * 0.3;
-                Aabb { min: c - e, max: c + e }
+                Aabb {
+                    min: c - e,
+                    max: c + e,
+                }
             })
             .collect()
     }
@@ -507,14 +599,25 @@ mod tests {
         // Boxes on an integer lattice so that many faces share planes with the ray origins.
         let boxes: Vec<Aabb> = (0..500)
             .map(|_| {
-                let c = Vec3::new((lcg(&mut s) * 10.0).floor(), (lcg(&mut s) * 10.0).floor(), (lcg(&mut s) * 10.0).floor());
-                Aabb { min: c, max: c + Vec3::ONE }
+                let c = Vec3::new(
+                    (lcg(&mut s) * 10.0).floor(),
+                    (lcg(&mut s) * 10.0).floor(),
+                    (lcg(&mut s) * 10.0).floor(),
+                );
+                Aabb {
+                    min: c,
+                    max: c + Vec3::ONE,
+                }
             })
             .collect();
         let bvh = Bvh::build(&boxes);
         let mut hits = 0;
         for i in 0..3000 {
-            let o = Vec3::new((lcg(&mut s) * 12.0).floor() - 1.0, (lcg(&mut s) * 12.0).floor() - 1.0, lcg(&mut s) * 12.0 - 1.0);
+            let o = Vec3::new(
+                (lcg(&mut s) * 12.0).floor() - 1.0,
+                (lcg(&mut s) * 12.0).floor() - 1.0,
+                lcg(&mut s) * 12.0 - 1.0,
+            );
             let d = match i % 3 {
                 0 => Vec3::Z,
                 1 => Vec3::new(0.0, -0.0, -1.0),
@@ -524,7 +627,8 @@ mod tests {
             hits += b.is_some() as u32;
             // Equal entry distances (shared faces) may name either box: compare distances.
             let a = closest(&bvh, &boxes, o, d);
-            let dist = |k: Option<usize>| k.and_then(|k| boxes[k].hit(o, d.recip(), 0.0, f32::INFINITY));
+            let dist =
+                |k: Option<usize>| k.and_then(|k| boxes[k].hit(o, d.recip(), 0.0, f32::INFINITY));
             assert_eq!(dist(a), dist(b), "ray {o:?} {d:?}");
         }
         assert!(hits > 100, "the test must exercise hits, got {hits}");
@@ -536,11 +640,27 @@ mod tests {
         let mut s = 9u64;
         let boxes = random_boxes(3 * PARALLEL_THRESHOLD, &mut s);
         let par = Bvh::build(&boxes);
-        let bx: Vec<Bx> = boxes.iter().map(|b| Bx { min: b.min.into(), max: b.max.into() }).collect();
+        let bx: Vec<Bx> = boxes
+            .iter()
+            .map(|b| Bx {
+                min: b.min.into(),
+                max: b.max.into(),
+            })
+            .collect();
         let centers: Vec<Vec3A> = bx.iter().map(|b| (b.min + b.max) * 0.5).collect();
         let mut prims: Vec<u32> = (0..boxes.len() as u32).collect();
         let mut seq = vec![Node::new(&Bx::EMPTY, 0, 0)];
-        build_sequential(&Ctx { boxes: &bx, centers: &centers, leaf_cost: LeafCost::SCALAR }, &mut seq, 0, &mut prims, 0);
+        build_sequential(
+            &Ctx {
+                boxes: &bx,
+                centers: &centers,
+                leaf_cost: LeafCost::SCALAR,
+            },
+            &mut seq,
+            0,
+            &mut prims,
+            0,
+        );
         assert_eq!(par.prims, prims);
         assert_eq!(par.nodes.len(), seq.len());
         // Same trees up to node numbering: compare by walking both.
@@ -562,7 +682,8 @@ mod tests {
             let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 14.0 - 2.0;
             let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5);
             // Dense boxes: origins often lie inside several (ties at t = 0), so compare distances.
-            let dist = |k: Option<usize>| k.and_then(|k| boxes[k].hit(o, d.recip(), 0.0, f32::INFINITY));
+            let dist =
+                |k: Option<usize>| k.and_then(|k| boxes[k].hit(o, d.recip(), 0.0, f32::INFINITY));
             assert_eq!(dist(closest(&par, &boxes, o, d)), dist(brute(&boxes, o, d)));
         }
     }

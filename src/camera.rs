@@ -26,7 +26,15 @@ pub struct Camera {
 
 impl Camera {
     /// A camera at `position` looking at `look_at`, with vertical field of view `fov_y_deg`.
-    pub fn look_at(position: Vec3, look_at: Vec3, up: Vec3, fov_y_deg: f32, aspect: f32, lens_radius: f32, focus_distance: Option<f32>) -> Camera {
+    pub fn look_at(
+        position: Vec3,
+        look_at: Vec3,
+        up: Vec3,
+        fov_y_deg: f32,
+        aspect: f32,
+        lens_radius: f32,
+        focus_distance: Option<f32>,
+    ) -> Camera {
         let forward = (look_at - position).normalize();
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
@@ -78,7 +86,15 @@ mod tests {
 
     #[test]
     fn centre_ray_looks_at_target_and_corners_span_the_fov() {
-        let c = Camera::look_at(Vec3::new(0.0, 0.0, 3.9), Vec3::ZERO, Vec3::Y, 39.3077, 1.0, 0.0, None);
+        let c = Camera::look_at(
+            Vec3::new(0.0, 0.0, 3.9),
+            Vec3::ZERO,
+            Vec3::Y,
+            39.3077,
+            1.0,
+            0.0,
+            None,
+        );
         let r = c.ray(Vec2::splat(0.5), Vec2::ZERO);
         assert!((r.d - -Vec3::Z).length() < 1e-6);
         let top = c.ray(Vec2::new(0.5, 0.0), Vec2::ZERO);
@@ -93,9 +109,17 @@ mod tests {
     fn thin_lens_rays_converge_on_the_focus_plane() {
         let c = Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 40.0, 1.5, 0.2, Some(5.0));
         let film = Vec2::new(0.3, 0.7);
-        let pin = Camera { lens_radius: 0.0, ..c }.ray(film, Vec2::ZERO);
+        let pin = Camera {
+            lens_radius: 0.0,
+            ..c
+        }
+        .ray(film, Vec2::ZERO);
         let target = pin.at(5.0 / pin.d.dot(c.forward));
-        for u in [Vec2::new(0.1, 0.9), Vec2::new(0.8, 0.2), Vec2::new(0.5, 0.5)] {
+        for u in [
+            Vec2::new(0.1, 0.9),
+            Vec2::new(0.8, 0.2),
+            Vec2::new(0.5, 0.5),
+        ] {
             let r = c.ray(film, u);
             let t = (target - r.o).dot(r.d);
             assert!((r.at(t) - target).length() < 1e-4);

@@ -7,8 +7,10 @@
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
+pub mod cli;
 pub mod geometry;
 pub mod integrator;
+pub mod lathe;
 pub mod light;
 pub mod material;
 pub mod math;
@@ -17,5 +19,3 @@ pub mod render;
 pub mod sampler;
 pub mod scene;
 pub mod texture;
-pub mod cli;
-pub mod lathe;

@@ -95,23 +95,57 @@ impl Light {
     pub fn power(&self) -> f32 {
         match self {
             Light::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
-            Light::Spot { intensity, cos_inner, cos_outer, .. } => 2.0 * PI * (1.0 - 0.5 * (cos_inner + cos_outer)) * luminance(*intensity),
-            Light::Directional { irradiance, scene_radius, .. } => PI * scene_radius * scene_radius * luminance(*irradiance),
-            Light::Triangle { area, emission, two_sided, .. } => PI * area * luminance(*emission) * if *two_sided { 2.0 } else { 1.0 },
-            Light::Sphere { radius, emission, .. } => PI * 4.0 * PI * radius * radius * luminance(*emission),
+            Light::Spot {
+                intensity,
+                cos_inner,
+                cos_outer,
+                ..
+            } => 2.0 * PI * (1.0 - 0.5 * (cos_inner + cos_outer)) * luminance(*intensity),
+            Light::Directional {
+                irradiance,
+                scene_radius,
+                ..
+            } => PI * scene_radius * scene_radius * luminance(*irradiance),
+            Light::Triangle {
+                area,
+                emission,
+                two_sided,
+                ..
+            } => PI * area * luminance(*emission) * if *two_sided { 2.0 } else { 1.0 },
+            Light::Sphere {
+                radius, emission, ..
+            } => PI * 4.0 * PI * radius * radius * luminance(*emission),
         }
     }
 
     /// Samples the light as seen from `p`.
     pub fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         match *self {
-            Light::Point { position, intensity } => {
+            Light::Point {
+                position,
+                intensity,
+            } => {
                 let v = position - p;
                 let d2 = v.length_squared();
                 let d = d2.sqrt();
-                (d > 0.0).then(|| LightSample { wi: v / d, distance: d, point: position, normal: Vec3::ZERO, uv: Vec2::ZERO, li: intensity / d2, pdf: 1.0, delta: true })
+                (d > 0.0).then(|| LightSample {
+                    wi: v / d,
+                    distance: d,
+                    point: position,
+                    normal: Vec3::ZERO,
+                    uv: Vec2::ZERO,
+                    li: intensity / d2,
+                    pdf: 1.0,
+                    delta: true,
+                })
             }
-            Light::Spot { position, axis, intensity, cos_inner, cos_outer } => {
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
                 let v = position - p;
                 let d2 = v.length_squared();
                 let d = d2.sqrt();
@@ -121,10 +155,39 @@ impl Light {
                 let wi = v / d;
                 let cos = (-wi).dot(axis);
                 let falloff = smoothstep(cos_outer, cos_inner, cos);
-                (falloff > 0.0).then(|| LightSample { wi, distance: d, point: position, normal: Vec3::ZERO, uv: Vec2::ZERO, li: intensity * (falloff / d2), pdf: 1.0, delta: true })
+                (falloff > 0.0).then(|| LightSample {
+                    wi,
+                    distance: d,
+                    point: position,
+                    normal: Vec3::ZERO,
+                    uv: Vec2::ZERO,
+                    li: intensity * (falloff / d2),
+                    pdf: 1.0,
+                    delta: true,
+                })
             }
-            Light::Directional { to_light, irradiance, .. } => Some(LightSample { wi: to_light, distance: f32::INFINITY, point: p, normal: Vec3::ZERO, uv: Vec2::ZERO, li: irradiance, pdf: 1.0, delta: true }),
-            Light::Triangle { v, uv, n, area, two_sided, .. } => {
+            Light::Directional {
+                to_light,
+                irradiance,
+                ..
+            } => Some(LightSample {
+                wi: to_light,
+                distance: f32::INFINITY,
+                point: p,
+                normal: Vec3::ZERO,
+                uv: Vec2::ZERO,
+                li: irradiance,
+                pdf: 1.0,
+                delta: true,
+            }),
+            Light::Triangle {
+                v,
+                uv,
+                n,
+                area,
+                two_sided,
+                ..
+            } => {
                 // Uniform point on the triangle (pbrt-v4's square-root mapping).
                 let su = u.x.sqrt();
                 let (b0, b1) = (1.0 - su, u.y * su);
@@ -142,7 +205,16 @@ impl Light {
                     return None;
                 }
                 let pdf = d2 / (cos_l.abs() * area);
-                (pdf.is_finite()).then(|| LightSample { wi, distance: d, point: q, normal: n, uv: uv[0] * b0 + uv[1] * b1 + uv[2] * b2, li: Vec3::ZERO, pdf, delta: false })
+                (pdf.is_finite()).then(|| LightSample {
+                    wi,
+                    distance: d,
+                    point: q,
+                    normal: n,
+                    uv: uv[0] * b0 + uv[1] * b1 + uv[2] * b2,
+                    li: Vec3::ZERO,
+                    pdf,
+                    delta: false,
+                })
             }
             Light::Sphere { center, radius, .. } => sample_sphere(center, radius, p, u),
         }
@@ -155,7 +227,11 @@ impl Light {
                 let w = q - p;
                 let d2 = w.length_squared();
                 let cos = n.dot(w.normalize()).abs();
-                if cos == 0.0 { 0.0 } else { d2 / (cos * area) }
+                if cos == 0.0 {
+                    0.0
+                } else {
+                    d2 / (cos * area)
+                }
             }
             Light::Sphere { center, radius, .. } => {
                 let d2 = (center - p).length_squared();
@@ -209,7 +285,16 @@ fn sample_sphere(center: Vec3, radius: f32, p: Vec3, u: Vec2) -> Option<LightSam
         let wi = w / dist;
         let cos = n.dot(-wi).abs();
         let pdf = dist2 / (cos * 4.0 * PI * r2);
-        return pdf.is_finite().then(|| LightSample { wi, distance: dist, point: q, normal: n, uv: Vec2::ZERO, li: Vec3::ZERO, pdf, delta: false });
+        return pdf.is_finite().then(|| LightSample {
+            wi,
+            distance: dist,
+            point: q,
+            normal: n,
+            uv: Vec2::ZERO,
+            li: Vec3::ZERO,
+            pdf,
+            delta: false,
+        });
     }
     let d = d2.sqrt();
     let axis = to_c / d;
@@ -220,7 +305,9 @@ fn sample_sphere(center: Vec3, radius: f32, p: Vec3, u: Vec2) -> Option<LightSam
     let sin_t = sin2_t.max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
     let frame = crate::math::Frame::from_normal(axis);
-    let wi = frame.to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)).normalize();
+    let wi = frame
+        .to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t))
+        .normalize();
     // Distance to the near intersection with the sphere along wi.
     let b = wi.dot(to_c);
     let perp2 = (to_c - wi * b).length_squared();
@@ -229,7 +316,16 @@ fn sample_sphere(center: Vec3, radius: f32, p: Vec3, u: Vec2) -> Option<LightSam
     let q = p + wi * dist;
     let n = (q - center).normalize();
     let pdf = 1.0 / (2.0 * PI * omc_max);
-    Some(LightSample { wi, distance: dist, point: q, normal: n, uv: Vec2::ZERO, li: Vec3::ZERO, pdf, delta: false })
+    Some(LightSample {
+        wi,
+        distance: dist,
+        point: q,
+        normal: n,
+        uv: Vec2::ZERO,
+        li: Vec3::ZERO,
+        pdf,
+        delta: false,
+    })
 }
 
 /// Chooses lights with probability proportional to their power.
@@ -246,10 +342,17 @@ impl LightSampler {
         let mut acc = 0.0f64;
         for l in lights {
             let p = l.power();
-            acc += if p.is_finite() && p > 0.0 { f64::from(p) } else { 0.0 };
+            acc += if p.is_finite() && p > 0.0 {
+                f64::from(p)
+            } else {
+                0.0
+            };
             cdf.push(acc as f32);
         }
-        LightSampler { total: acc as f32, cdf }
+        LightSampler {
+            total: acc as f32,
+            cdf,
+        }
     }
 
     /// Picks a light; returns its index and selection probability.
@@ -258,7 +361,10 @@ impl LightSampler {
             return None;
         }
         let target = u * self.total;
-        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1);
         let p = self.pmf(i);
         (p > 0.0).then_some((i, p))
     }
@@ -271,7 +377,8 @@ impl LightSampler {
     pub fn pick_remapped(&self, u: f32) -> Option<(usize, f32, f32)> {
         let (i, p) = self.pick(u)?;
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        let remapped = ((u * self.total - lo) / (self.cdf[i] - lo)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        let remapped =
+            ((u * self.total - lo) / (self.cdf[i] - lo)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
         Some((i, p, remapped))
     }
 
@@ -292,12 +399,23 @@ mod tests {
     #[test]
     fn selection_follows_power() {
         let lights = vec![
-            Light::Point { position: Vec3::ZERO, intensity: Vec3::ONE },
-            Light::Point { position: Vec3::ZERO, intensity: Vec3::ZERO },
-            Light::Point { position: Vec3::ZERO, intensity: Vec3::splat(3.0) },
+            Light::Point {
+                position: Vec3::ZERO,
+                intensity: Vec3::ONE,
+            },
+            Light::Point {
+                position: Vec3::ZERO,
+                intensity: Vec3::ZERO,
+            },
+            Light::Point {
+                position: Vec3::ZERO,
+                intensity: Vec3::splat(3.0),
+            },
         ];
         let s = LightSampler::new(&lights);
-        assert!((s.pmf(0) - 0.25).abs() < 1e-6 && s.pmf(1) == 0.0 && (s.pmf(2) - 0.75).abs() < 1e-6);
+        assert!(
+            (s.pmf(0) - 0.25).abs() < 1e-6 && s.pmf(1) == 0.0 && (s.pmf(2) - 0.75).abs() < 1e-6
+        );
         assert_eq!(s.pick(0.1).unwrap().0, 0);
         assert_eq!(s.pick(0.3).unwrap().0, 2);
         // The remapped number is uniform within the chosen light's share: u = 0.25 + 0.75·v
@@ -320,7 +438,12 @@ mod tests {
         for _ in 0..1000 {
             let s = sample_sphere(c, r, p, Vec2::new(rng.next_f32(), rng.next_f32())).unwrap();
             assert!(((s.point - c).length() - r).abs() < 1e-3, "point on sphere");
-            let l = Light::Sphere { instance: 0, center: c, radius: r, emission: Vec3::ONE };
+            let l = Light::Sphere {
+                instance: 0,
+                center: c,
+                radius: r,
+                emission: Vec3::ONE,
+            };
             assert!((l.pdf(p, s.point, s.normal) - s.pdf).abs() < 1e-3 * s.pdf);
         }
         let solid_angle = 2.0 * PI * one_minus_cos_max(100.0, 4.0);

@@ -34,7 +34,8 @@ pub struct Material {
 }
 
 fn lookup(textures: &[Texture], r: &Option<TextureRef>, uv: Vec2) -> Option<Rgb> {
-    r.as_ref().map(|r| textures[r.texture as usize].lookup(r.transform.transform_point2(uv)))
+    r.as_ref()
+        .map(|r| textures[r.texture as usize].lookup(r.transform.transform_point2(uv)))
 }
 
 impl Material {
@@ -66,9 +67,15 @@ impl Material {
             roughness *= t.y.clamp(0.0, 1.0);
             specular *= t.z.clamp(0.0, 1.0);
         }
-        let diffuse = self.diffuse.unwrap_or((1.0 - specular - self.transmission).max(0.0));
+        let diffuse = self
+            .diffuse
+            .unwrap_or((1.0 - specular - self.transmission).max(0.0));
         // The shading normal must lie on the geometric normal's side.
-        let ns = if hit.ns.dot(hit.ng) < 0.0 { -hit.ns } else { hit.ns };
+        let ns = if hit.ns.dot(hit.ng) < 0.0 {
+            -hit.ns
+        } else {
+            hit.ns
+        };
         Bsdf {
             frame: Frame::from_normal(ns),
             ng: hit.ng,

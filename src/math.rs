@@ -27,7 +27,10 @@ impl Ray {
 
     /// This ray mapped by an affine transform (direction not re-normalised, so `t` is preserved).
     pub fn transformed(&self, m: &Affine3A) -> Ray {
-        Ray { o: m.transform_point3(self.o), d: m.transform_vector3(self.d) }
+        Ray {
+            o: m.transform_point3(self.o),
+            d: m.transform_vector3(self.d),
+        }
     }
 }
 
@@ -42,7 +45,10 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box (union identity).
-    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
 
     /// The box of a set of points.
     pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Aabb {
@@ -51,12 +57,18 @@ impl Aabb {
 
     /// This box enlarged to contain `p`.
     pub fn grow(self, p: Vec3) -> Aabb {
-        Aabb { min: self.min.min(p), max: self.max.max(p) }
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
 
     /// The union of two boxes.
     pub fn union(self, o: Aabb) -> Aabb {
-        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     /// Centre point.
@@ -171,7 +183,11 @@ pub fn offset_origin(p: Vec3, n: Vec3, w: Vec3) -> Vec3 {
         let of = (INT_SCALE * n) as i32;
         let bits = p.to_bits() as i32;
         // Moving the bit pattern up increases |p|; pick the direction that moves along n.
-        let moved = if (p < 0.0) ^ (of < 0) { bits - of.abs() } else { bits + of.abs() };
+        let moved = if (p < 0.0) ^ (of < 0) {
+            bits - of.abs()
+        } else {
+            bits + of.abs()
+        };
         f32::from_bits(moved as u32)
     };
     Vec3::new(step(p.x, n.x), step(p.y, n.y), step(p.z, n.z))
@@ -223,9 +239,16 @@ mod tests {
 
     #[test]
     fn frame_is_orthonormal() {
-        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, 0.8).normalize()] {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.8).normalize(),
+        ] {
             let f = Frame::from_normal(n);
-            assert!(f.s.dot(f.t).abs() < 1e-6 && f.s.dot(n).abs() < 1e-6 && f.t.dot(n).abs() < 1e-6);
+            assert!(
+                f.s.dot(f.t).abs() < 1e-6 && f.s.dot(n).abs() < 1e-6 && f.t.dot(n).abs() < 1e-6
+            );
             assert!((f.s.cross(f.t) - n).length() < 1e-5);
             let v = Vec3::new(0.2, 0.4, -0.3);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-6);

@@ -48,13 +48,20 @@ fn aces(x: f32) -> f32 {
 
 /// The output format for a path, by extension.
 pub fn format_of(path: &Path) -> Result<ImageFormat, ImageIoError> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     match ext.as_str() {
         "png" => Ok(ImageFormat::Png),
         "exr" => Ok(ImageFormat::OpenExr),
         "hdr" => Ok(ImageFormat::Hdr),
         "bmp" => Ok(ImageFormat::Bmp),
-        _ => Err(ImageIoError::Format { path: path.display().to_string(), ext }),
+        _ => Err(ImageIoError::Format {
+            path: path.display().to_string(),
+            ext,
+        }),
     }
 }
 
@@ -62,12 +69,24 @@ pub fn format_of(path: &Path) -> Result<ImageFormat, ImageIoError> {
 /// keep linear floats untouched.
 pub fn write_image(img: &Image, path: &Path, tone: ToneMap) -> Result<(), ImageIoError> {
     let format = format_of(path)?;
-    let io = |message: String| ImageIoError::Io { path: path.display().to_string(), message };
+    let io = |message: String| ImageIoError::Io {
+        path: path.display().to_string(),
+        message,
+    };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new().prefix(".lumo-").suffix(".tmp").tempfile_in(dir).map_err(|e| io(format!("cannot create a temporary file in {}: {e}", dir.display())))?;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".lumo-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(|e| {
+            io(format!(
+                "cannot create a temporary file in {}: {e}",
+                dir.display()
+            ))
+        })?;
     {
         let mut writer = BufWriter::new(tmp.as_file_mut());
         match format {
@@ -83,35 +102,56 @@ pub fn write_image(img: &Image, path: &Path, tone: ToneMap) -> Result<(), ImageI
                     let p = img.pixels[(y * img.width + x) as usize];
                     image::Rgb([map(p.x), map(p.y), map(p.z)])
                 });
-                buf.write_to(&mut writer, format).map_err(|e| io(e.to_string()))?;
+                buf.write_to(&mut writer, format)
+                    .map_err(|e| io(e.to_string()))?;
             }
             _ => {
                 let buf = Rgb32FImage::from_fn(img.width, img.height, |x, y| {
                     let p = img.pixels[(y * img.width + x) as usize];
                     image::Rgb([p.x, p.y, p.z])
                 });
-                buf.write_to(&mut writer, format).map_err(|e| io(e.to_string()))?;
+                buf.write_to(&mut writer, format)
+                    .map_err(|e| io(e.to_string()))?;
             }
         }
         std::io::Write::flush(&mut writer).map_err(|e| io(e.to_string()))?;
     }
     tmp.as_file().sync_all().map_err(|e| io(e.to_string()))?;
-    tmp.persist(path).map_err(|e| io(format!("cannot move the finished image into place: {}", e.error)))?;
+    tmp.persist(path).map_err(|e| {
+        io(format!(
+            "cannot move the finished image into place: {}",
+            e.error
+        ))
+    })?;
     Ok(())
 }
 
 /// Reads a linear float image (EXR or HDR; 8-bit formats are decoded from sRGB).
 pub fn read_image(path: &Path) -> Result<Image, ImageIoError> {
-    let io = |message: String| ImageIoError::Io { path: path.display().to_string(), message };
+    let io = |message: String| ImageIoError::Io {
+        path: path.display().to_string(),
+        message,
+    };
     let dynimg = image::open(path).map_err(|e| io(e.to_string()))?;
-    let linear = matches!(dynimg, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
+    let linear = matches!(
+        dynimg,
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+    );
     let rgb = dynimg.to_rgb32f();
     let pixels = rgb
         .pixels()
         .map(|p| {
             let c = glam::Vec3::new(p[0], p[1], p[2]);
-            if linear { c } else { c.map(crate::math::srgb_to_linear) }
+            if linear {
+                c
+            } else {
+                c.map(crate::math::srgb_to_linear)
+            }
         })
         .collect();
-    Ok(Image { width: rgb.width(), height: rgb.height(), pixels })
+    Ok(Image {
+        width: rgb.width(),
+        height: rgb.height(),
+        pixels,
+    })
 }

@@ -34,7 +34,11 @@ pub struct Image {
 
 impl Image {
     fn squared_errors<'a>(&'a self, other: &'a Image) -> impl Iterator<Item = (DVec3, DVec3)> + 'a {
-        assert_eq!((self.width, self.height), (other.width, other.height), "images differ in size");
+        assert_eq!(
+            (self.width, self.height),
+            (other.width, other.height),
+            "images differ in size"
+        );
         self.pixels.iter().zip(&other.pixels).map(|(a, b)| {
             let d = (*a - *b).as_dvec3();
             (d * d, b.as_dvec3())
@@ -43,19 +47,28 @@ impl Image {
 
     /// Root-mean-square difference over all pixels and channels.
     pub fn rmse(&self, other: &Image) -> f64 {
-        let sum: f64 = self.squared_errors(other).map(|(d2, _)| d2.element_sum()).sum();
+        let sum: f64 = self
+            .squared_errors(other)
+            .map(|(d2, _)| d2.element_sum())
+            .sum();
         (sum / (3.0 * self.pixels.len() as f64)).sqrt()
     }
 
     /// Relative mean squared error against a reference: mean of (x − r)² / (r² + ε).
     pub fn rel_mse(&self, reference: &Image) -> f64 {
-        let sum: f64 = self.squared_errors(reference).map(|(d2, r)| (d2 / (r * r + DVec3::splat(REL_EPSILON))).element_sum()).sum();
+        let sum: f64 = self
+            .squared_errors(reference)
+            .map(|(d2, r)| (d2 / (r * r + DVec3::splat(REL_EPSILON))).element_sum())
+            .sum();
         sum / (3.0 * self.pixels.len() as f64)
     }
 
     /// Mean of all pixels.
     pub fn mean(&self) -> Vec3 {
-        let sum = self.pixels.iter().fold(DVec3::ZERO, |a, p| a + p.as_dvec3());
+        let sum = self
+            .pixels
+            .iter()
+            .fold(DVec3::ZERO, |a, p| a + p.as_dvec3());
         (sum / self.pixels.len() as f64).as_vec3()
     }
 }
@@ -126,7 +139,11 @@ impl PixelSum {
     }
 
     fn mean(&self) -> DVec3 {
-        if self.good == 0 { DVec3::ZERO } else { self.sum / f64::from(self.good) }
+        if self.good == 0 {
+            DVec3::ZERO
+        } else {
+            self.sum / f64::from(self.good)
+        }
     }
 
     /// Variance of the mean, per channel (∞ with fewer than two samples).
@@ -180,7 +197,12 @@ pub fn render_with_error(scene: &Scene, options: &RenderOptions) -> Rendered {
         budget: s.time_budget_s.map(|t| Duration::from_secs_f32(t.max(0.0))),
         seed: s.seed,
     };
-    let (sums, rays) = run_passes(&plan, options, ErrorSource::Neighbours, |x, y, range, stats| render_samples(scene, x, y, range, stats));
+    let (sums, rays) = run_passes(
+        &plan,
+        options,
+        ErrorSource::Neighbours,
+        |x, y, range, stats| render_samples(scene, x, y, range, stats),
+    );
     finish(&plan, &sums, rays, start.elapsed())
 }
 
@@ -210,7 +232,11 @@ enum ErrorSource {
 /// Image, error image and counters from the per-pixel sums.
 fn finish(plan: &Plan, sums: &[PixelSum], rays: u64, elapsed: Duration) -> Rendered {
     let (w, h) = (plan.width, plan.height);
-    let image = Image { width: w, height: h, pixels: sums.iter().map(|p| p.mean().as_vec3()).collect() };
+    let image = Image {
+        width: w,
+        height: h,
+        pixels: sums.iter().map(|p| p.mean().as_vec3()).collect(),
+    };
     let std_error = Image {
         width: w,
         height: h,
@@ -218,7 +244,11 @@ fn finish(plan: &Plan, sums: &[PixelSum], rays: u64, elapsed: Duration) -> Rende
             .iter()
             .map(|p| {
                 let v = p.var_of_mean();
-                if v.is_finite() { v.map(f64::sqrt).as_vec3() } else { Vec3::ZERO }
+                if v.is_finite() {
+                    v.map(f64::sqrt).as_vec3()
+                } else {
+                    Vec3::ZERO
+                }
             })
             .collect(),
     };
@@ -233,12 +263,22 @@ fn finish(plan: &Plan, sums: &[PixelSum], rays: u64, elapsed: Duration) -> Rende
         estimated_rmse,
         estimated_rel_error,
     };
-    Rendered { image, std_error, counts: sums.iter().map(PixelSum::taken).collect(), stats }
+    Rendered {
+        image,
+        std_error,
+        counts: sums.iter().map(PixelSum::taken).collect(),
+        stats,
+    }
 }
 
 /// Takes all samples of a render, pass by pass; `sample(x, y, indices, stats)` returns the sums
 /// of pixel (x, y)'s samples with the given indices. Returns the per-pixel sums and rays cast.
-fn run_passes<F>(plan: &Plan, options: &RenderOptions, source: ErrorSource, sample: F) -> (Vec<PixelSum>, u64)
+fn run_passes<F>(
+    plan: &Plan,
+    options: &RenderOptions,
+    source: ErrorSource,
+    sample: F,
+) -> (Vec<PixelSum>, u64)
 where
     F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
 {
@@ -251,10 +291,13 @@ where
     let rays = AtomicU64::new(0);
     let done = AtomicU64::new(0);
     let total_budget = u64::from(plan.spp) * n;
-    let progressive = plan.budget.is_some() || options.target_rel_error.is_some() || options.adaptive;
+    let progressive =
+        plan.budget.is_some() || options.target_rel_error.is_some() || options.adaptive;
     if !progressive || n == 0 {
         counts.fill(plan.spp);
-        render_pass(plan, &mut sums, &counts, &rays, &done, options, false, &sample);
+        render_pass(
+            plan, &mut sums, &counts, &rays, &done, options, false, &sample,
+        );
         return (sums, rays.into_inner());
     }
     // Uniform pilot of adaptive renders: a quarter of the samples, at most 64 spp (the
@@ -277,14 +320,22 @@ where
             break;
         }
         let mean_taken = taken_total / n;
-        if options.adaptive && !adaptive_phase && mean_taken >= 2 && (mean_taken >= u64::from(pilot_spp) || plan.budget.is_some_and(|b| elapsed * 4 >= b)) {
+        if options.adaptive
+            && !adaptive_phase
+            && mean_taken >= 2
+            && (mean_taken >= u64::from(pilot_spp) || plan.budget.is_some_and(|b| elapsed * 4 >= b))
+        {
             adaptive_phase = true;
         }
         let mut pass_samples = (u64::from(pass_spp) * n).min(total_budget - taken_total);
         let mut time_bound = false;
         if let (Some(b), Some(r)) = (plan.budget, rate) {
             // The pilot of an adaptive render ends at a quarter of the budget.
-            let deadline = if options.adaptive && !adaptive_phase { b / 4 } else { b };
+            let deadline = if options.adaptive && !adaptive_phase {
+                b / 4
+            } else {
+                b
+            };
             let mut fit = (r * deadline.saturating_sub(elapsed).as_secs_f64()) as u64;
             if adaptive_phase && !rate_adaptive {
                 // First adaptive pass: plan a third of the time left, then measure.
@@ -298,7 +349,15 @@ where
             if pass_samples == 0 || (time_bound && pass_samples < n / 16) {
                 break;
             }
-            allocate_adaptive(&sums, plan, source, pass_samples, pass_index, &mut scratch, &mut counts);
+            allocate_adaptive(
+                &sums,
+                plan,
+                source,
+                pass_samples,
+                pass_index,
+                &mut scratch,
+                &mut counts,
+            );
         } else {
             let mut k = pass_samples / n;
             if k == 0 {
@@ -342,7 +401,9 @@ where
         let t0 = Instant::now();
         // Per-pixel timing feeds only the cost model of time-budgeted adaptive passes.
         let timed = options.adaptive && plan.budget.is_some();
-        render_pass(plan, &mut sums, &counts, &rays, &done, options, timed, &sample);
+        render_pass(
+            plan, &mut sums, &counts, &rays, &done, options, timed, &sample,
+        );
         rate = Some(this_pass as f64 / t0.elapsed().as_secs_f64().max(1e-6));
         rate_adaptive = adaptive_phase;
         taken_total += this_pass;
@@ -360,7 +421,11 @@ where
 /// (estimated RMSE, estimated relative error) of the image from its per-pixel variances.
 fn estimate(sums: &[PixelSum]) -> (f64, f64) {
     let n = sums.len() as f64;
-    let mse = sums.iter().map(|p| p.var_of_mean().element_sum() / 3.0).sum::<f64>() / n;
+    let mse = sums
+        .iter()
+        .map(|p| p.var_of_mean().element_sum() / 3.0)
+        .sum::<f64>()
+        / n;
     let rel = sums.iter().map(PixelSum::rel_var).sum::<f64>() / n;
     (mse.sqrt(), rel.sqrt())
 }
@@ -404,7 +469,15 @@ struct Scratch {
 /// reason as its variance: path length correlates with radiance). Timing makes the allocation
 /// depend on the machine, which a render against the clock does anyway; sample budgets
 /// (`--spp`) keep nᵢ ∝ √aᵢ and stay reproducible.
-fn allocate_adaptive(sums: &[PixelSum], plan: &Plan, source: ErrorSource, budget: u64, pass: u64, scratch: &mut Scratch, counts: &mut [u32]) {
+fn allocate_adaptive(
+    sums: &[PixelSum],
+    plan: &Plan,
+    source: ErrorSource,
+    budget: u64,
+    pass: u64,
+    scratch: &mut Scratch,
+    counts: &mut [u32],
+) {
     let (w, h) = (plan.width as usize, plan.height as usize);
     let n = sums.len();
     let per_sample = &mut scratch.per_sample;
@@ -414,10 +487,24 @@ fn allocate_adaptive(sums: &[PixelSum], plan: &Plan, source: ErrorSource, budget
     let cost = &mut scratch.cost;
     cost.clear();
     if plan.budget.is_some() {
-        cost.extend(sums.iter().map(|p| if p.taken() > 0 && p.nanos > 0 { p.nanos as f64 / f64::from(p.taken()) } else { f64::NAN }));
+        cost.extend(sums.iter().map(|p| {
+            if p.taken() > 0 && p.nanos > 0 {
+                p.nanos as f64 / f64::from(p.taken())
+            } else {
+                f64::NAN
+            }
+        }));
     }
-    let known: Vec<f64> = per_sample.iter().copied().filter(|v| v.is_finite()).collect();
-    let global = if known.is_empty() { 0.0 } else { known.iter().sum::<f64>() / known.len() as f64 };
+    let known: Vec<f64> = per_sample
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    let global = if known.is_empty() {
+        0.0
+    } else {
+        known.iter().sum::<f64>() / known.len() as f64
+    };
     let weights = &mut scratch.weights;
     weights.clear();
     weights.extend((0..n).map(|i| {
@@ -443,12 +530,23 @@ fn allocate_adaptive(sums: &[PixelSum], plan: &Plan, source: ErrorSource, budget
                         }
                     }
                 }
-                (if k == 0 { global } else { sum / f64::from(k) }, if c_k == 0 { f64::NAN } else { c_sum / f64::from(c_k) })
+                (
+                    if k == 0 { global } else { sum / f64::from(k) },
+                    if c_k == 0 {
+                        f64::NAN
+                    } else {
+                        c_sum / f64::from(c_k)
+                    },
+                )
             }
         };
         let a = if a.is_finite() { a.max(0.0) } else { global };
         // Equal time: minimising Σ aᵢ/nᵢ subject to Σ cᵢnᵢ = T gives nᵢ ∝ √(aᵢ/cᵢ).
-        if c.is_finite() && c > 0.0 { (a / c).sqrt() } else { a.sqrt() }
+        if c.is_finite() && c > 0.0 {
+            (a / c).sqrt()
+        } else {
+            a.sqrt()
+        }
     }));
     let mean_w = weights.iter().sum::<f64>() / n as f64;
     if mean_w <= 0.0 || !mean_w.is_finite() {
@@ -474,7 +572,10 @@ fn allocate_adaptive(sums: &[PixelSum], plan: &Plan, source: ErrorSource, budget
     let scale = budget as f64 / wish_sum;
     for (i, (c, wish)) in counts.iter_mut().zip(weights.iter()).enumerate() {
         let x = wish * scale;
-        let u = (crate::sampler::mix64(plan.seed ^ crate::sampler::mix64(pass.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ i as u64)) >> 11) as f64 / (1u64 << 53) as f64;
+        let u = (crate::sampler::mix64(
+            plan.seed ^ crate::sampler::mix64(pass.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ i as u64),
+        ) >> 11) as f64
+            / (1u64 << 53) as f64;
         *c = (x + u).floor().min(f64::from(u32::MAX / 2)) as u32;
     }
 }
@@ -482,8 +583,16 @@ fn allocate_adaptive(sums: &[PixelSum], plan: &Plan, source: ErrorSource, budget
 /// Adds `counts[i]` more samples to pixel i, tile by tile in parallel; with `timed`, also
 /// records the wall time each pixel's samples took.
 #[allow(clippy::too_many_arguments)]
-fn render_pass<F>(plan: &Plan, sums: &mut [PixelSum], counts: &[u32], rays: &AtomicU64, done: &AtomicU64, options: &RenderOptions, timed: bool, sample: &F)
-where
+fn render_pass<F>(
+    plan: &Plan,
+    sums: &mut [PixelSum],
+    counts: &[u32],
+    rays: &AtomicU64,
+    done: &AtomicU64,
+    options: &RenderOptions,
+    timed: bool,
+    sample: &F,
+) where
     F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
 {
     let (w, h) = (plan.width, plan.height);
@@ -538,14 +647,23 @@ where
     }
 }
 
-fn render_samples(scene: &Scene, x: u32, y: u32, range: Range<u32>, stats: &mut TraceStats) -> PixelSum {
+fn render_samples(
+    scene: &Scene,
+    x: u32,
+    y: u32,
+    range: Range<u32>,
+    stats: &mut TraceStats,
+) -> PixelSum {
     let s = &scene.settings;
     let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
     let mut acc = PixelSum::default();
     for i in range {
         let mut sampler = Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(i));
         let jitter = sampler.get_2d();
-        let film = Vec2::new((x as f32 + jitter.x) / s.width as f32, (y as f32 + jitter.y) / s.height as f32);
+        let film = Vec2::new(
+            (x as f32 + jitter.x) / s.width as f32,
+            (y as f32 + jitter.y) / s.height as f32,
+        );
         let ray = scene.camera.ray(film, sampler.get_2d());
         let l = radiance(scene, ray, &mut sampler, stats);
         if l.is_finite() {
@@ -574,15 +692,26 @@ mod tests {
     const SMALL: f64 = 0.2;
 
     fn uniform01(seed: u64, x: u32, y: u32, i: u32) -> f64 {
-        (mix64(seed ^ mix64((u64::from(y) << 40) ^ (u64::from(x) << 20) ^ u64::from(i))) >> 11) as f64 / (1u64 << 53) as f64
+        (mix64(seed ^ mix64((u64::from(y) << 40) ^ (u64::from(x) << 20) ^ u64::from(i))) >> 11)
+            as f64
+            / (1u64 << 53) as f64
     }
 
-    fn synthetic(width: u32, seed: u64) -> impl Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync {
+    fn synthetic(
+        width: u32,
+        seed: u64,
+    ) -> impl Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync {
         move |x, y, range, _| {
             let mut acc = PixelSum::default();
             for i in range {
                 let u = uniform01(seed, x, y, i);
-                let v = if x < width / 2 { 0.4 + 0.2 * u } else if u < P { BIG } else { SMALL };
+                let v = if x < width / 2 {
+                    0.4 + 0.2 * u
+                } else if u < P {
+                    BIG
+                } else {
+                    SMALL
+                };
                 let v = DVec3::splat(v);
                 acc.sum += v;
                 acc.sum_sq += v * v;
@@ -607,8 +736,17 @@ mod tests {
     /// unbiased with variance σ²/n).
     fn z_score(source: ErrorSource, seed: u64) -> (f64, Vec<PixelSum>) {
         let (w, h) = (64, 64);
-        let plan = Plan { width: w, height: h, spp: 32, budget: None, seed };
-        let options = RenderOptions { adaptive: true, ..Default::default() };
+        let plan = Plan {
+            width: w,
+            height: h,
+            spp: 32,
+            budget: None,
+            seed,
+        };
+        let options = RenderOptions {
+            adaptive: true,
+            ..Default::default()
+        };
         let (sums, _) = run_passes(&plan, &options, source, synthetic(w, seed));
         let n = sums.len() as f64;
         let (mut err, mut var) = (0.0, 0.0);
@@ -634,20 +772,56 @@ mod tests {
             // Same budget, and the heavy-tailed half got more of it.
             let taken: u64 = sums.iter().map(|p| u64::from(p.taken())).sum();
             assert_eq!(taken, 64 * 64 * 32);
-            let half = |right: bool| sums.iter().enumerate().filter(|(i, _)| (i % 64 >= 32) == right).map(|(_, p)| u64::from(p.taken())).sum::<u64>();
-            assert!(half(true) > 2 * half(false), "right {} vs left {}", half(true), half(false));
+            let half = |right: bool| {
+                sums.iter()
+                    .enumerate()
+                    .filter(|(i, _)| (i % 64 >= 32) == right)
+                    .map(|(_, p)| u64::from(p.taken()))
+                    .sum::<u64>()
+            };
+            assert!(
+                half(true) > 2 * half(false),
+                "right {} vs left {}",
+                half(true),
+                half(false)
+            );
         }
         // Sums of independent unit normals over 4 seeds: divide by √4 for one unit normal.
         let (own, neighbours) = (own / 2.0, neighbours / 2.0);
-        assert!(own < -5.0, "the own-sample rule should show its downward bias: z = {own:.2}");
-        assert!(neighbours.abs() < 3.0, "neighbour rule biased: z = {neighbours:.2}");
+        assert!(
+            own < -5.0,
+            "the own-sample rule should show its downward bias: z = {own:.2}"
+        );
+        assert!(
+            neighbours.abs() < 3.0,
+            "neighbour rule biased: z = {neighbours:.2}"
+        );
     }
 
     #[test]
     fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
-        let plan = Plan { width: 20, height: 12, spp: 24, budget: None, seed: 5 };
-        let (one, _) = run_passes(&plan, &RenderOptions::default(), ErrorSource::Neighbours, synthetic(20, 5));
-        let (passes, _) = run_passes(&plan, &RenderOptions { target_rel_error: Some(0.0), ..Default::default() }, ErrorSource::Neighbours, synthetic(20, 5));
+        let plan = Plan {
+            width: 20,
+            height: 12,
+            spp: 24,
+            budget: None,
+            seed: 5,
+        };
+        let (one, _) = run_passes(
+            &plan,
+            &RenderOptions::default(),
+            ErrorSource::Neighbours,
+            synthetic(20, 5),
+        );
+        let (passes, _) = run_passes(
+            &plan,
+            &RenderOptions {
+                target_rel_error: Some(0.0),
+                ..Default::default()
+            },
+            ErrorSource::Neighbours,
+            synthetic(20, 5),
+        );
         for (a, b) in one.iter().zip(&passes) {
             assert_eq!(a.good, 24);
             assert_eq!(b.good, 24);

@@ -12,7 +12,10 @@ pub struct Pcg32 {
 impl Pcg32 {
     /// A generator on stream `stream` starting from `seed`.
     pub fn new(seed: u64, stream: u64) -> Pcg32 {
-        let mut r = Pcg32 { state: 0, inc: (stream << 1) | 1 };
+        let mut r = Pcg32 {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
         r.next_u32();
         r.state = r.state.wrapping_add(seed);
         r.next_u32();
@@ -23,7 +26,9 @@ impl Pcg32 {
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.inc);
+        self.state = old
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(self.inc);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
@@ -48,7 +53,9 @@ pub fn mix64(mut z: u64) -> u64 {
 /// A tiny LCG for the oracle tests' random scenes and rays (fixed, reproducible cases).
 #[cfg(test)]
 pub(crate) fn test_lcg(state: &mut u64) -> f32 {
-    *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     ((*state >> 40) as f32) / (1u64 << 24) as f32
 }
 
@@ -85,7 +92,13 @@ impl Sampler {
     /// The stream of the given kind.
     pub fn with_kind(kind: SamplerKind, seed: u64, pixel: u64, sample: u64) -> Sampler {
         let key = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)));
-        Sampler { kind, rng: Pcg32::new(mix64(key ^ sample), key), pixel_seed: (key >> 32) as u32 ^ key as u32, reversed_index: (sample as u32).reverse_bits(), dimension: 0 }
+        Sampler {
+            kind,
+            rng: Pcg32::new(mix64(key ^ sample), key),
+            pixel_seed: (key >> 32) as u32 ^ key as u32,
+            reversed_index: (sample as u32).reverse_bits(),
+            dimension: 0,
+        }
     }
 
     /// One uniform number in [0, 1).
@@ -95,7 +108,10 @@ impl Sampler {
             SamplerKind::Independent => self.rng.next_f32(),
             SamplerKind::Sobol => {
                 let hash = self.next_dimension_hash();
-                to_unit(owen_sobol_x(shuffled_index(self.reversed_index, hash), hash))
+                to_unit(owen_sobol_x(
+                    shuffled_index(self.reversed_index, hash),
+                    hash,
+                ))
             }
         }
     }
@@ -105,7 +121,9 @@ impl Sampler {
     pub fn get_2d(&mut self) -> glam::Vec2 {
         match self.kind {
             SamplerKind::Independent => glam::Vec2::new(self.rng.next_f32(), self.rng.next_f32()),
-            SamplerKind::Sobol => owen_sobol_2d_reversed(self.reversed_index, self.next_dimension_hash()),
+            SamplerKind::Sobol => {
+                owen_sobol_2d_reversed(self.reversed_index, self.next_dimension_hash())
+            }
         }
     }
 
@@ -257,9 +275,18 @@ mod tests {
 
     #[test]
     fn streams_are_reproducible_and_distinct() {
-        let a: Vec<f32> = (0..4).map(|_| 0.0).scan(Sampler::new(1, 2, 3), |s, _| Some(s.get_1d())).collect();
-        let b: Vec<f32> = (0..4).map(|_| 0.0).scan(Sampler::new(1, 2, 3), |s, _| Some(s.get_1d())).collect();
-        let c: Vec<f32> = (0..4).map(|_| 0.0).scan(Sampler::new(1, 2, 4), |s, _| Some(s.get_1d())).collect();
+        let a: Vec<f32> = (0..4)
+            .map(|_| 0.0)
+            .scan(Sampler::new(1, 2, 3), |s, _| Some(s.get_1d()))
+            .collect();
+        let b: Vec<f32> = (0..4)
+            .map(|_| 0.0)
+            .scan(Sampler::new(1, 2, 3), |s, _| Some(s.get_1d()))
+            .collect();
+        let c: Vec<f32> = (0..4)
+            .map(|_| 0.0)
+            .scan(Sampler::new(1, 2, 4), |s, _| Some(s.get_1d()))
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }
@@ -278,7 +305,10 @@ mod tests {
                 for p in &pts {
                     cells[((p.y * ny as f32) as u32 * nx + (p.x * nx as f32) as u32) as usize] += 1;
                 }
-                assert!(cells.iter().all(|&c| c == 1), "seed {seed}: {nx}×{ny} grid not stratified");
+                assert!(
+                    cells.iter().all(|&c| c == 1),
+                    "seed {seed}: {nx}×{ny} grid not stratified"
+                );
             }
             let f = |p: &glam::Vec2| (p.x * 3.0).sin() * (p.y * 2.0).cos() + p.x * p.y;
             let exact = (1.0 - 3f32.cos()) / 3.0 * (2f32.sin() / 2.0) + 0.25;
@@ -292,21 +322,29 @@ mod tests {
     #[test]
     fn sampler_dimensions_are_stratified_across_a_pixels_samples() {
         let n = 256u64;
-        let mut samplers: Vec<Sampler> = (0..n).map(|i| Sampler::with_kind(SamplerKind::Sobol, 3, 41, i)).collect();
+        let mut samplers: Vec<Sampler> = (0..n)
+            .map(|i| Sampler::with_kind(SamplerKind::Sobol, 3, 41, i))
+            .collect();
         for dim in 0..6 {
             if dim % 2 == 0 {
                 let mut cells = vec![0u32; n as usize];
                 for s in &mut samplers {
                     cells[(s.get_1d() * n as f32) as usize] += 1;
                 }
-                assert!(cells.iter().all(|&c| c == 1), "1D dimension {dim} not stratified");
+                assert!(
+                    cells.iter().all(|&c| c == 1),
+                    "1D dimension {dim} not stratified"
+                );
             } else {
                 let mut cells = vec![0u32; n as usize];
                 for s in &mut samplers {
                     let p = s.get_2d();
                     cells[(p.y * 16.0) as usize * 16 + (p.x * 16.0) as usize] += 1;
                 }
-                assert!(cells.iter().all(|&c| c == 1), "2D dimension {dim} not stratified");
+                assert!(
+                    cells.iter().all(|&c| c == 1),
+                    "2D dimension {dim} not stratified"
+                );
             }
         }
     }
@@ -314,8 +352,15 @@ mod tests {
     #[test]
     fn sobol_tables_equal_the_definition() {
         let mut r = Pcg32::new(4, 4);
-        for i in (0..5000).map(|_| r.next_u32()).chain([0, 1, 2, 3, u32::MAX, 1 << 31]) {
-            assert_eq!(sobol_dim1_reversed(i), sobol_dim1_loop(i).reverse_bits(), "index {i}");
+        for i in (0..5000)
+            .map(|_| r.next_u32())
+            .chain([0, 1, 2, 3, u32::MAX, 1 << 31])
+        {
+            assert_eq!(
+                sobol_dim1_reversed(i),
+                sobol_dim1_loop(i).reverse_bits(),
+                "index {i}"
+            );
         }
     }
 

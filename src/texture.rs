@@ -44,7 +44,11 @@ impl Texture {
             Wrap::Clamp => i.clamp(0, n - 1),
             Wrap::Mirror => {
                 let m = i.rem_euclid(2 * n);
-                if m < n { m } else { 2 * n - 1 - m }
+                if m < n {
+                    m
+                } else {
+                    2 * n - 1 - m
+                }
             }
         };
         k as usize
@@ -78,7 +82,12 @@ mod tests {
 
     fn two_by_two(wrap: Wrap) -> Texture {
         // Top row: red, green; bottom row: blue, white.
-        Texture { width: 2, height: 2, texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE], wrap }
+        Texture {
+            width: 2,
+            height: 2,
+            texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
+            wrap,
+        }
     }
 
     #[test]

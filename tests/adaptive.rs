@@ -25,16 +25,26 @@ fn cornell_glass(spp: u32, seed: u64, sampler: SamplerKind) -> lumo::scene::Scen
 
 /// The 128² reference averaged over 2×2 blocks.
 fn reference() -> Image {
-    let r = lumo::output::read_image(&common::root().join("tests/reference/cornell_glass_4096.exr")).unwrap();
+    let r =
+        lumo::output::read_image(&common::root().join("tests/reference/cornell_glass_4096.exr"))
+            .unwrap();
     assert_eq!((r.width, r.height), (2 * SIZE, 2 * SIZE));
     let w = r.width as usize;
     let pixels = (0..(SIZE * SIZE) as usize)
         .map(|i| {
             let (x, y) = (2 * (i % SIZE as usize), 2 * (i / SIZE as usize));
-            (r.pixels[y * w + x] + r.pixels[y * w + x + 1] + r.pixels[(y + 1) * w + x] + r.pixels[(y + 1) * w + x + 1]) * 0.25
+            (r.pixels[y * w + x]
+                + r.pixels[y * w + x + 1]
+                + r.pixels[(y + 1) * w + x]
+                + r.pixels[(y + 1) * w + x + 1])
+                * 0.25
         })
         .collect();
-    Image { width: SIZE, height: SIZE, pixels }
+    Image {
+        width: SIZE,
+        height: SIZE,
+        pixels,
+    }
 }
 
 /// Per channel: (Σ over pixels of adaptive − uniform, variance of that sum) for two renders with
@@ -51,7 +61,8 @@ fn paired_difference(adaptive: &Rendered, uniform: &Rendered) -> [(f64, f64); 3]
         for i in 0..uniform.image.pixels.len() {
             let (n, u) = (f64::from(adaptive.counts[i]), f64::from(uniform.counts[i]));
             sum += f64::from(adaptive.image.pixels[i][c]) - f64::from(uniform.image.pixels[i][c]);
-            var += f64::from(uniform.std_error.pixels[i][c]).powi(2) * u * (1.0 / n - 1.0 / u).abs();
+            var +=
+                f64::from(uniform.std_error.pixels[i][c]).powi(2) * u * (1.0 / n - 1.0 / u).abs();
         }
         (sum, var)
     })
@@ -70,7 +81,14 @@ fn paired_difference(adaptive: &Rendered, uniform: &Rendered) -> [(f64, f64); 3]
 fn adaptive_image_mean_is_unbiased_within_measured_noise() {
     let reference = reference();
     let n = f64::from(SIZE * SIZE);
-    let ref_mean: [f64; 3] = std::array::from_fn(|c| reference.pixels.iter().map(|p| f64::from(p[c])).sum::<f64>() / n);
+    let ref_mean: [f64; 3] = std::array::from_fn(|c| {
+        reference
+            .pixels
+            .iter()
+            .map(|p| f64::from(p[c]))
+            .sum::<f64>()
+            / n
+    });
     let spp = 32u32;
     let seeds = [11u64, 12, 13, 14, 15, 16, 17, 18];
     let (mut paired, mut paired_var) = ([0.0f64; 3], [0.0f64; 3]);
@@ -78,32 +96,65 @@ fn adaptive_image_mean_is_unbiased_within_measured_noise() {
     for seed in seeds {
         let scene = cornell_glass(spp, seed, SamplerKind::Independent);
         let uniform = render_with_error(&scene, &RenderOptions::default());
-        let adaptive = render_with_error(&scene, &RenderOptions { adaptive: true, ..Default::default() });
-        assert_eq!(adaptive.stats.samples, u64::from(SIZE * SIZE * spp), "the budget is kept exactly");
+        let adaptive = render_with_error(
+            &scene,
+            &RenderOptions {
+                adaptive: true,
+                ..Default::default()
+            },
+        );
+        assert_eq!(
+            adaptive.stats.samples,
+            u64::from(SIZE * SIZE * spp),
+            "the budget is kept exactly"
+        );
         assert!(adaptive.image.pixels.iter().all(|p| p.is_finite()));
-        for (c, (d, v)) in paired_difference(&adaptive, &uniform).into_iter().enumerate() {
+        for (c, (d, v)) in paired_difference(&adaptive, &uniform)
+            .into_iter()
+            .enumerate()
+        {
             paired[c] += d;
             paired_var[c] += v;
         }
         for (k, r) in [&uniform, &adaptive].into_iter().enumerate() {
             for c in 0..3 {
-                vs_ref[k][c] += r.image.pixels.iter().map(|p| f64::from(p[c])).sum::<f64>() / n - ref_mean[c];
-                vs_ref_var[k][c] += r.std_error.pixels.iter().map(|e| f64::from(e[c]).powi(2)).sum::<f64>() / (n * n);
+                vs_ref[k][c] +=
+                    r.image.pixels.iter().map(|p| f64::from(p[c])).sum::<f64>() / n - ref_mean[c];
+                vs_ref_var[k][c] += r
+                    .std_error
+                    .pixels
+                    .iter()
+                    .map(|e| f64::from(e[c]).powi(2))
+                    .sum::<f64>()
+                    / (n * n);
             }
         }
     }
     let s = seeds.len() as f64;
     for c in 0..3 {
         let z = paired[c] / paired_var[c].sqrt();
-        eprintln!("channel {c}: adaptive − uniform = {:+.3}% of the mean, z = {z:+.2}", 100.0 * paired[c] / n / s / ref_mean[c]);
-        assert!(z.abs() < 4.0, "channel {c}: adaptive image mean off the uniform one by {:+.3}% (z = {z:.2})", 100.0 * paired[c] / n / s / ref_mean[c]);
+        eprintln!(
+            "channel {c}: adaptive − uniform = {:+.3}% of the mean, z = {z:+.2}",
+            100.0 * paired[c] / n / s / ref_mean[c]
+        );
+        assert!(
+            z.abs() < 4.0,
+            "channel {c}: adaptive image mean off the uniform one by {:+.3}% (z = {z:.2})",
+            100.0 * paired[c] / n / s / ref_mean[c]
+        );
         for (k, name) in ["uniform", "adaptive"].into_iter().enumerate() {
             // The reference's own noise (4096 spp at 4× the pixels), the same in every seed's
             // difference: its variance is a fraction spp / (4 · 4096) of one render's.
             let var = vs_ref_var[k][c] * (1.0 + s * f64::from(spp) / (4 * REF_SPP) as f64);
             let z = vs_ref[k][c] / var.sqrt();
-            eprintln!("  {name}: mean − reference = {:+.3}%, z = {z:+.2}", 100.0 * vs_ref[k][c] / s / ref_mean[c]);
-            assert!(z.abs() < 4.0, "{name}, channel {c}: image mean off the reference (z = {z:.2})");
+            eprintln!(
+                "  {name}: mean − reference = {:+.3}%, z = {z:+.2}",
+                100.0 * vs_ref[k][c] / s / ref_mean[c]
+            );
+            assert!(
+                z.abs() < 4.0,
+                "{name}, channel {c}: image mean off the reference (z = {z:.2})"
+            );
         }
     }
 }
@@ -121,11 +172,25 @@ fn adaptive_sampling_lowers_the_relative_error_at_equal_samples() {
     for seed in seeds {
         let scene = cornell_glass(spp, seed, SamplerKind::Sobol);
         let u = render_with_error(&scene, &RenderOptions::default());
-        let a = render_with_error(&scene, &RenderOptions { adaptive: true, ..Default::default() });
+        let a = render_with_error(
+            &scene,
+            &RenderOptions {
+                adaptive: true,
+                ..Default::default()
+            },
+        );
         assert_eq!(u.stats.samples, a.stats.samples);
         uniform += u.image.rel_mse(&reference);
         adaptive += a.image.rel_mse(&reference);
     }
-    eprintln!("relMSE at {spp} spp, mean of {} seeds: uniform {:.5}, adaptive {:.5}", seeds.len(), uniform / 2.0, adaptive / 2.0);
-    assert!(adaptive < 0.9 * uniform, "adaptive relMSE {adaptive} vs uniform {uniform}");
+    eprintln!(
+        "relMSE at {spp} spp, mean of {} seeds: uniform {:.5}, adaptive {:.5}",
+        seeds.len(),
+        uniform / 2.0,
+        adaptive / 2.0
+    );
+    assert!(
+        adaptive < 0.9 * uniform,
+        "adaptive relMSE {adaptive} vs uniform {uniform}"
+    );
 }

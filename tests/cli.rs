@@ -16,12 +16,26 @@ fn renders_a_tiny_cornell_box_to_png_and_exr() {
     for ext in ["png", "exr", "hdr", "bmp"] {
         let out = dir.path().join(format!("c.{ext}"));
         let assert = lumo()
-            .args(["render", "scenes/cornell.json", "--spp", "2", "--width", "24", "--height", "16", "-q", "-o"])
+            .args([
+                "render",
+                "scenes/cornell.json",
+                "--spp",
+                "2",
+                "--width",
+                "24",
+                "--height",
+                "16",
+                "-q",
+                "-o",
+            ])
             .arg(&out)
             .assert()
             .success();
         let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
-        assert!(stderr.contains("rendered 24×16 at 2 spp"), "summary line missing: {stderr}");
+        assert!(
+            stderr.contains("rendered 24×16 at 2 spp"),
+            "summary line missing: {stderr}"
+        );
         let img = image::open(&out).unwrap();
         assert_eq!((img.width(), img.height()), (24, 16));
     }
@@ -34,20 +48,51 @@ fn a_failed_render_keeps_the_previous_image() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("keep.png");
     std::fs::write(&out, b"previous image").unwrap();
-    lumo().args(["render", "tests/invalid/three_mistakes.json", "-o"]).arg(&out).assert().code(2);
+    lumo()
+        .args(["render", "tests/invalid/three_mistakes.json", "-o"])
+        .arg(&out)
+        .assert()
+        .code(2);
     assert_eq!(std::fs::read(&out).unwrap(), b"previous image");
 }
 
 #[test]
 fn validate_exit_codes_and_messages() {
-    lumo().args(["validate", "scenes/cornell.json"]).assert().success().stdout(predicates::str::contains("ok"));
-    let out = lumo().args(["validate", "scenes/cornell.json", "tests/invalid/three_mistakes.json"]).assert().code(2);
+    lumo()
+        .args(["validate", "scenes/cornell.json"])
+        .assert()
+        .success()
+        .stdout(predicates::str::contains("ok"));
+    let out = lumo()
+        .args([
+            "validate",
+            "scenes/cornell.json",
+            "tests/invalid/three_mistakes.json",
+        ])
+        .assert()
+        .code(2);
     let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
-    for needle in ["3 problems", "three_mistakes.json:3:", "camera.up", "three_mistakes.json:5:", "materials.mix", "three_mistakes.json:8:", "objects[0].sphere.radius"] {
+    for needle in [
+        "3 problems",
+        "three_mistakes.json:3:",
+        "camera.up",
+        "three_mistakes.json:5:",
+        "materials.mix",
+        "three_mistakes.json:8:",
+        "objects[0].sphere.radius",
+    ] {
         assert!(err.contains(needle), "`{needle}` missing from:\n{err}");
     }
-    lumo().args(["validate", "no/such/file.json"]).assert().code(1).stderr(predicates::str::contains("cannot read"));
-    lumo().args(["validate", "Cargo.toml"]).assert().code(2).stderr(predicates::str::contains("input kind"));
+    lumo()
+        .args(["validate", "no/such/file.json"])
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("cannot read"));
+    lumo()
+        .args(["validate", "Cargo.toml"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("input kind"));
 }
 
 #[test]
@@ -59,9 +104,20 @@ fn schema_command_prints_the_checked_in_schema() {
 
 #[test]
 fn bad_arguments_are_invalid_input() {
-    lumo().args(["render", "scenes/cornell.json", "-o", "x.jpg"]).assert().code(2).stderr(predicates::str::contains("unsupported image format"));
-    lumo().args(["render", "scenes/cornell.json", "-o", "x.png", "--spp", "0"]).assert().code(2);
+    lumo()
+        .args(["render", "scenes/cornell.json", "-o", "x.jpg"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("unsupported image format"));
+    lumo()
+        .args(["render", "scenes/cornell.json", "-o", "x.png", "--spp", "0"])
+        .assert()
+        .code(2);
     for sub in ["render", "validate", "schema"] {
-        lumo().args([sub, "--help"]).assert().success().stdout(predicates::str::contains("Example:"));
+        lumo()
+            .args([sub, "--help"])
+            .assert()
+            .success()
+            .stdout(predicates::str::contains("Example:"));
     }
 }

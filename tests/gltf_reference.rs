@@ -20,7 +20,8 @@ const MODELS: [&str; 3] = [
 ];
 
 fn render(path: &std::path::Path, spp: u32, seed: u64) -> Image {
-    let mut inp = load_with(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.message));
+    let mut inp =
+        load_with(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.message));
     inp.scene.image.width = SIZE;
     inp.scene.image.height = SIZE;
     inp.scene.render.spp = spp;
@@ -31,7 +32,9 @@ fn render(path: &std::path::Path, spp: u32, seed: u64) -> Image {
 
 #[test]
 fn sample_models_match_their_reference_images() {
-    let Some(shared) = common::shared() else { return };
+    let Some(shared) = common::shared() else {
+        return;
+    };
     let bless = std::env::var_os("LUMO_BLESS").is_some();
     for model in MODELS {
         let path = shared.join("gltf").join(model);
@@ -39,15 +42,24 @@ fn sample_models_match_their_reference_images() {
         let reference_path = common::root().join(format!("tests/reference/gltf/{name}.exr"));
         if bless {
             std::fs::create_dir_all(reference_path.parent().unwrap()).unwrap();
-            lumo::output::write_image(&render(&path, REFERENCE_SPP, 1000), &reference_path, lumo::output::ToneMap::Clamp).unwrap();
+            lumo::output::write_image(
+                &render(&path, REFERENCE_SPP, 1000),
+                &reference_path,
+                lumo::output::ToneMap::Clamp,
+            )
+            .unwrap();
         }
-        let reference = lumo::output::read_image(&reference_path).unwrap_or_else(|e| panic!("{e} (run with LUMO_BLESS=1 to create it)"));
+        let reference = lumo::output::read_image(&reference_path)
+            .unwrap_or_else(|e| panic!("{e} (run with LUMO_BLESS=1 to create it)"));
         let (a, b) = (render(&path, SPP, 1), render(&path, SPP, 2));
         let noise = a.rmse(&b) / 2f64.sqrt();
         // The reference's own noise is that of SPP samples scaled by √(SPP / REFERENCE_SPP).
         let expected = noise * (1.0 + f64::from(SPP) / f64::from(REFERENCE_SPP)).sqrt();
         let error = a.rmse(&reference);
         eprintln!("{name}: RMSE vs reference {error:.5}, expected from noise {expected:.5}");
-        assert!(error <= 1.2 * expected + 1e-6, "{name}: RMSE {error} vs reference, noise explains {expected}");
+        assert!(
+            error <= 1.2 * expected + 1e-6,
+            "{name}: RMSE {error} vs reference, noise explains {expected}"
+        );
     }
 }

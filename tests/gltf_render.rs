@@ -27,23 +27,39 @@ fn samples(shared: &std::path::Path) -> Vec<PathBuf> {
 
 #[test]
 fn every_sample_model_renders_without_error_or_nan() {
-    let Some(shared) = common::shared() else { return };
+    let Some(shared) = common::shared() else {
+        return;
+    };
     let files = samples(&shared);
     assert!(files.len() >= 20, "only {} sample files", files.len());
     let external = GltfData::default();
     for f in &files {
-        let mut inp = load_with(f, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}: {}", f.display(), e.message));
+        let mut inp = load_with(f, &LoadOptions::default())
+            .unwrap_or_else(|e| panic!("{}: {}", f.display(), e.message));
         inp.scene.image.width = 48;
         inp.scene.image.height = 48;
         inp.scene.render.spp = 4;
-        let (scene, _warnings) = lumo::scene::build(&inp.scene, &inp.base_dir, &external).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        let (scene, _warnings) = lumo::scene::build(&inp.scene, &inp.base_dir, &external)
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         let (image, stats) = lumo::render::render(&scene, &lumo::render::RenderOptions::default());
         assert_eq!(stats.nan_samples, 0, "{}: NaN samples", f.display());
-        assert!(image.pixels.iter().all(|p| p.is_finite()), "{}: non-finite pixel", f.display());
+        assert!(
+            image.pixels.iter().all(|p| p.is_finite()),
+            "{}: non-finite pixel",
+            f.display()
+        );
         // Something is visible: not every pixel is the background.
         let bg = inp.scene.background.color;
-        let differs = image.pixels.iter().filter(|p| (p.x - bg[0]).abs() + (p.y - bg[1]).abs() + (p.z - bg[2]).abs() > 1e-3).count();
-        assert!(differs > 20, "{}: only {differs} pixels show the model", f.display());
+        let differs = image
+            .pixels
+            .iter()
+            .filter(|p| (p.x - bg[0]).abs() + (p.y - bg[1]).abs() + (p.z - bg[2]).abs() > 1e-3)
+            .count();
+        assert!(
+            differs > 20,
+            "{}: only {differs} pixels show the model",
+            f.display()
+        );
     }
 }
 
@@ -52,7 +68,13 @@ fn convert_writes_gltf_that_renders_like_the_scene() {
     // scenes/cornell.json → .glb → render: same image as the JSON (the export is exact).
     let dir = tempfile::tempdir().unwrap();
     let glb = dir.path().join("cornell.glb");
-    assert_cmd::Command::cargo_bin("lumo").unwrap().current_dir(common::root()).args(["convert", "scenes/cornell.json", "-o"]).arg(&glb).assert().success();
+    assert_cmd::Command::cargo_bin("lumo")
+        .unwrap()
+        .current_dir(common::root())
+        .args(["convert", "scenes/cornell.json", "-o"])
+        .arg(&glb)
+        .assert()
+        .success();
     let json = common::root().join("scenes/cornell.json");
     let external = GltfData::default();
     let mut imgs = Vec::new();
@@ -69,14 +91,29 @@ fn convert_writes_gltf_that_renders_like_the_scene() {
 
 #[test]
 fn cli_converts_gltf_to_json_and_reports_camera_errors() {
-    let Some(shared) = common::shared() else { return };
+    let Some(shared) = common::shared() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("duck.json");
     let lumo = || assert_cmd::Command::cargo_bin("lumo").unwrap();
-    lumo().arg("convert").arg(shared.join("gltf/Duck/glTF/Duck.gltf")).arg("-o").arg(&json).assert().success();
+    lumo()
+        .arg("convert")
+        .arg(shared.join("gltf/Duck/glTF/Duck.gltf"))
+        .arg("-o")
+        .arg(&json)
+        .assert()
+        .success();
     // The written scene references the glTF file relative to its own folder and renders.
     let png = dir.path().join("duck.png");
-    lumo().args(["render", "--spp", "1", "--width", "16", "--height", "16", "-q", "-o"]).arg(&png).arg(&json).assert().success();
+    lumo()
+        .args([
+            "render", "--spp", "1", "--width", "16", "--height", "16", "-q", "-o",
+        ])
+        .arg(&png)
+        .arg(&json)
+        .assert()
+        .success();
     assert!(png.is_file());
     let out = lumo()
         .args(["render", "--camera", "1", "-q", "-o"])
@@ -85,5 +122,8 @@ fn cli_converts_gltf_to_json_and_reports_camera_errors() {
         .assert()
         .code(2);
     let stderr = String::from_utf8_lossy(&out.get_output().stderr).to_string();
-    assert!(stderr.contains("cameras[1]") && stderr.contains("orthographic"), "{stderr}");
+    assert!(
+        stderr.contains("cameras[1]") && stderr.contains("orthographic"),
+        "{stderr}"
+    );
 }

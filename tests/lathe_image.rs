@@ -35,12 +35,23 @@ fn textured_vase_exact_and_finely_tessellated_agree_within_noise() {
     let dir = common::root().join("scenes");
     let desc = common::load_scene(&dir.join("lathe_vase.json"));
     // The same surface as a mesh: tessellate the lathe built from the scene's profile.
-    let (k, lathe_obj) = desc.objects.iter().enumerate().find_map(|(k, o)| match o {
-        Object::Lathe(l) => Some((k, l.clone())),
-        _ => None,
-    }).expect("the vase scene has a lathe");
-    let lumo_schema::Profile::Bezier(b) = &lathe_obj.profile else { panic!("the vase is a Bézier profile") };
-    let pts: Vec<[f64; 2]> = b.points.iter().map(|p| [p[0] as f64, p[1] as f64]).collect();
+    let (k, lathe_obj) = desc
+        .objects
+        .iter()
+        .enumerate()
+        .find_map(|(k, o)| match o {
+            Object::Lathe(l) => Some((k, l.clone())),
+            _ => None,
+        })
+        .expect("the vase scene has a lathe");
+    let lumo_schema::Profile::Bezier(b) = &lathe_obj.profile else {
+        panic!("the vase is a Bézier profile")
+    };
+    let pts: Vec<[f64; 2]> = b
+        .points
+        .iter()
+        .map(|p| [p[0] as f64, p[1] as f64])
+        .collect();
     let lathe = lumo::lathe::Lathe::new(lumo::lathe::Profile::bezier(&pts).expect("valid profile"));
     let t = lathe.tessellate(512, 512);
     let f = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
@@ -70,5 +81,8 @@ fn textured_vase_exact_and_finely_tessellated_agree_within_noise() {
     // Both comparisons are against an independent render with seed 2; with equal geometry and
     // texture mapping the two RMSEs agree (measured: 0.01136 and 0.01136), so allow 15%. A
     // texture shifted by 1/16 turn on the mesh gives 0.123 (11 × the noise) and fails.
-    assert!(diff <= 1.15 * noise, "exact vs tessellated RMSE {diff} exceeds 1.15 × noise {noise}");
+    assert!(
+        diff <= 1.15 * noise,
+        "exact vs tessellated RMSE {diff} exceeds 1.15 × noise {noise}"
+    );
 }

@@ -33,7 +33,8 @@ fn txt_files(dir: &Path) -> Vec<PathBuf> {
 
 /// Loads a legacy scene like `lumo render` does, overrides size and samples, builds and renders.
 fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, spp: u32) -> Image {
-    let mut input = load_with(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.message));
+    let mut input =
+        load_with(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.message));
     let s = &mut input.scene;
     s.image.width = w;
     s.image.height = h;
@@ -42,13 +43,36 @@ fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, sp
     if let Some(i) = integrator {
         s.render.integrator = i;
     }
-    let built = match lumo::scene::build(&input.scene, &input.base_dir, &lumo::scene::build::NoExternalData) {
+    let built = match lumo::scene::build(
+        &input.scene,
+        &input.base_dir,
+        &lumo::scene::build::NoExternalData,
+    ) {
         Ok((scene, _)) => scene,
         Err(e) => panic!("{}: {e}", path.display()),
     };
-    let (img, stats) = render(&built, &RenderOptions { progress: None, target_rel_error: None, adaptive: false });
-    assert_eq!(stats.nan_samples, 0, "{}: {} NaN/Inf samples ({integrator:?})", path.display(), stats.nan_samples);
-    assert!(img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0), "{}: non-finite or negative pixel", path.display());
+    let (img, stats) = render(
+        &built,
+        &RenderOptions {
+            progress: None,
+            target_rel_error: None,
+            adaptive: false,
+        },
+    );
+    assert_eq!(
+        stats.nan_samples,
+        0,
+        "{}: {} NaN/Inf samples ({integrator:?})",
+        path.display(),
+        stats.nan_samples
+    );
+    assert!(
+        img.pixels
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0),
+        "{}: non-finite or negative pixel",
+        path.display()
+    );
     img
 }
 
@@ -67,7 +91,11 @@ fn legacy_contact_sheet() {
     let scenes = legacy_scenes();
     let cols = 6u32;
     let rows = (scenes.len() as u32).div_ceil(cols);
-    let mut sheet = Image { width: cols * T, height: rows * T, pixels: vec![lumo::math::Vec3::ZERO; (cols * T * rows * T) as usize] };
+    let mut sheet = Image {
+        width: cols * T,
+        height: rows * T,
+        pixels: vec![lumo::math::Vec3::ZERO; (cols * T * rows * T) as usize],
+    };
     let mut lit = 0;
     for (i, path) in scenes.iter().enumerate() {
         eprintln!("contact sheet cell {i}: {}", path.display());
@@ -80,14 +108,19 @@ fn legacy_contact_sheet() {
         let (cx, cy) = ((i as u32 % cols) * T, (i as u32 / cols) * T);
         for y in 0..T {
             for x in 0..T {
-                sheet.pixels[((cy + y) * sheet.width + cx + x) as usize] = img.pixels[(y * T + x) as usize];
+                sheet.pixels[((cy + y) * sheet.width + cx + x) as usize] =
+                    img.pixels[(y * T + x) as usize];
             }
         }
     }
     // Every scene except the curves-only one (scene08_core: nothing to render) shows something.
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("legacy-contact-sheet.png");
     lumo::output::write_image(&sheet, &out, lumo::output::ToneMap::Aces).unwrap();
-    assert!(lit + 1 >= scenes.len(), "only {lit} of {} thumbnails are not black", scenes.len());
+    assert!(
+        lit + 1 >= scenes.len(),
+        "only {lit} of {} thumbnails are not black",
+        scenes.len()
+    );
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("legacy-contact-sheet.png");
     lumo::output::write_image(&sheet, &out, lumo::output::ToneMap::Aces).unwrap();
     eprintln!("contact sheet: {}", out.display());
@@ -97,25 +130,53 @@ fn legacy_contact_sheet() {
 fn cli_renders_a_legacy_scene_and_reports_legacy_errors() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cornell.png");
-    let scene = common::root().join("scenes").join("legacy").join("cornell_box.txt");
+    let scene = common::root()
+        .join("scenes")
+        .join("legacy")
+        .join("cornell_box.txt");
     let ok = assert_cmd::Command::cargo_bin("lumo")
         .unwrap()
-        .args(["render", "-q", "--spp", "1", "--width", "16", "--height", "16", "--lights", "auto"])
+        .args([
+            "render", "-q", "--spp", "1", "--width", "16", "--height", "16", "--lights", "auto",
+        ])
         .arg(&scene)
         .arg("-o")
         .arg(&out)
         .output()
         .unwrap();
-    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
     assert!(out.is_file());
     // The importer's warnings reach the user with their legacy line:column.
     let stderr = String::from_utf8_lossy(&ok.stderr);
-    assert!(stderr.contains("cornell_box.txt: 10:1: dropping the Lights block"), "{stderr}");
+    assert!(
+        stderr.contains("cornell_box.txt: 10:1: dropping the Lights block"),
+        "{stderr}"
+    );
 
-    let bad = common::root().join("converters").join("tests").join("legacy-invalid").join("misspelt_material_field.txt");
-    let fail = assert_cmd::Command::cargo_bin("lumo").unwrap().arg("render").arg(&bad).arg("-o").arg(&out).output().unwrap();
+    let bad = common::root()
+        .join("converters")
+        .join("tests")
+        .join("legacy-invalid")
+        .join("misspelt_material_field.txt");
+    let fail = assert_cmd::Command::cargo_bin("lumo")
+        .unwrap()
+        .arg("render")
+        .arg(&bad)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
     assert_eq!(fail.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&fail.stderr);
-    assert!(stderr.contains("misspelt_material_field.txt:3:16: error: unknown material field `diffuseColour`"), "{stderr}");
+    assert!(
+        stderr.contains(
+            "misspelt_material_field.txt:3:16: error: unknown material field `diffuseColour`"
+        ),
+        "{stderr}"
+    );
     assert!(stderr.contains("did you mean `diffuseColor`?"), "{stderr}");
 }

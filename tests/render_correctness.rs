@@ -18,14 +18,22 @@ fn scene_from(json: &str) -> lumo::scene::Scene {
 fn classify(scene: &lumo::scene::Scene, r: f32) -> Vec<Option<bool>> {
     let (w, h) = (scene.settings.width, scene.settings.height);
     let hits = |fx: f32, fy: f32| {
-        let ray = scene.camera.ray(lumo::math::Vec2::new(fx / w as f32, fy / h as f32), lumo::math::Vec2::ZERO);
+        let ray = scene.camera.ray(
+            lumo::math::Vec2::new(fx / w as f32, fy / h as f32),
+            lumo::math::Vec2::ZERO,
+        );
         let b = ray.o.dot(ray.d);
         b * b - (ray.o.length_squared() - r * r) >= 0.0
     };
     (0..h)
         .flat_map(|y| (0..w).map(move |x| (x as f32, y as f32)))
         .map(|(x, y)| {
-            let c = [hits(x, y), hits(x + 1.0, y), hits(x, y + 1.0), hits(x + 1.0, y + 1.0)];
+            let c = [
+                hits(x, y),
+                hits(x + 1.0, y),
+                hits(x, y + 1.0),
+                hits(x + 1.0, y + 1.0),
+            ];
             if c.iter().all(|&v| v) {
                 Some(true)
             } else if c.iter().all(|&v| !v) {
@@ -49,7 +57,9 @@ const FURNACE: &str = r#"{
 
 #[test]
 fn white_furnace_diffuse_sphere_reflects_albedo_times_background() {
-    let json = FURNACE.replace("SPP", "4").replace("MATERIAL", r#"{ "base_color": [0.8, 0.5, 0.25] }"#);
+    let json = FURNACE
+        .replace("SPP", "4")
+        .replace("MATERIAL", r#"{ "base_color": [0.8, 0.5, 0.25] }"#);
     let scene = scene_from(&json);
     let img = common::render(&scene);
     let bg = Vec3::new(0.5, 0.7, 0.9);
@@ -59,7 +69,10 @@ fn white_furnace_diffuse_sphere_reflects_albedo_times_background() {
         match class {
             // A convex diffuse sphere sees only the background: every sample is exactly a·L.
             Some(true) => {
-                assert!((*p - expect_on).abs().max_element() < 1e-5, "{p} vs {expect_on}");
+                assert!(
+                    (*p - expect_on).abs().max_element() < 1e-5,
+                    "{p} vs {expect_on}"
+                );
                 counted.0 += 1;
             }
             Some(false) => {
@@ -75,17 +88,32 @@ fn white_furnace_diffuse_sphere_reflects_albedo_times_background() {
 #[test]
 fn white_furnace_glass_sphere_is_invisible() {
     // A clear dielectric sphere conserves energy: on average every pixel shows the background.
-    let json = FURNACE.replace("SPP", "256").replace("MATERIAL", r#"{ "base_color": [1, 1, 1], "transmission": 1, "ior": 1.5 }"#);
+    let json = FURNACE.replace("SPP", "256").replace(
+        "MATERIAL",
+        r#"{ "base_color": [1, 1, 1], "transmission": 1, "ior": 1.5 }"#,
+    );
     let scene = scene_from(&json);
     let img = common::render(&scene);
     let bg = Vec3::new(0.5, 0.7, 0.9);
-    let inside: Vec<Vec3> = img.pixels.iter().zip(classify(&scene, 1.0)).filter(|(_, c)| *c == Some(true)).map(|(p, _)| *p).collect();
+    let inside: Vec<Vec3> = img
+        .pixels
+        .iter()
+        .zip(classify(&scene, 1.0))
+        .filter(|(_, c)| *c == Some(true))
+        .map(|(p, _)| *p)
+        .collect();
     let n = inside.len() as f32;
     let mean = inside.iter().fold(Vec3::ZERO, |a, p| a + *p) / n;
     // Standard error of the mean from the per-pixel spread (pixels are independent).
-    let var = inside.iter().fold(Vec3::ZERO, |a, p| a + (*p - mean) * (*p - mean)) / (n - 1.0);
+    let var = inside
+        .iter()
+        .fold(Vec3::ZERO, |a, p| a + (*p - mean) * (*p - mean))
+        / (n - 1.0);
     let se = (var / n).max_element().sqrt();
-    assert!(((mean - bg) / bg).abs().max_element() < 0.01_f32.max(4.0 * se), "mean {mean} vs {bg} (se {se})");
+    assert!(
+        ((mean - bg) / bg).abs().max_element() < 0.01_f32.max(4.0 * se),
+        "mean {mean} vs {bg} (se {se})"
+    );
     assert!(img.pixels.iter().all(|p| p.is_finite()));
 }
 
@@ -110,7 +138,10 @@ fn lambertian_plane_under_a_directional_light() {
         let img = common::render(&scene_from(&json));
         let expect = Vec3::new(0.6 * 2.0, 0.4 * 3.0, 0.2 * 4.0) * t.cos() / std::f32::consts::PI;
         for p in &img.pixels {
-            assert!(((*p - expect) / expect).abs().max_element() < 1e-4, "θ = {theta_deg}: {p} vs {expect}");
+            assert!(
+                ((*p - expect) / expect).abs().max_element() < 1e-4,
+                "θ = {theta_deg}: {p} vs {expect}"
+            );
         }
     }
 }
@@ -124,13 +155,23 @@ fn cornell(size: u32, spp: u32, seed: u64) -> lumo::scene::Scene {
 fn output_is_identical_whatever_the_thread_count() {
     let scene = cornell(40, 4, 7);
     let render_with = |threads| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| common::render(&scene))
     };
     let one = render_with(1);
     let three = render_with(3);
-    assert!(one.pixels.iter().zip(&three.pixels).all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
-    assert!(one.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0));
+    assert!(one
+        .pixels
+        .iter()
+        .zip(&three.pixels)
+        .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
+    assert!(one
+        .pixels
+        .iter()
+        .all(|p| p.is_finite() && p.min_element() >= 0.0));
 }
 
 #[test]
@@ -139,18 +180,39 @@ fn cornell_error_shrinks_as_one_over_sqrt_spp() {
     // Pixels that see the light's edge are left out: their error is dominated by the random
     // coverage of a radiance-18 emitter, so a handful of them would decide the estimate (they
     // carry > 90% of the squared error in a 64² image at any spp).
-    let renders = |spp| (common::render(&cornell(48, spp, 1)), common::render(&cornell(48, spp, 2)));
+    let renders = |spp| {
+        (
+            common::render(&cornell(48, spp, 1)),
+            common::render(&cornell(48, spp, 2)),
+        )
+    };
     let (lo_a, lo_b) = renders(8);
     let (hi_a, hi_b) = renders(32);
-    let mask: Vec<bool> = hi_a.pixels.iter().zip(&hi_b.pixels).map(|(a, b)| (a.max_element() + b.max_element()) < 2.0).collect();
+    let mask: Vec<bool> = hi_a
+        .pixels
+        .iter()
+        .zip(&hi_b.pixels)
+        .map(|(a, b)| (a.max_element() + b.max_element()) < 2.0)
+        .collect();
     let rmse = |a: &Image, b: &Image| -> f64 {
-        let (sum, n) = a.pixels.iter().zip(&b.pixels).zip(&mask).filter(|(_, m)| **m).fold((0.0, 0usize), |(s, n), ((x, y), _)| (s + f64::from((*x - *y).length_squared()), n + 1));
+        let (sum, n) = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .zip(&mask)
+            .filter(|(_, m)| **m)
+            .fold((0.0, 0usize), |(s, n), ((x, y), _)| {
+                (s + f64::from((*x - *y).length_squared()), n + 1)
+            });
         (sum / (3 * n) as f64).sqrt()
     };
     let (e8, e32) = (rmse(&lo_a, &lo_b), rmse(&hi_a, &hi_b));
     let ratio = e8 / e32;
     eprintln!("cornell 1/sqrt(spp): RMSE {e8:.4} at 8 spp, {e32:.4} at 32 spp, ratio {ratio:.3}");
-    assert!((1.75..2.3).contains(&ratio), "RMSE {e8} at 8 spp, {e32} at 32 spp: ratio {ratio}, expected ≈ 2");
+    assert!(
+        (1.75..2.3).contains(&ratio),
+        "RMSE {e8} at 8 spp, {e32} at 32 spp: ratio {ratio}, expected ≈ 2"
+    );
 }
 
 #[test]
@@ -175,7 +237,9 @@ fn depth_of_field_blurs_by_the_circle_of_confusion() {
         let img = common::render(&scene_from(&json));
         // Width of the lit region along the middle row (the spot is centred in the image).
         let row = h / 2;
-        let lit = (0..h).filter(|&x| img.pixels[(row * h + x) as usize].x > 0.0).count();
+        let lit = (0..h)
+            .filter(|&x| img.pixels[(row * h + x) as usize].x > 0.0)
+            .count();
         lit as f32
     };
     let sharp = spot_width(f);
@@ -183,7 +247,10 @@ fn depth_of_field_blurs_by_the_circle_of_confusion() {
     let d = 2.0;
     let predicted = image_size(f, 2.0 * a * (f - d) / d) + image_size(d, 2.0 * r);
     let blurred = spot_width(d);
-    assert!((blurred - predicted).abs() <= 2.0, "blurred spot {blurred} px, predicted {predicted} px");
+    assert!(
+        (blurred - predicted).abs() <= 2.0,
+        "blurred spot {blurred} px, predicted {predicted} px"
+    );
 }
 
 #[test]
@@ -195,12 +262,22 @@ fn progressive_passes_give_the_same_image_as_one_pass() {
     let one_pass = common::render(&common::build(&desc, &common::root().join("scenes")));
     // A budget that is never reached: passes of 2, 4, 7 samples.
     desc.render.time_budget_s = Some(1e6);
-    let (passes, stats) = lumo::render::render(&common::build(&desc, &common::root().join("scenes")), &Default::default());
+    let (passes, stats) = lumo::render::render(
+        &common::build(&desc, &common::root().join("scenes")),
+        &Default::default(),
+    );
     assert_eq!(stats.spp, 13);
-    assert!(one_pass.pixels.iter().zip(&passes.pixels).all(|(a, b)| (*a - *b).abs().max_element() <= 1e-6 * a.max_element().max(1.0)));
+    assert!(one_pass
+        .pixels
+        .iter()
+        .zip(&passes.pixels)
+        .all(|(a, b)| (*a - *b).abs().max_element() <= 1e-6 * a.max_element().max(1.0)));
     // A budget that is spent at once stops after the first pass (2 samples, so that every
     // pixel has a variance estimate).
     desc.render.time_budget_s = Some(1e-9);
-    let (_, stats) = lumo::render::render(&common::build(&desc, &common::root().join("scenes")), &Default::default());
+    let (_, stats) = lumo::render::render(
+        &common::build(&desc, &common::root().join("scenes")),
+        &Default::default(),
+    );
     assert_eq!(stats.spp, 2);
 }

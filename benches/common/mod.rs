@@ -12,13 +12,18 @@ use glam::Vec3;
 pub fn shared_dir() -> Option<PathBuf> {
     let dir = match std::env::var_os("LUMO_SHARED") {
         Some(d) => PathBuf::from(d),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("shared"),
+        None => Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join("shared"),
     };
     if dir.is_dir() {
         return Some(dir);
     }
     if std::env::var("LUMO_REQUIRE_SHARED").as_deref() == Ok("1") {
-        panic!("../shared not found at {} and LUMO_REQUIRE_SHARED=1", dir.display());
+        panic!(
+            "../shared not found at {} and LUMO_REQUIRE_SHARED=1",
+            dir.display()
+        );
     }
     eprintln!("SKIPPED: ../shared not found (looked at {}; set LUMO_SHARED): benchmarks on the shared meshes are skipped", dir.display());
     None
@@ -35,7 +40,13 @@ pub struct Soup {
 impl Soup {
     /// From indexed positions.
     pub fn indexed(name: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -> Soup {
-        Soup { name: name.into(), tris: triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect() }
+        Soup {
+            name: name.into(),
+            tris: triangles
+                .iter()
+                .map(|t| t.map(|i| positions[i as usize]))
+                .collect(),
+        }
     }
 
     /// Centre of the bounding box and the bounding-sphere radius about it (the definition of
@@ -49,24 +60,46 @@ impl Soup {
             }
         }
         let c = (lo + hi) * 0.5;
-        let r = self.tris.iter().flatten().map(|p| (*p - c).length()).fold(0.0f32, f32::max);
+        let r = self
+            .tris
+            .iter()
+            .flatten()
+            .map(|p| (*p - c).length())
+            .fold(0.0f32, f32::max);
         (lo, hi, c, r)
     }
 }
 
 /// Loads an OBJ through lumo's own loader path (tobj, triangulated).
 pub fn load_obj(path: &Path) -> Soup {
-    let (models, _) = tobj::load_obj(path, &tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true })
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let (models, _) = tobj::load_obj(
+        path,
+        &tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ignore_points: true,
+            ignore_lines: true,
+        },
+    )
+    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut tris = Vec::new();
     for m in models {
         let p = &m.mesh.positions;
-        let v = |i: u32| Vec3::new(p[3 * i as usize], p[3 * i as usize + 1], p[3 * i as usize + 2]);
+        let v = |i: u32| {
+            Vec3::new(
+                p[3 * i as usize],
+                p[3 * i as usize + 1],
+                p[3 * i as usize + 2],
+            )
+        };
         for t in m.mesh.indices.chunks_exact(3) {
             tris.push([v(t[0]), v(t[1]), v(t[2])]);
         }
     }
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     Soup { name, tris }
 }
 
@@ -84,7 +117,10 @@ pub fn coherent(soup: &Soup, side: usize) -> Rays {
     let (_, _, c, r) = soup.frame();
     let eye = c + Vec3::new(0.0, 0.0, 3.0 * r);
     let half = (1.0f32 / 3.0).asin().tan();
-    let mut rays = Rays { o: Vec::with_capacity(side * side), d: Vec::with_capacity(side * side) };
+    let mut rays = Rays {
+        o: Vec::with_capacity(side * side),
+        d: Vec::with_capacity(side * side),
+    };
     for y in 0..side {
         for x in 0..side {
             let sx = ((x as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
@@ -102,10 +138,15 @@ pub fn incoherent(soup: &Soup, n: usize, seed: u64) -> Rays {
     let (lo, hi, c, r) = soup.frame();
     let mut s = seed;
     let mut u = move || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((s >> 40) as f32) / (1u64 << 24) as f32
     };
-    let mut rays = Rays { o: Vec::with_capacity(n), d: Vec::with_capacity(n) };
+    let mut rays = Rays {
+        o: Vec::with_capacity(n),
+        d: Vec::with_capacity(n),
+    };
     for _ in 0..n {
         let z = 1.0 - 2.0 * u();
         let phi = 2.0 * std::f32::consts::PI * u();
@@ -137,9 +178,13 @@ impl Npy {
         }
         let (hlen, start) = match bytes[6] {
             1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
-            _ => (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12),
+            _ => (
+                u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+                12,
+            ),
         };
-        let header = std::str::from_utf8(&bytes[start..start + hlen]).map_err(|e| format!("{}: {e}", path.display()))?;
+        let header = std::str::from_utf8(&bytes[start..start + hlen])
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         let kind = if header.contains("'<f4'") {
             "f4"
         } else if header.contains("'<i4'") {
@@ -150,28 +195,52 @@ impl Npy {
         if header.contains("'fortran_order': True") {
             return Err(format!("{}: Fortran order unsupported", path.display()));
         }
-        let shape_txt = header.split("'shape':").nth(1).and_then(|s| s.split(')').next()).ok_or(format!("{}: no shape", path.display()))?;
-        let shape: Vec<usize> = shape_txt.trim_start_matches([' ', '(']).split(',').filter_map(|x| x.trim().parse().ok()).collect();
+        let shape_txt = header
+            .split("'shape':")
+            .nth(1)
+            .and_then(|s| s.split(')').next())
+            .ok_or(format!("{}: no shape", path.display()))?;
+        let shape: Vec<usize> = shape_txt
+            .trim_start_matches([' ', '('])
+            .split(',')
+            .filter_map(|x| x.trim().parse().ok())
+            .collect();
         let data = bytes[start + hlen..].to_vec();
         if data.len() != 4 * shape.iter().product::<usize>() {
-            return Err(format!("{}: data size does not match shape {shape:?}", path.display()));
+            return Err(format!(
+                "{}: data size does not match shape {shape:?}",
+                path.display()
+            ));
         }
-        Ok(Npy { shape, data, kind: kind.into() })
+        Ok(Npy {
+            shape,
+            data,
+            kind: kind.into(),
+        })
     }
 
     /// Elements as f32.
     pub fn f32s(&self) -> Vec<f32> {
-        self.data.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+        self.data
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
     }
 
     /// Elements as i32.
     pub fn i32s(&self) -> Vec<i32> {
-        self.data.chunks_exact(4).map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+        self.data
+            .chunks_exact(4)
+            .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
     }
 
     /// Rows of three as vectors.
     pub fn vec3s(&self) -> Vec<Vec3> {
-        self.f32s().chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()
+        self.f32s()
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect()
     }
 }
 
@@ -182,7 +251,10 @@ pub fn embree_rays(mesh: &str) -> Option<(Soup, Vec<(String, Rays, Vec<i32>)>)> 
     let load = || -> Result<(Soup, Vec<(String, Rays, Vec<i32>)>), String> {
         let v = Npy::read(&dir.join(format!("{mesh}_vertices.npy")))?.vec3s();
         let f = Npy::read(&dir.join(format!("{mesh}_indices.npy")))?.i32s();
-        let idx: Vec<[u32; 3]> = f.chunks_exact(3).map(|t| [t[0] as u32, t[1] as u32, t[2] as u32]).collect();
+        let idx: Vec<[u32; 3]> = f
+            .chunks_exact(3)
+            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
+            .collect();
         let soup = Soup::indexed(mesh, &v, &idx);
         let mut sets = Vec::new();
         for kind in ["coherent", "incoherent"] {

@@ -30,13 +30,21 @@ fn import_err(file: &Path) -> String {
 }
 
 fn assert_names(msg: &str, file: &Path, element: &str) {
-    assert!(msg.contains(&file.display().to_string()), "message does not name the file: {msg}");
-    assert!(msg.contains(element), "message does not name `{element}`: {msg}");
+    assert!(
+        msg.contains(&file.display().to_string()),
+        "message does not name the file: {msg}"
+    );
+    assert!(
+        msg.contains(element),
+        "message does not name `{element}`: {msg}"
+    );
 }
 
 #[test]
 fn truncated_glb() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let good = std::fs::read(shared.join("gltf/Box/glTF-Binary/Box.glb")).unwrap();
     for cut in [0, 7, 12, 19, 100, 1000, good.len() - 100, good.len() - 1] {
@@ -44,7 +52,10 @@ fn truncated_glb() {
         std::fs::write(&f, &good[..cut]).unwrap();
         let msg = import_err(&f);
         assert!(msg.contains(&f.display().to_string()), "{msg}");
-        assert!(msg.contains("GLB") || msg.contains("JSON") || msg.contains("buffers[0]"), "cut at {cut}: {msg}");
+        assert!(
+            msg.contains("GLB") || msg.contains("JSON") || msg.contains("buffers[0]"),
+            "cut at {cut}: {msg}"
+        );
     }
 }
 
@@ -56,18 +67,27 @@ fn glb_header_declaring_a_length_below_its_own_size() {
     bytes.extend_from_slice(&4u32.to_le_bytes());
     bytes.extend_from_slice(&[0u8; 64]);
     let f = Path::new("tiny.glb");
-    let msg = import_bytes(f, &bytes, &ImportOptions::default()).unwrap_err().to_string();
-    assert!(msg.contains("tiny.glb") && msg.contains("GLB header"), "{msg}");
+    let msg = import_bytes(f, &bytes, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("tiny.glb") && msg.contains("GLB header"),
+        "{msg}"
+    );
 }
 
 #[test]
 fn buffer_shorter_than_accessor() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let f = copy_model(&shared, "Box/glTF/Box.gltf", dir.path());
     // The NORMAL accessor claims far more vertices than its buffer view holds.
     edit_json(&f, |v| {
-        let acc = v["meshes"][0]["primitives"][0]["attributes"]["NORMAL"].as_u64().unwrap() as usize;
+        let acc = v["meshes"][0]["primitives"][0]["attributes"]["NORMAL"]
+            .as_u64()
+            .unwrap() as usize;
         v["accessors"][acc]["count"] = 5000.into();
     });
     let msg = import_err(&f);
@@ -88,7 +108,9 @@ fn buffer_shorter_than_accessor() {
 
 #[test]
 fn index_out_of_range() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     // A vertex index in the binary data beyond the vertex count.
     let f = copy_model(&shared, "Triangle/glTF/Triangle.gltf", dir.path());
@@ -101,13 +123,17 @@ fn index_out_of_range() {
     assert!(msg.contains("999"), "{msg}");
     // An accessor index in the JSON that does not exist.
     let f = copy_model(&shared, "Triangle/glTF/Triangle.gltf", dir.path());
-    edit_json(&f, |v| v["meshes"][0]["primitives"][0]["indices"] = 42.into());
+    edit_json(&f, |v| {
+        v["meshes"][0]["primitives"][0]["indices"] = 42.into()
+    });
     let msg = import_err(&f);
     assert_names(&msg, &f, "meshes[0].primitives[0].indices");
     // A POSITION attribute naming an accessor that does not exist (found by fuzzing: it
     // panicked inside the gltf crate's validation).
     let f = copy_model(&shared, "Triangle/glTF/Triangle.gltf", dir.path());
-    edit_json(&f, |v| v["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 43.into());
+    edit_json(&f, |v| {
+        v["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 43.into()
+    });
     let msg = import_err(&f);
     assert_names(&msg, &f, "meshes[0].primitives[0].attributes.POSITION");
     // A mesh/primitive the scene asks for that is not there.
@@ -120,13 +146,18 @@ fn index_out_of_range() {
 
 #[test]
 fn missing_texture_and_bin() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let f = copy_model(&shared, "BoxTextured/glTF/BoxTextured.gltf", dir.path());
     std::fs::remove_file(dir.path().join("CesiumLogoFlat.png")).unwrap();
     let msg = import_err(&f);
     assert_names(&msg, &f, "images[0].uri");
-    assert!(msg.contains("CesiumLogoFlat.png") && msg.contains("not found"), "{msg}");
+    assert!(
+        msg.contains("CesiumLogoFlat.png") && msg.contains("not found"),
+        "{msg}"
+    );
     std::fs::remove_file(dir.path().join("BoxTextured0.bin")).unwrap();
     let msg = import_err(&f);
     assert_names(&msg, &f, "buffers[0].uri");
@@ -135,12 +166,18 @@ fn missing_texture_and_bin() {
 
 #[test]
 fn non_finite_matrix() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let f = copy_model(&shared, "Box/glTF/Box.gltf", dir.path());
     // 1e39 does not fit an f32: it reads as infinity.
     let text = std::fs::read_to_string(&f).unwrap();
-    let patched = text.replacen("\"matrix\": [\n                1.0,", "\"matrix\": [\n                1e39,", 1);
+    let patched = text.replacen(
+        "\"matrix\": [\n                1.0,",
+        "\"matrix\": [\n                1e39,",
+        1,
+    );
     let patched = if patched == text {
         let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
         v["nodes"][0]["matrix"][0] = serde_json::json!(1e39);
@@ -153,20 +190,29 @@ fn non_finite_matrix() {
     // serde_json reads 1e39 into an f32 as infinity, or (with some of its features, which other
     // crates of the workspace may enable) rejects it as out of range: either way a located error.
     assert!(msg.contains(&f.display().to_string()), "{msg}");
-    assert!(msg.contains("nodes[0].matrix[0]") || (msg.contains("JSON line") && msg.contains("out of range")), "{msg}");
+    assert!(
+        msg.contains("nodes[0].matrix[0]")
+            || (msg.contains("JSON line") && msg.contains("out of range")),
+        "{msg}"
+    );
     // Finite matrices whose product overflows f32.
     let g = copy_model(&shared, "Box/glTF/Box.gltf", dir.path());
     edit_json(&g, |v| {
         v["nodes"][0]["matrix"][0] = serde_json::json!(3e38);
-        v["nodes"][1]["matrix"] = serde_json::json!([3e38, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
+        v["nodes"][1]["matrix"] =
+            serde_json::json!([3e38, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
     });
     let msg = import_err(&g);
     assert_names(&msg, &g, "nodes[1]");
     assert!(msg.contains("overflows"), "{msg}");
     // A literal NaN is not JSON: the error gives the line and column.
     let f = copy_model(&shared, "Box/glTF/Box.gltf", dir.path());
-    edit_json(&f, |v| v["nodes"][0]["matrix"][0] = serde_json::json!(12345.5));
-    let text = std::fs::read_to_string(&f).unwrap().replacen("12345.5", "NaN", 1);
+    edit_json(&f, |v| {
+        v["nodes"][0]["matrix"][0] = serde_json::json!(12345.5)
+    });
+    let text = std::fs::read_to_string(&f)
+        .unwrap()
+        .replacen("12345.5", "NaN", 1);
     std::fs::write(&f, text).unwrap();
     let msg = import_err(&f);
     assert!(msg.contains("JSON line") && msg.contains("column"), "{msg}");
@@ -174,7 +220,9 @@ fn non_finite_matrix() {
 
 #[test]
 fn required_extension_we_cannot_honour() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let f = copy_model(&shared, "Box/glTF/Box.gltf", dir.path());
     edit_json(&f, |v| {
@@ -189,7 +237,9 @@ fn required_extension_we_cannot_honour() {
 /// Mutated GLB bytes never panic the importer (cargo-fuzz needs nightly; this runs everywhere).
 /// Seeds: the shared .glb samples; mutations: byte overwrites, truncations, insertions.
 fn glb_seeds() -> Vec<Vec<u8>> {
-    let Some(shared) = common::shared_dir() else { return Vec::new() };
+    let Some(shared) = common::shared_dir() else {
+        return Vec::new();
+    };
     common::sample_files(&shared)
         .into_iter()
         .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("glb"))
@@ -226,7 +276,11 @@ proptest! {
 }
 
 /// Every number in a JSON value, as a path of keys/indices.
-fn number_paths(v: &serde_json::Value, path: &mut Vec<serde_json::Value>, out: &mut Vec<Vec<serde_json::Value>>) {
+fn number_paths(
+    v: &serde_json::Value,
+    path: &mut Vec<serde_json::Value>,
+    out: &mut Vec<Vec<serde_json::Value>>,
+) {
     match v {
         serde_json::Value::Number(_) => out.push(path.clone()),
         serde_json::Value::Array(a) => {

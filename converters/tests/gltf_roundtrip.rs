@@ -9,9 +9,17 @@ use lumo_converters::gltf::{export, import, ImportOptions};
 use lumo_schema::{load_scene_file, validate, Scene};
 
 fn roundtrip_scene(scene: &Scene, scene_dir: &Path, out: &Path) -> Scene {
-    let warnings = export(scene, scene_dir, out).unwrap_or_else(|e| panic!("export {}: {e}", out.display()));
+    let warnings =
+        export(scene, scene_dir, out).unwrap_or_else(|e| panic!("export {}: {e}", out.display()));
     assert!(warnings.is_empty(), "{warnings:?}");
-    let imp = import(out, &ImportOptions { camera: None, scene_dir: Some(scene_dir.to_path_buf()) }).unwrap_or_else(|e| panic!("import {}: {e}", out.display()));
+    let imp = import(
+        out,
+        &ImportOptions {
+            camera: None,
+            scene_dir: Some(scene_dir.to_path_buf()),
+        },
+    )
+    .unwrap_or_else(|e| panic!("import {}: {e}", out.display()));
     assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
     imp.scene
 }
@@ -26,7 +34,10 @@ fn exported_dir() -> PathBuf {
 #[test]
 fn scene_to_gltf_to_scene_is_exact_for_every_scene_file() {
     let files = common::scene_files();
-    assert!(files.iter().any(|f| f.ends_with("gltf_shapes.json")), "test scenes not found: {files:?}");
+    assert!(
+        files.iter().any(|f| f.ends_with("gltf_shapes.json")),
+        "test scenes not found: {files:?}"
+    );
     let out_dir = exported_dir();
     for f in &files {
         let scene = load_scene_file(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
@@ -42,11 +53,16 @@ fn scene_to_gltf_to_scene_is_exact_for_every_scene_file() {
 
 #[test]
 fn gltf_to_scene_to_gltf_to_scene_is_exact_for_every_sample() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let out_dir = exported_dir();
     let work = tempfile::tempdir().unwrap();
     for (i, f) in common::sample_files(&shared).iter().enumerate() {
-        let opts = ImportOptions { camera: None, scene_dir: Some(work.path().to_path_buf()) };
+        let opts = ImportOptions {
+            camera: None,
+            scene_dir: Some(work.path().to_path_buf()),
+        };
         let s1 = import(f, &opts).unwrap().scene;
         let stem = f.file_stem().unwrap().to_string_lossy();
         for ext in ["gltf", "glb"] {
@@ -60,10 +76,16 @@ fn gltf_to_scene_to_gltf_to_scene_is_exact_for_every_sample() {
 
 #[test]
 fn textures_round_trip_through_embedded_images() {
-    let Some(shared) = common::shared_dir() else { return };
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("tex")).unwrap();
-    std::fs::copy(shared.join("gltf/TextureTransformTest/glTF/UV.png"), dir.path().join("tex/uv.png")).unwrap();
+    std::fs::copy(
+        shared.join("gltf/TextureTransformTest/glTF/UV.png"),
+        dir.path().join("tex/uv.png"),
+    )
+    .unwrap();
     let text = r#"{"format_version": 1, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y_deg": 40},
       "textures": {"uv": {"file": "tex/uv.png", "wrap": "mirror"}, "rough": {"file": "tex/uv.png", "color_space": "linear", "wrap": "clamp"},
                    "duck": {"file": "duck.glb", "gltf_image": 0}},
@@ -71,8 +93,13 @@ fn textures_round_trip_through_embedded_images() {
                           "roughness_specular_texture": {"texture": "rough"}, "specular": 0.5, "roughness": 0.4,
                           "emission": [2, 1, 0], "emission_texture": {"texture": "duck", "scale": [1, -1]}}},
       "objects": [{"sphere": {"material": "m", "radius": 1}}]}"#;
-    std::fs::copy(shared.join("gltf/Duck/glTF-Binary/Duck.glb"), dir.path().join("duck.glb")).unwrap();
-    let scene = lumo_schema::load_scene_str(text, &dir.path().join("t.json"), Some(dir.path())).unwrap();
+    std::fs::copy(
+        shared.join("gltf/Duck/glTF-Binary/Duck.glb"),
+        dir.path().join("duck.glb"),
+    )
+    .unwrap();
+    let scene =
+        lumo_schema::load_scene_str(text, &dir.path().join("t.json"), Some(dir.path())).unwrap();
     for ext in ["gltf", "glb"] {
         let out = exported_dir().join(format!("textures.{ext}"));
         let back = roundtrip_scene(&scene, dir.path(), &out);
@@ -82,7 +109,12 @@ fn textures_round_trip_through_embedded_images() {
         let stripped = strip_extras(&out, dir.path());
         let m = &stripped.materials["m"];
         let r = m.base_color_texture.as_ref().unwrap();
-        assert!((r.offset[0] - 0.25).abs() < 1e-5 && (r.offset[1] - 0.5).abs() < 1e-5 && (r.rotation_deg - 30.0).abs() < 1e-4, "{r:?}");
+        assert!(
+            (r.offset[0] - 0.25).abs() < 1e-5
+                && (r.offset[1] - 0.5).abs() < 1e-5
+                && (r.rotation_deg - 30.0).abs() < 1e-4,
+            "{r:?}"
+        );
         assert_eq!(r.scale, [2.0, 3.0]);
         assert!((m.specular - 0.5).abs() < 1e-6 && (m.emission[0] - 2.0).abs() < 1e-6);
     }
@@ -91,7 +123,10 @@ fn textures_round_trip_through_embedded_images() {
 /// Imports a .gltf export with every `extras` removed (what lumo reads from a file another tool
 /// rewrote), so the glTF values themselves are tested.
 fn strip_extras(out: &Path, scene_dir: &Path) -> Scene {
-    let stripped = out.with_file_name(format!("stripped-{}", out.file_name().unwrap().to_string_lossy()));
+    let stripped = out.with_file_name(format!(
+        "stripped-{}",
+        out.file_name().unwrap().to_string_lossy()
+    ));
     let bytes = std::fs::read(out).unwrap();
     let (json_text, bin) = if bytes.starts_with(b"glTF") {
         let (json, rest) = common::split_glb(&bytes);
@@ -117,7 +152,15 @@ fn strip_extras(out: &Path, scene_dir: &Path) -> Scene {
         None => text.into_bytes(),
     };
     std::fs::write(&stripped, data).unwrap();
-    import(&stripped, &ImportOptions { camera: None, scene_dir: Some(scene_dir.to_path_buf()) }).unwrap().scene
+    import(
+        &stripped,
+        &ImportOptions {
+            camera: None,
+            scene_dir: Some(scene_dir.to_path_buf()),
+        },
+    )
+    .unwrap()
+    .scene
 }
 
 #[test]
@@ -142,8 +185,14 @@ fn without_extras_the_gltf_values_approximate_the_scene() {
     }
     assert!((c.0.fov_y_deg - c.1.fov_y_deg).abs() < 1e-4);
     for (a, b) in s.lights.iter().zip(&scene.lights) {
-        let (a, b) = (serde_json::to_value(a).unwrap(), serde_json::to_value(b).unwrap());
-        assert_eq!(a.as_object().unwrap().keys().collect::<Vec<_>>(), b.as_object().unwrap().keys().collect::<Vec<_>>());
+        let (a, b) = (
+            serde_json::to_value(a).unwrap(),
+            serde_json::to_value(b).unwrap(),
+        );
+        assert_eq!(
+            a.as_object().unwrap().keys().collect::<Vec<_>>(),
+            b.as_object().unwrap().keys().collect::<Vec<_>>()
+        );
     }
     let lamp = &s.materials["lamp"];
     assert!((lamp.emission[0] - 12.5).abs() < 1e-4 && lamp.two_sided_emission);
@@ -162,9 +211,23 @@ fn khronos_validate(files: &[PathBuf]) -> Option<Vec<serde_json::Value>> {
         eprintln!("SKIPPED: Khronos glTF validator not installed; run `npm install --prefix converters/tests/validator`");
         return None;
     }
-    let out = std::process::Command::new("node").arg(dir.join("validate.js")).args(files).output().expect("node runs");
-    assert!(out.status.success(), "validator failed: {}", String::from_utf8_lossy(&out.stderr));
-    Some(String::from_utf8(out.stdout).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect())
+    let out = std::process::Command::new("node")
+        .arg(dir.join("validate.js"))
+        .args(files)
+        .output()
+        .expect("node runs");
+    assert!(
+        out.status.success(),
+        "validator failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect(),
+    )
 }
 
 #[test]
@@ -176,22 +239,38 @@ fn exports_pass_the_khronos_validator() {
     for f in common::scene_files() {
         let scene = load_scene_file(&f).unwrap();
         for ext in ["gltf", "glb"] {
-            let out = dir.join(format!("{}.{ext}", f.file_stem().unwrap().to_string_lossy()));
+            let out = dir.join(format!(
+                "{}.{ext}",
+                f.file_stem().unwrap().to_string_lossy()
+            ));
             export(&scene, f.parent().unwrap(), &out).unwrap();
             files.push(out);
         }
     }
     if let Some(shared) = common::shared_dir() {
         for (i, f) in common::sample_files(&shared).iter().enumerate() {
-            let s = import(f, &ImportOptions { camera: None, scene_dir: Some(dir.clone()) }).unwrap().scene;
+            let s = import(
+                f,
+                &ImportOptions {
+                    camera: None,
+                    scene_dir: Some(dir.clone()),
+                },
+            )
+            .unwrap()
+            .scene;
             let out = dir.join(format!("sample{i}.glb"));
             export(&s, &dir, &out).unwrap();
             files.push(out);
         }
     }
-    let Some(reports) = khronos_validate(&files) else { return };
+    let Some(reports) = khronos_validate(&files) else {
+        return;
+    };
     assert_eq!(reports.len(), files.len());
     let bad: Vec<&serde_json::Value> = reports.iter().filter(|r| r["errors"] != 0).collect();
     assert!(bad.is_empty(), "validator errors: {bad:#?}");
-    eprintln!("{} exported files validated with zero errors", reports.len());
+    eprintln!(
+        "{} exported files validated with zero errors",
+        reports.len()
+    );
 }

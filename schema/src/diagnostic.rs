@@ -21,7 +21,12 @@ pub struct Diagnostic {
 impl Diagnostic {
     /// A diagnostic at `path` with no location yet (filled in by [`crate::load`]).
     pub fn new(path: JsonPath, message: impl Into<String>) -> Self {
-        Diagnostic { path, location: None, message: message.into(), help: None }
+        Diagnostic {
+            path,
+            location: None,
+            message: message.into(),
+            help: None,
+        }
     }
 
     /// Adds a suggestion.
@@ -93,7 +98,10 @@ impl fmt::Display for Report {
 }
 
 /// The closest candidate to `word` by edit distance, if it is close enough to be a likely typo.
-pub fn did_you_mean<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+pub fn did_you_mean<'a>(
+    word: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<&'a str> {
     let limit = (word.chars().count() / 3).max(1);
     candidates
         .into_iter()
@@ -125,7 +133,10 @@ mod tests {
 
     #[test]
     fn suggests_close_names_only() {
-        assert_eq!(did_you_mean("whte", ["white", "red", "green"]), Some("white"));
+        assert_eq!(
+            did_you_mean("whte", ["white", "red", "green"]),
+            Some("white")
+        );
         assert_eq!(did_you_mean("blue", ["white", "red", "green"]), None);
         assert_eq!(edit_distance("kitten", "sitting"), 3);
     }

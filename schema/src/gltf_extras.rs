@@ -35,7 +35,10 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::scene::{Background, Camera, Image, Light, Material, MeshSource, Profile, RenderSettings, Texture, Transform, Vec3};
+use crate::scene::{
+    Background, Camera, Image, Light, Material, MeshSource, Profile, RenderSettings, Texture,
+    Transform, Vec3,
+};
 
 /// The key under which every lumo extras object lives: `extras = {"lumo": {...}}`.
 pub const EXTRAS_KEY: &str = "lumo";

@@ -22,7 +22,10 @@ pub use validate::{validate, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
 pub fn json_schema() -> String {
     let mut schema = schemars::schema_for!(Scene);
     schema.insert("title".into(), "lumo scene".into());
-    schema.insert("$id".into(), "https://lumo.dev/schema/scene.schema.json".into());
+    schema.insert(
+        "$id".into(),
+        "https://lumo.dev/schema/scene.schema.json".into(),
+    );
     let mut text = serde_json::to_string_pretty(&schema).expect("a schema is always serialisable");
     text.push('\n');
     text

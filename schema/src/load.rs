@@ -25,7 +25,10 @@ pub fn parse_scene(text: &str) -> Result<Scene, Diagnostic> {
     };
     let (message, help) = explain(&inner.to_string());
     let location = if inner.line() > 0 {
-        Some(crate::locate::LineCol { line: inner.line(), column: inner.column() })
+        Some(crate::locate::LineCol {
+            line: inner.line(),
+            column: inner.column(),
+        })
     } else {
         locate(text, &path)
     };
@@ -37,8 +40,15 @@ pub fn parse_scene(text: &str) -> Result<Scene, Diagnostic> {
 
 /// Parses and validates scene text. `base_dir` is where relative file paths resolve (the scene
 /// file's folder); `None` skips file-existence checks. `file` labels the diagnostics.
-pub fn load_scene_str(text: &str, file: &Path, base_dir: Option<&Path>) -> Result<Scene, LoadError> {
-    let invalid = |diagnostics| LoadError::Invalid { file: file.to_path_buf(), diagnostics };
+pub fn load_scene_str(
+    text: &str,
+    file: &Path,
+    base_dir: Option<&Path>,
+) -> Result<Scene, LoadError> {
+    let invalid = |diagnostics| LoadError::Invalid {
+        file: file.to_path_buf(),
+        diagnostics,
+    };
     let scene = parse_scene(text).map_err(|d| invalid(vec![d]))?;
     let mut diagnostics = validate(&scene, base_dir);
     if diagnostics.is_empty() {
@@ -53,14 +63,20 @@ pub fn load_scene_str(text: &str, file: &Path, base_dir: Option<&Path>) -> Resul
 
 /// Reads, parses and validates a scene file; relative paths inside resolve against its folder.
 pub fn load_scene_file(path: &Path) -> Result<Scene, LoadError> {
-    let io = |source| LoadError::Io { path: path.to_path_buf(), source };
+    let io = |source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let meta = std::fs::metadata(path).map_err(io)?;
     if meta.len() > MAX_SCENE_BYTES {
         return Err(LoadError::Invalid {
             file: path.to_path_buf(),
             diagnostics: vec![Diagnostic::new(
                 JsonPath::root(),
-                format!("file is {} bytes, above the limit of {MAX_SCENE_BYTES}", meta.len()),
+                format!(
+                    "file is {} bytes, above the limit of {MAX_SCENE_BYTES}",
+                    meta.len()
+                ),
             )
             .with_help("put large meshes in OBJ or glTF files and reference them")],
         });
@@ -73,7 +89,10 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, LoadError> {
             let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
             let mut d = Diagnostic::new(JsonPath::root(), "file is not valid UTF-8");
             d.location = Some(line_col(&text, at));
-            return Err(LoadError::Invalid { file: path.to_path_buf(), diagnostics: vec![d] });
+            return Err(LoadError::Invalid {
+                file: path.to_path_buf(),
+                diagnostics: vec![d],
+            });
         }
     };
     let base = base_dir_of(path);
@@ -98,7 +117,14 @@ fn explain(raw: &str) -> (String, Option<String>) {
     };
     if let Some(rest) = msg.strip_prefix("invalid type: ") {
         if let Some((found, expected)) = rest.split_once(", expected ") {
-            return (format!("expected {}, found {}", plain_type(expected), plain_found(found)), None);
+            return (
+                format!(
+                    "expected {}, found {}",
+                    plain_type(expected),
+                    plain_found(found)
+                ),
+                None,
+            );
         }
     }
     if let Some(rest) = msg.strip_prefix("unknown field `") {
@@ -111,30 +137,59 @@ fn explain(raw: &str) -> (String, Option<String>) {
                 .collect();
             let help = match did_you_mean(field, candidates.iter().copied()) {
                 Some(s) => format!("did you mean `{s}`?"),
-                None => format!("expected one of {}", candidates.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(", ")),
+                None => format!(
+                    "expected one of {}",
+                    candidates
+                        .iter()
+                        .map(|c| format!("`{c}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
             };
             return (format!("unknown field `{field}`"), Some(help));
         }
         if let Some(field) = rest.strip_suffix("`, there are no fields") {
-            return (format!("unknown field `{field}`"), Some("this object takes no fields".into()));
+            return (
+                format!("unknown field `{field}`"),
+                Some("this object takes no fields".into()),
+            );
         }
     }
     if let Some(rest) = msg.strip_prefix("unknown variant `") {
         if let Some((variant, expected)) = rest.split_once("`, expected ") {
-            let candidates: Vec<&str> = expected.split('`').enumerate().filter(|(i, _)| i % 2 == 1).map(|(_, s)| s).collect();
-            let help = did_you_mean(variant, candidates.iter().copied()).map(|s| format!("did you mean `{s}`?"));
-            return (format!("unknown kind `{variant}`, expected {expected}"), help);
+            let candidates: Vec<&str> = expected
+                .split('`')
+                .enumerate()
+                .filter(|(i, _)| i % 2 == 1)
+                .map(|(_, s)| s)
+                .collect();
+            let help = did_you_mean(variant, candidates.iter().copied())
+                .map(|s| format!("did you mean `{s}`?"));
+            return (
+                format!("unknown kind `{variant}`, expected {expected}"),
+                help,
+            );
         }
     }
     if msg.starts_with("data did not match any variant of untagged enum Scale") {
-        return ("expected a number or an array of three numbers".into(), Some("a uniform scale is one number, a per-axis scale is [x, y, z]".into()));
+        return (
+            "expected a number or an array of three numbers".into(),
+            Some("a uniform scale is one number, a per-axis scale is [x, y, z]".into()),
+        );
     }
     (msg.to_string(), None)
 }
 
 /// serde's description of a found value in JSON words (`map` → `an object`).
 fn plain_found(found: &str) -> String {
-    for (serde, json) in [("string", "a string"), ("map", "an object"), ("sequence", "an array"), ("floating point", "the number"), ("integer", "the integer"), ("boolean", "the boolean")] {
+    for (serde, json) in [
+        ("string", "a string"),
+        ("map", "an object"),
+        ("sequence", "an array"),
+        ("floating point", "the number"),
+        ("integer", "the integer"),
+        ("boolean", "the boolean"),
+    ] {
         if let Some(rest) = found.strip_prefix(serde) {
             return format!("{json}{rest}");
         }

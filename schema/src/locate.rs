@@ -51,7 +51,9 @@ impl JsonPath {
                 }
                 rest = &rest[open..];
                 while let Some(stripped) = rest.strip_prefix('[') {
-                    let Some(close) = stripped.find(']') else { break };
+                    let Some(close) = stripped.find(']') else {
+                        break;
+                    };
                     match stripped[..close].parse() {
                         Ok(i) => segs.push(PathSegment::Index(i)),
                         Err(_) => segs.push(PathSegment::Key(stripped[..close].to_string())),
@@ -76,7 +78,8 @@ impl fmt::Display for JsonPath {
             match seg {
                 PathSegment::Key(k) => {
                     let plain = !k.is_empty()
-                        && k.chars().all(|c| c.is_alphanumeric() || c == '_' || c == '$' || c == '-');
+                        && k.chars()
+                            .all(|c| c.is_alphanumeric() || c == '_' || c == '$' || c == '-');
                     match (plain, i) {
                         (true, 0) => write!(f, "{k}")?,
                         (true, _) => write!(f, ".{k}")?,
@@ -256,7 +259,12 @@ impl Scanner<'_> {
                 b',' if depth == 0 => return Some(()),
                 _ => self.pos += 1,
             }
-            if depth == 0 && matches!(self.bytes.get(self.pos.wrapping_sub(1)), Some(b'}' | b']' | b'"')) {
+            if depth == 0
+                && matches!(
+                    self.bytes.get(self.pos.wrapping_sub(1)),
+                    Some(b'}' | b']' | b'"')
+                )
+            {
                 // A container or string just closed at top level: the value is complete.
                 return Some(());
             }
@@ -270,7 +278,11 @@ mod tests {
 
     #[test]
     fn path_round_trips_through_display_and_parse() {
-        let p = JsonPath::root().key("objects").index(3).key("sphere").key("radius");
+        let p = JsonPath::root()
+            .key("objects")
+            .index(3)
+            .key("sphere")
+            .key("radius");
         assert_eq!(p.to_string(), "objects[3].sphere.radius");
         assert_eq!(JsonPath::parse("objects[3].sphere.radius"), p);
     }
@@ -279,8 +291,20 @@ mod tests {
     fn locates_nested_values() {
         let text = "{\n  \"a\": [1, {\"b\": \"x\"}],\n  \"c\": {\n    \"d\": 2.5\n  }\n}";
         let at = |p: &str| locate(text, &JsonPath::parse(p)).unwrap();
-        assert_eq!(at("c.d"), LineCol { line: 4, column: 10 });
-        assert_eq!(at("a[1].b"), LineCol { line: 2, column: 18 });
+        assert_eq!(
+            at("c.d"),
+            LineCol {
+                line: 4,
+                column: 10
+            }
+        );
+        assert_eq!(
+            at("a[1].b"),
+            LineCol {
+                line: 2,
+                column: 18
+            }
+        );
         assert_eq!(at("a[0]"), LineCol { line: 2, column: 9 });
         // A missing member points at its parent.
         assert_eq!(at("c.zzz"), LineCol { line: 3, column: 8 });

@@ -77,7 +77,10 @@ fn default_image_side() -> u32 {
 
 impl Default for Image {
     fn default() -> Self {
-        Image { width: default_image_side(), height: default_image_side() }
+        Image {
+            width: default_image_side(),
+            height: default_image_side(),
+        }
     }
 }
 
@@ -365,7 +368,8 @@ impl Default for Material {
 impl Material {
     /// The diffuse weight with its default applied: `1 − specular − transmission` when absent.
     pub fn diffuse_weight(&self) -> f32 {
-        self.diffuse.unwrap_or((1.0 - self.specular - self.transmission).max(0.0))
+        self.diffuse
+            .unwrap_or((1.0 - self.specular - self.transmission).max(0.0))
     }
 }
 

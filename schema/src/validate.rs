@@ -18,7 +18,11 @@ pub const MAX_SPP: u32 = 1 << 20;
 /// sense, files that exist. `base_dir` is the folder relative paths resolve against; when
 /// `None`, file existence is not checked.
 pub fn validate(scene: &Scene, base_dir: Option<&Path>) -> Vec<Diagnostic> {
-    let mut v = Validator { scene, base_dir, out: Vec::new() };
+    let mut v = Validator {
+        scene,
+        base_dir,
+        out: Vec::new(),
+    };
     v.scene();
     v.out
 }
@@ -48,7 +52,8 @@ impl Validator<'_> {
     }
 
     fn err_help(&mut self, path: JsonPath, message: impl Into<String>, help: impl Into<String>) {
-        self.out.push(Diagnostic::new(path, message).with_help(help));
+        self.out
+            .push(Diagnostic::new(path, message).with_help(help));
     }
 
     fn scene(&mut self) {
@@ -64,7 +69,11 @@ impl Validator<'_> {
         self.image(&root.key("image"));
         self.render(&root.key("render"));
         self.camera(&root.key("camera"));
-        self.color(&root.key("background").key("color"), s.background.color, None);
+        self.color(
+            &root.key("background").key("color"),
+            s.background.color,
+            None,
+        );
         for (name, tex) in &s.textures {
             self.texture(&root.key("textures").key(name), tex);
         }
@@ -94,7 +103,10 @@ impl Validator<'_> {
         if pixels > MAX_PIXELS {
             self.err_help(
                 p.clone(),
-                format!("{}×{} = {pixels} pixels is above the limit of {MAX_PIXELS}", img.width, img.height),
+                format!(
+                    "{}×{} = {pixels} pixels is above the limit of {MAX_PIXELS}",
+                    img.width, img.height
+                ),
                 "render a smaller image",
             );
         }
@@ -103,7 +115,11 @@ impl Validator<'_> {
     fn render(&mut self, p: &JsonPath) {
         let r = self.scene.render;
         if r.spp == 0 || r.spp > MAX_SPP {
-            self.err_help(p.key("spp"), format!("spp {} is out of range", r.spp), format!("use 1 to {MAX_SPP}"));
+            self.err_help(
+                p.key("spp"),
+                format!("spp {} is out of range", r.spp),
+                format!("use 1 to {MAX_SPP}"),
+            );
         }
         if r.max_depth == 0 || r.max_depth > 1024 {
             self.err_help(
@@ -114,7 +130,10 @@ impl Validator<'_> {
         }
         if let Some(t) = r.time_budget_s {
             if !(t.is_finite() && t > 0.0) {
-                self.err(p.key("time_budget_s"), format!("time budget must be a positive number of seconds, found {t}"));
+                self.err(
+                    p.key("time_budget_s"),
+                    format!("time budget must be a positive number of seconds, found {t}"),
+                );
             }
         }
     }
@@ -122,15 +141,27 @@ impl Validator<'_> {
     fn camera(&mut self, p: &JsonPath) {
         let c = self.scene.camera;
         let mut ok = true;
-        for (key, v) in [("position", c.position), ("look_at", c.look_at), ("up", c.up)] {
+        for (key, v) in [
+            ("position", c.position),
+            ("look_at", c.look_at),
+            ("up", c.up),
+        ] {
             if !finite(&v) {
                 self.err(p.key(key), "contains NaN or infinity");
                 ok = false;
             }
         }
-        let dir = [c.look_at[0] - c.position[0], c.look_at[1] - c.position[1], c.look_at[2] - c.position[2]];
+        let dir = [
+            c.look_at[0] - c.position[0],
+            c.look_at[1] - c.position[1],
+            c.look_at[2] - c.position[2],
+        ];
         if ok && length(dir) == 0.0 {
-            self.err_help(p.key("look_at"), "look_at equals position: no view direction", "move look_at in front of the camera");
+            self.err_help(
+                p.key("look_at"),
+                "look_at equals position: no view direction",
+                "move look_at in front of the camera",
+            );
             ok = false;
         }
         if ok && length(c.up) == 0.0 {
@@ -153,14 +184,24 @@ impl Validator<'_> {
             }
         }
         if !(c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0) {
-            self.err_help(p.key("fov_y_deg"), format!("field of view {} is out of range", c.fov_y_deg), "use a value strictly between 0 and 180 degrees");
+            self.err_help(
+                p.key("fov_y_deg"),
+                format!("field of view {} is out of range", c.fov_y_deg),
+                "use a value strictly between 0 and 180 degrees",
+            );
         }
         if !(c.aperture_radius >= 0.0 && c.aperture_radius.is_finite()) {
-            self.err(p.key("aperture_radius"), format!("aperture radius must be ≥ 0, found {}", c.aperture_radius));
+            self.err(
+                p.key("aperture_radius"),
+                format!("aperture radius must be ≥ 0, found {}", c.aperture_radius),
+            );
         }
         if let Some(f) = c.focus_distance {
             if !(f > 0.0 && f.is_finite()) {
-                self.err(p.key("focus_distance"), format!("focus distance must be > 0, found {f}"));
+                self.err(
+                    p.key("focus_distance"),
+                    format!("focus distance must be > 0, found {f}"),
+                );
             } else if c.aperture_radius == 0.0 {
                 self.err_help(
                     p.key("focus_distance"),
@@ -174,7 +215,10 @@ impl Validator<'_> {
     /// A colour: finite, non-negative, and at most `max` per channel when given.
     fn color(&mut self, p: &JsonPath, c: Rgb, max: Option<f32>) {
         if !finite(&c) || c.iter().any(|x| *x < 0.0) {
-            self.err(p.clone(), format!("colour {c:?} must be finite and non-negative"));
+            self.err(
+                p.clone(),
+                format!("colour {c:?} must be finite and non-negative"),
+            );
         } else if let Some(m) = max {
             if c.iter().any(|x| *x > m) {
                 self.err_help(
@@ -196,7 +240,10 @@ impl Validator<'_> {
         if !resolved.is_file() {
             self.err_help(
                 p.clone(),
-                format!("{what} file `{file}` not found (looked for {})", resolved.display()),
+                format!(
+                    "{what} file `{file}` not found (looked for {})",
+                    resolved.display()
+                ),
                 "paths are relative to the scene file's folder",
             );
         }
@@ -226,7 +273,11 @@ impl Validator<'_> {
                 Some(s) => format!("did you mean `{s}`?"),
                 None => "define it under `textures`".to_string(),
             };
-            self.err_help(p.key("texture"), format!("unknown texture `{}`", r.texture), help);
+            self.err_help(
+                p.key("texture"),
+                format!("unknown texture `{}`", r.texture),
+                help,
+            );
         }
         if !finite(&r.offset) || !finite(&r.scale) || !r.rotation_deg.is_finite() {
             self.err(p.clone(), "texture transform contains NaN or infinity");
@@ -237,9 +288,18 @@ impl Validator<'_> {
         self.color(&p.key("base_color"), m.base_color, Some(1.0));
         self.color(&p.key("emission"), m.emission, None);
         let mut weights_ok = true;
-        for (key, w) in [("diffuse", m.diffuse.unwrap_or(0.0)), ("specular", m.specular), ("transmission", m.transmission), ("roughness", m.roughness)] {
+        for (key, w) in [
+            ("diffuse", m.diffuse.unwrap_or(0.0)),
+            ("specular", m.specular),
+            ("transmission", m.transmission),
+            ("roughness", m.roughness),
+        ] {
             if !(0.0..=1.0).contains(&w) {
-                self.err_help(p.key(key), format!("{key} {w} is outside [0, 1]"), "use a fraction between 0 and 1");
+                self.err_help(
+                    p.key(key),
+                    format!("{key} {w} is outside [0, 1]"),
+                    "use a fraction between 0 and 1",
+                );
                 weights_ok &= key == "roughness";
             }
         }
@@ -252,7 +312,11 @@ impl Validator<'_> {
             );
         }
         if !(m.ior > 0.0 && m.ior.is_finite()) {
-            self.err_help(p.key("ior"), format!("index of refraction {} must be > 0", m.ior), "glass is about 1.5, water 1.33");
+            self.err_help(
+                p.key("ior"),
+                format!("index of refraction {} must be > 0", m.ior),
+                "glass is about 1.5, water 1.33",
+            );
         }
         for (key, r) in [
             ("base_color_texture", &m.base_color_texture),
@@ -289,7 +353,11 @@ impl Validator<'_> {
                     if !finite(&r.axis) || !r.degrees.is_finite() {
                         self.err(q.key("rotate"), "rotation contains NaN or infinity");
                     } else if length(r.axis) == 0.0 {
-                        self.err_help(q.key("rotate").key("axis"), "rotation axis is the zero vector", "e.g. [0, 1, 0] for the y axis");
+                        self.err_help(
+                            q.key("rotate").key("axis"),
+                            "rotation axis is the zero vector",
+                            "e.g. [0, 1, 0] for the y axis",
+                        );
                     }
                 }
                 TransformOp::Scale(s) => {
@@ -298,7 +366,11 @@ impl Validator<'_> {
                         Scale::PerAxis(v) => *v,
                     };
                     if !finite(&v) || v.contains(&0.0) {
-                        self.err_help(q.key("scale"), format!("scale {v:?} must be finite and non-zero"), "a zero scale flattens the object; remove it instead");
+                        self.err_help(
+                            q.key("scale"),
+                            format!("scale {v:?} must be finite and non-zero"),
+                            "a zero scale flattens the object; remove it instead",
+                        );
                     }
                 }
                 TransformOp::Matrix(m) => {
@@ -306,13 +378,20 @@ impl Validator<'_> {
                     if !finite(&flat) {
                         self.err(q.key("matrix"), "matrix contains NaN or infinity");
                     } else if m[3] != [0.0, 0.0, 0.0, 1.0] {
-                        self.err_help(q.key("matrix").index(3), "the last row must be [0, 0, 0, 1] (an affine map)", "projective matrices are not supported");
+                        self.err_help(
+                            q.key("matrix").index(3),
+                            "the last row must be [0, 0, 0, 1] (an affine map)",
+                            "projective matrices are not supported",
+                        );
                     } else {
                         let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
                             - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
                             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
                         if det == 0.0 || !det.is_finite() {
-                            self.err(q.key("matrix"), "matrix is singular (it flattens the object)");
+                            self.err(
+                                q.key("matrix"),
+                                "matrix is singular (it flattens the object)",
+                            );
                         }
                     }
                 }
@@ -330,12 +409,20 @@ impl Validator<'_> {
                     self.err(q.key("center"), "center contains NaN or infinity");
                 }
                 if !(s.radius > 0.0 && s.radius.is_finite()) {
-                    self.err_help(q.key("radius"), format!("radius must be > 0, found {}", s.radius), "use a positive radius in scene units");
+                    self.err_help(
+                        q.key("radius"),
+                        format!("radius must be > 0, found {}", s.radius),
+                        "use a positive radius in scene units",
+                    );
                 }
             }
             Object::Plane(pl) => {
                 if !finite(&pl.normal) || length(pl.normal) == 0.0 {
-                    self.err_help(q.key("normal"), format!("normal {:?} must be finite and non-zero", pl.normal), "e.g. [0, 1, 0] for a floor");
+                    self.err_help(
+                        q.key("normal"),
+                        format!("normal {:?} must be finite and non-zero", pl.normal),
+                        "e.g. [0, 1, 0] for a floor",
+                    );
                 }
                 if !pl.offset.is_finite() {
                     self.err(q.key("offset"), "offset must be finite");
@@ -358,13 +445,21 @@ impl Validator<'_> {
             MeshSource::Obj(file) => {
                 self.file(&src.key("obj"), file, "OBJ");
                 if !file.to_ascii_lowercase().ends_with(".obj") {
-                    self.err_help(src.key("obj"), format!("`{file}` is not an .obj file"), "use {\"gltf\": {...}} for glTF meshes");
+                    self.err_help(
+                        src.key("obj"),
+                        format!("`{file}` is not an .obj file"),
+                        "use {\"gltf\": {...}} for glTF meshes",
+                    );
                 }
             }
             MeshSource::Gltf(g) => {
                 self.file(&src.key("gltf").key("file"), &g.file, "glTF");
                 if !is_gltf(&g.file) {
-                    self.err_help(src.key("gltf").key("file"), format!("`{}` is not a .gltf or .glb file", g.file), "use {\"obj\": \"file.obj\"} for OBJ meshes");
+                    self.err_help(
+                        src.key("gltf").key("file"),
+                        format!("`{}` is not a .gltf or .glb file", g.file),
+                        "use {\"obj\": \"file.obj\"} for OBJ meshes",
+                    );
                 }
             }
             MeshSource::Inline(mesh) => {
@@ -374,30 +469,50 @@ impl Validator<'_> {
                     self.err(p.clone(), "an inline mesh needs at least one triangle");
                 }
                 if let Some(i) = mesh.positions.iter().position(|v| !finite(v)) {
-                    self.err(p.key("positions").index(i), "position contains NaN or infinity");
+                    self.err(
+                        p.key("positions").index(i),
+                        "position contains NaN or infinity",
+                    );
                 }
-                if let Some((i, t)) = mesh.indices.iter().enumerate().find(|(_, t)| t.iter().any(|&k| k as usize >= n)) {
+                if let Some((i, t)) = mesh
+                    .indices
+                    .iter()
+                    .enumerate()
+                    .find(|(_, t)| t.iter().any(|&k| k as usize >= n))
+                {
                     self.err_help(
                         p.key("indices").index(i),
                         format!("index out of range in {t:?}: there are {n} positions"),
                         "indices are 0-based",
                     );
                 }
-                for (key, len) in [("normals", mesh.normals.as_ref().map(Vec::len)), ("uvs", mesh.uvs.as_ref().map(Vec::len))] {
+                for (key, len) in [
+                    ("normals", mesh.normals.as_ref().map(Vec::len)),
+                    ("uvs", mesh.uvs.as_ref().map(Vec::len)),
+                ] {
                     if let Some(len) = len {
                         if len != n {
-                            self.err(p.key(key), format!("{len} {key} for {n} positions: give one per position"));
+                            self.err(
+                                p.key(key),
+                                format!("{len} {key} for {n} positions: give one per position"),
+                            );
                         }
                     }
                 }
                 if let Some(normals) = &mesh.normals {
                     if let Some(i) = normals.iter().position(|v| !finite(v) || length(*v) == 0.0) {
-                        self.err(p.key("normals").index(i), "normal must be finite and non-zero");
+                        self.err(
+                            p.key("normals").index(i),
+                            "normal must be finite and non-zero",
+                        );
                     }
                 }
                 if let Some(uvs) = &mesh.uvs {
                     if let Some(i) = uvs.iter().position(|v| !finite(v)) {
-                        self.err(p.key("uvs").index(i), "texture coordinate contains NaN or infinity");
+                        self.err(
+                            p.key("uvs").index(i),
+                            "texture coordinate contains NaN or infinity",
+                        );
                     }
                 }
             }
@@ -409,7 +524,14 @@ impl Validator<'_> {
             Profile::Bezier(b) => {
                 let q = p.key("bezier").key("points");
                 if b.points.len() < 2 {
-                    self.err_help(q.clone(), format!("a Bézier profile needs at least 2 control points, found {}", b.points.len()), "2 points make a line, 4 a cubic");
+                    self.err_help(
+                        q.clone(),
+                        format!(
+                            "a Bézier profile needs at least 2 control points, found {}",
+                            b.points.len()
+                        ),
+                        "2 points make a line, 4 a cubic",
+                    );
                 }
                 self.points(&q, &b.points);
             }
@@ -421,7 +543,10 @@ impl Validator<'_> {
                 } else if n < deg + 1 {
                     self.err_help(
                         q.key("points"),
-                        format!("a degree-{deg} B-spline needs at least {} control points, found {n}", deg + 1),
+                        format!(
+                            "a degree-{deg} B-spline needs at least {} control points, found {n}",
+                            deg + 1
+                        ),
                         "add control points or lower the degree",
                     );
                 }
@@ -437,9 +562,22 @@ impl Validator<'_> {
                     } else if !finite(knots) {
                         self.err(q.key("knots"), "knots contain NaN or infinity");
                     } else if let Some(i) = knots.windows(2).position(|w| w[1] < w[0]) {
-                        self.err_help(q.key("knots").index(i + 1), format!("knot {} is smaller than the one before ({})", knots[i + 1], knots[i]), "knots must be non-decreasing");
+                        self.err_help(
+                            q.key("knots").index(i + 1),
+                            format!(
+                                "knot {} is smaller than the one before ({})",
+                                knots[i + 1],
+                                knots[i]
+                            ),
+                            "knots must be non-decreasing",
+                        );
                     } else if n > deg && knots[deg] >= knots[n] {
-                        self.err(q.key("knots"), format!("the curve's parameter range [knots[{deg}], knots[{n}]] is empty"));
+                        self.err(
+                            q.key("knots"),
+                            format!(
+                                "the curve's parameter range [knots[{deg}], knots[{n}]] is empty"
+                            ),
+                        );
                     }
                 }
             }
@@ -474,12 +612,28 @@ impl Validator<'_> {
                 self.direction(&q.key("direction"), s.direction);
                 self.color(&q.key("intensity"), s.intensity, None);
                 if !(0.0..=90.0).contains(&s.inner_angle_deg) {
-                    self.err(q.key("inner_angle_deg"), format!("inner angle {} is outside [0, 90] degrees", s.inner_angle_deg));
+                    self.err(
+                        q.key("inner_angle_deg"),
+                        format!(
+                            "inner angle {} is outside [0, 90] degrees",
+                            s.inner_angle_deg
+                        ),
+                    );
                 }
                 if !(s.outer_angle_deg > 0.0 && s.outer_angle_deg <= 90.0) {
-                    self.err(q.key("outer_angle_deg"), format!("outer angle {} is outside (0, 90] degrees", s.outer_angle_deg));
+                    self.err(
+                        q.key("outer_angle_deg"),
+                        format!(
+                            "outer angle {} is outside (0, 90] degrees",
+                            s.outer_angle_deg
+                        ),
+                    );
                 } else if s.outer_angle_deg < s.inner_angle_deg {
-                    self.err_help(q.key("outer_angle_deg"), "outer angle is smaller than the inner angle", "the outer angle bounds the cone; make it ≥ inner_angle_deg");
+                    self.err_help(
+                        q.key("outer_angle_deg"),
+                        "outer angle is smaller than the inner angle",
+                        "the outer angle bounds the cone; make it ≥ inner_angle_deg",
+                    );
                 }
             }
         }
@@ -487,7 +641,10 @@ impl Validator<'_> {
 
     fn direction(&mut self, p: &JsonPath, d: Vec3) {
         if !finite(&d) || length(d) == 0.0 {
-            self.err(p.clone(), format!("direction {d:?} must be finite and non-zero"));
+            self.err(
+                p.clone(),
+                format!("direction {d:?} must be finite and non-zero"),
+            );
         }
     }
 }

@@ -22,7 +22,8 @@ fn transform() -> impl Strategy<Value = Transform> {
     prop::collection::vec(
         prop_oneof![
             vec3().prop_map(TransformOp::Translate),
-            (vec3(), num()).prop_map(|(axis, degrees)| TransformOp::Rotate(Rotation { axis, degrees })),
+            (vec3(), num())
+                .prop_map(|(axis, degrees)| TransformOp::Rotate(Rotation { axis, degrees })),
             num().prop_map(|s| TransformOp::Scale(Scale::Uniform(s))),
             vec3().prop_map(|s| TransformOp::Scale(Scale::PerAxis(s))),
             prop::array::uniform4(prop::array::uniform4(num())).prop_map(TransformOp::Matrix),
@@ -32,7 +33,14 @@ fn transform() -> impl Strategy<Value = Transform> {
 }
 
 fn texture_ref() -> impl Strategy<Value = Option<TextureRef>> {
-    prop::option::of(("[a-z]{1,6}", vec2(), num(), vec2()).prop_map(|(texture, offset, rotation_deg, scale)| TextureRef { texture, offset, rotation_deg, scale }))
+    prop::option::of(("[a-z]{1,6}", vec2(), num(), vec2()).prop_map(
+        |(texture, offset, rotation_deg, scale)| TextureRef {
+            texture,
+            offset,
+            rotation_deg,
+            scale,
+        },
+    ))
 }
 
 fn material() -> impl Strategy<Value = Material> {
@@ -47,19 +55,31 @@ fn material() -> impl Strategy<Value = Material> {
         texture_ref(),
         any::<bool>(),
     )
-        .prop_map(|(base_color, base_color_texture, diffuse, (specular, transmission, roughness), roughness_specular_texture, ior, emission, emission_texture, two_sided_emission)| Material {
-            base_color,
-            base_color_texture,
-            diffuse,
-            specular,
-            transmission,
-            roughness,
-            roughness_specular_texture,
-            ior,
-            emission,
-            emission_texture,
-            two_sided_emission,
-        })
+        .prop_map(
+            |(
+                base_color,
+                base_color_texture,
+                diffuse,
+                (specular, transmission, roughness),
+                roughness_specular_texture,
+                ior,
+                emission,
+                emission_texture,
+                two_sided_emission,
+            )| Material {
+                base_color,
+                base_color_texture,
+                diffuse,
+                specular,
+                transmission,
+                roughness,
+                roughness_specular_texture,
+                ior,
+                emission,
+                emission_texture,
+                two_sided_emission,
+            },
+        )
 }
 
 fn object() -> impl Strategy<Value = Object> {
@@ -67,79 +87,232 @@ fn object() -> impl Strategy<Value = Object> {
         (prop::option::of("[a-z ]{0,8}"), "[a-z]{1,6}", transform())
     }
     prop_oneof![
-        (common(), vec3(), 0.001f32..100.0).prop_map(|((name, material, transform), center, radius)| Object::Sphere(Sphere { name, material, transform, center, radius })),
-        (common(), vec3(), num()).prop_map(|((name, material, transform), normal, offset)| Object::Plane(Plane { name, material, transform, normal, offset })),
-        (common(), [vec3(), vec3(), vec3()]).prop_map(|((name, material, transform), vertices)| Object::Triangle(Triangle { name, material, transform, vertices })),
-        (common(), prop::collection::vec(vec3(), 1..5), prop::collection::vec([0u32..5, 0u32..5, 0u32..5], 1..4), any::<bool>(), any::<bool>()).prop_map(
-            |((name, material, transform), positions, indices, with_normals, smooth)| {
-                let normals = with_normals.then(|| positions.clone());
-                Object::Mesh(Mesh { name, material, transform, source: MeshSource::Inline(InlineMesh { positions, indices, normals, uvs: None }), smooth })
-            }
+        (common(), vec3(), 0.001f32..100.0).prop_map(
+            |((name, material, transform), center, radius)| Object::Sphere(Sphere {
+                name,
+                material,
+                transform,
+                center,
+                radius
+            })
         ),
-        (common(), "[a-z]{1,8}\\.obj").prop_map(|((name, material, transform), file)| Object::Mesh(Mesh { name, material, transform, source: MeshSource::Obj(file), smooth: false })),
-        (common(), "[a-z]{1,8}\\.glb", 0u32..9, 0u32..3).prop_map(|((name, material, transform), file, mesh, primitive)| Object::Mesh(Mesh {
-            name,
-            material,
-            transform,
-            source: MeshSource::Gltf(GltfMeshRef { file, mesh, primitive }),
-            smooth: true
-        })),
-        (common(), prop::collection::vec(vec2(), 2..6)).prop_map(|((name, material, transform), points)| Object::Lathe(Lathe { name, material, transform, profile: Profile::Bezier(BezierProfile { points }) })),
-        (common(), 1u32..4, prop::collection::vec(vec2(), 4..8), any::<bool>()).prop_map(|((name, material, transform), degree, points, explicit)| {
-            let mut b = BsplineProfile { degree, points, knots: None };
-            if explicit {
-                b.knots = Some(b.knots_or_default());
-            }
-            Object::Lathe(Lathe { name, material, transform, profile: Profile::Bspline(b) })
+        (common(), vec3(), num()).prop_map(|((name, material, transform), normal, offset)| {
+            Object::Plane(Plane {
+                name,
+                material,
+                transform,
+                normal,
+                offset,
+            })
         }),
+        (common(), [vec3(), vec3(), vec3()]).prop_map(|((name, material, transform), vertices)| {
+            Object::Triangle(Triangle {
+                name,
+                material,
+                transform,
+                vertices,
+            })
+        }),
+        (
+            common(),
+            prop::collection::vec(vec3(), 1..5),
+            prop::collection::vec([0u32..5, 0u32..5, 0u32..5], 1..4),
+            any::<bool>(),
+            any::<bool>()
+        )
+            .prop_map(
+                |((name, material, transform), positions, indices, with_normals, smooth)| {
+                    let normals = with_normals.then(|| positions.clone());
+                    Object::Mesh(Mesh {
+                        name,
+                        material,
+                        transform,
+                        source: MeshSource::Inline(InlineMesh {
+                            positions,
+                            indices,
+                            normals,
+                            uvs: None,
+                        }),
+                        smooth,
+                    })
+                }
+            ),
+        (common(), "[a-z]{1,8}\\.obj").prop_map(
+            |((name, material, transform), file)| Object::Mesh(Mesh {
+                name,
+                material,
+                transform,
+                source: MeshSource::Obj(file),
+                smooth: false
+            })
+        ),
+        (common(), "[a-z]{1,8}\\.glb", 0u32..9, 0u32..3).prop_map(
+            |((name, material, transform), file, mesh, primitive)| Object::Mesh(Mesh {
+                name,
+                material,
+                transform,
+                source: MeshSource::Gltf(GltfMeshRef {
+                    file,
+                    mesh,
+                    primitive
+                }),
+                smooth: true
+            })
+        ),
+        (common(), prop::collection::vec(vec2(), 2..6)).prop_map(
+            |((name, material, transform), points)| Object::Lathe(Lathe {
+                name,
+                material,
+                transform,
+                profile: Profile::Bezier(BezierProfile { points })
+            })
+        ),
+        (
+            common(),
+            1u32..4,
+            prop::collection::vec(vec2(), 4..8),
+            any::<bool>()
+        )
+            .prop_map(|((name, material, transform), degree, points, explicit)| {
+                let mut b = BsplineProfile {
+                    degree,
+                    points,
+                    knots: None,
+                };
+                if explicit {
+                    b.knots = Some(b.knots_or_default());
+                }
+                Object::Lathe(Lathe {
+                    name,
+                    material,
+                    transform,
+                    profile: Profile::Bspline(b),
+                })
+            }),
     ]
 }
 
 fn light() -> impl Strategy<Value = Light> {
     prop_oneof![
-        (vec3(), vec3()).prop_map(|(position, intensity)| Light::Point(PointLight { position, intensity })),
-        (vec3(), vec3()).prop_map(|(direction, irradiance)| Light::Directional(DirectionalLight { direction, irradiance })),
-        (vec3(), vec3(), vec3(), 0.0f32..45.0, 45.0f32..90.0).prop_map(|(position, direction, intensity, inner_angle_deg, outer_angle_deg)| Light::Spot(SpotLight {
+        (vec3(), vec3()).prop_map(|(position, intensity)| Light::Point(PointLight {
             position,
-            direction,
-            intensity,
-            inner_angle_deg,
-            outer_angle_deg
+            intensity
         })),
+        (vec3(), vec3()).prop_map(
+            |(direction, irradiance)| Light::Directional(DirectionalLight {
+                direction,
+                irradiance
+            })
+        ),
+        (vec3(), vec3(), vec3(), 0.0f32..45.0, 45.0f32..90.0).prop_map(
+            |(position, direction, intensity, inner_angle_deg, outer_angle_deg)| Light::Spot(
+                SpotLight {
+                    position,
+                    direction,
+                    intensity,
+                    inner_angle_deg,
+                    outer_angle_deg
+                }
+            )
+        ),
     ]
 }
 
 fn scene() -> impl Strategy<Value = Scene> {
     (
-        (1u32..4096, 1u32..4096, prop_oneof![Just(Integrator::Path), Just(Integrator::Raycast)], 1u32..10_000, 1u32..64, any::<u64>(), prop::option::of(0.1f32..1000.0)),
-        (vec3(), vec3(), vec3(), 1.0f32..179.0, prop_oneof![Just(0.0f32), 0.001f32..1.0], prop::option::of(0.1f32..100.0)),
+        (
+            1u32..4096,
+            1u32..4096,
+            prop_oneof![Just(Integrator::Path), Just(Integrator::Raycast)],
+            1u32..10_000,
+            1u32..64,
+            any::<u64>(),
+            prop::option::of(0.1f32..1000.0),
+        ),
+        (
+            vec3(),
+            vec3(),
+            vec3(),
+            1.0f32..179.0,
+            prop_oneof![Just(0.0f32), 0.001f32..1.0],
+            prop::option::of(0.1f32..100.0),
+        ),
         [unit(), unit(), unit()],
-        prop::collection::btree_map("[a-z]{1,6}", ("[a-z]{1,8}\\.png", prop::option::of(0u32..4), any::<bool>(), 0u8..3), 0..3),
+        prop::collection::btree_map(
+            "[a-z]{1,6}",
+            (
+                "[a-z]{1,8}\\.png",
+                prop::option::of(0u32..4),
+                any::<bool>(),
+                0u8..3,
+            ),
+            0..3,
+        ),
         prop::collection::btree_map("[a-z]{1,6}", material(), 0..4),
         prop::collection::vec(object(), 0..6),
         prop::collection::vec(light(), 0..3),
     )
-        .prop_map(|((width, height, integrator, spp, max_depth, seed, time_budget_s), (position, look_at, up, fov_y_deg, aperture_radius, focus_distance), bg, textures, materials, objects, lights)| {
-            let textures: BTreeMap<String, Texture> = textures
-                .into_iter()
-                .map(|(k, (file, gltf_image, linear, wrap))| {
-                    let wrap = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp][wrap as usize];
-                    (k, Texture { file, gltf_image, color_space: if linear { ColorSpace::Linear } else { ColorSpace::Srgb }, wrap })
-                })
-                .collect();
-            Scene {
-                schema: Some("../schema/scene.schema.json".into()),
-                format_version: 1,
-                image: Image { width, height },
-                render: RenderSettings { integrator, sampler: if seed % 2 == 0 { SamplerKind::Sobol } else { SamplerKind::Independent }, spp, max_depth, seed, time_budget_s },
-                camera: Camera { position, look_at, up, fov_y_deg, aperture_radius, focus_distance },
-                background: Background { color: bg },
+        .prop_map(
+            |(
+                (width, height, integrator, spp, max_depth, seed, time_budget_s),
+                (position, look_at, up, fov_y_deg, aperture_radius, focus_distance),
+                bg,
                 textures,
                 materials,
                 objects,
                 lights,
-            }
-        })
+            )| {
+                let textures: BTreeMap<String, Texture> = textures
+                    .into_iter()
+                    .map(|(k, (file, gltf_image, linear, wrap))| {
+                        let wrap = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp][wrap as usize];
+                        (
+                            k,
+                            Texture {
+                                file,
+                                gltf_image,
+                                color_space: if linear {
+                                    ColorSpace::Linear
+                                } else {
+                                    ColorSpace::Srgb
+                                },
+                                wrap,
+                            },
+                        )
+                    })
+                    .collect();
+                Scene {
+                    schema: Some("../schema/scene.schema.json".into()),
+                    format_version: 1,
+                    image: Image { width, height },
+                    render: RenderSettings {
+                        integrator,
+                        sampler: if seed % 2 == 0 {
+                            SamplerKind::Sobol
+                        } else {
+                            SamplerKind::Independent
+                        },
+                        spp,
+                        max_depth,
+                        seed,
+                        time_budget_s,
+                    },
+                    camera: Camera {
+                        position,
+                        look_at,
+                        up,
+                        fov_y_deg,
+                        aperture_radius,
+                        focus_distance,
+                    },
+                    background: Background { color: bg },
+                    textures,
+                    materials,
+                    objects,
+                    lights,
+                }
+            },
+        )
 }
 
 proptest! {

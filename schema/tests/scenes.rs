@@ -9,7 +9,10 @@ use lumo_schema::{load_scene_file, parse_scene, to_json, LoadError};
 use serde_json::Value;
 
 fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
 }
 
 fn schema_validator() -> jsonschema::Validator {
@@ -34,32 +37,54 @@ fn example_scenes_are_valid_and_round_trip() {
     let validator = schema_validator();
     let mut files = Vec::new();
     json_files(&workspace().join("scenes"), &mut files);
-    assert!(files.iter().any(|f| f.ends_with("cornell.json")), "scenes/cornell.json is missing");
+    assert!(
+        files.iter().any(|f| f.ends_with("cornell.json")),
+        "scenes/cornell.json is missing"
+    );
     for file in files {
         let text = std::fs::read_to_string(&file).unwrap();
         let value: Value = serde_json::from_str(&text).unwrap();
         assert_eq!(
-            value["$schema"], "../schema/scene.schema.json",
+            value["$schema"],
+            "../schema/scene.schema.json",
             "{}: every example scene must name the schema for editors",
             file.display()
         );
-        let errors: Vec<String> = validator.iter_errors(&value).map(|e| format!("{}: {e}", e.instance_path())).collect();
-        assert!(errors.is_empty(), "{} violates the JSON Schema: {errors:#?}", file.display());
+        let errors: Vec<String> = validator
+            .iter_errors(&value)
+            .map(|e| format!("{}: {e}", e.instance_path()))
+            .collect();
+        assert!(
+            errors.is_empty(),
+            "{} violates the JSON Schema: {errors:#?}",
+            file.display()
+        );
         let scene = load_scene_file(&file).unwrap_or_else(|e| panic!("{e}"));
         let again = parse_scene(&to_json(&scene)).unwrap();
-        assert_eq!(scene, again, "{}: parse → serialise → parse changed the scene", file.display());
+        assert_eq!(
+            scene,
+            again,
+            "{}: parse → serialise → parse changed the scene",
+            file.display()
+        );
     }
 }
 
 #[test]
 fn invalid_scenes_report_exactly_the_expected_problems() {
     let dir = workspace().join("tests/invalid");
-    let expectations: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("expectations.json")).unwrap()).unwrap();
+    let expectations: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("expectations.json")).unwrap())
+            .unwrap();
     let validator = schema_validator();
     let mut files = Vec::new();
     json_files(&dir, &mut files);
     files.retain(|f| !f.ends_with("expectations.json"));
-    assert_eq!(files.len(), expectations.as_object().unwrap().len(), "every invalid scene needs an expectation and vice versa");
+    assert_eq!(
+        files.len(),
+        expectations.as_object().unwrap().len(),
+        "every invalid scene needs an expectation and vice versa"
+    );
     for file in files {
         let name = file.file_name().unwrap().to_str().unwrap();
         let expect = &expectations[name];
@@ -69,11 +94,28 @@ fn invalid_scenes_report_exactly_the_expected_problems() {
             other => panic!("{name}: expected an invalid scene, got {other:?}"),
         };
         let wanted = expect["errors"].as_array().unwrap();
-        assert_eq!(diagnostics.len(), wanted.len(), "{name}: got {diagnostics:#?}");
+        assert_eq!(
+            diagnostics.len(),
+            wanted.len(),
+            "{name}: got {diagnostics:#?}"
+        );
         for (d, w) in diagnostics.iter().zip(wanted) {
-            assert_eq!(d.path.to_string(), w["path"].as_str().unwrap(), "{name}: {d}");
-            assert!(d.message.contains(w["contains"].as_str().unwrap()), "{name}: message `{}` lacks `{}`", d.message, w["contains"]);
-            assert_eq!(d.location.map(|l| l.line as u64), w["line"].as_u64(), "{name}: {d}");
+            assert_eq!(
+                d.path.to_string(),
+                w["path"].as_str().unwrap(),
+                "{name}: {d}"
+            );
+            assert!(
+                d.message.contains(w["contains"].as_str().unwrap()),
+                "{name}: message `{}` lacks `{}`",
+                d.message,
+                w["contains"]
+            );
+            assert_eq!(
+                d.location.map(|l| l.line as u64),
+                w["line"].as_u64(),
+                "{name}: {d}"
+            );
             if let Some(help) = w.get("help") {
                 assert_eq!(d.help.as_deref(), help.as_str(), "{name}: {d}");
             }
@@ -81,7 +123,11 @@ fn invalid_scenes_report_exactly_the_expected_problems() {
         // Errors the schema can express must be caught by any editor too.
         if let Ok(value) = serde_json::from_str::<Value>(&std::fs::read_to_string(&file).unwrap()) {
             let schema_level = expect["schema_level"].as_bool().unwrap();
-            assert_eq!(!validator.is_valid(&value), schema_level, "{name}: schema-level rejection should be {schema_level}");
+            assert_eq!(
+                !validator.is_valid(&value),
+                schema_level,
+                "{name}: schema-level rejection should be {schema_level}"
+            );
         }
     }
 }

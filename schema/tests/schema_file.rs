@@ -19,9 +19,15 @@ fn checked_in_schema_is_current() {
 #[test]
 fn schema_is_draft_2020_12_with_ranges_and_descriptions() {
     let schema: serde_json::Value = serde_json::from_str(&lumo_schema::json_schema()).unwrap();
-    assert_eq!(schema["$schema"], "https://json-schema.org/draft/2020-12/schema");
+    assert_eq!(
+        schema["$schema"],
+        "https://json-schema.org/draft/2020-12/schema"
+    );
     let sphere = &schema["$defs"]["Sphere"]["properties"];
     assert_eq!(sphere["radius"]["exclusiveMinimum"], 0);
-    assert!(sphere["radius"]["description"].as_str().unwrap().contains("scene units"));
+    assert!(sphere["radius"]["description"]
+        .as_str()
+        .unwrap()
+        .contains("scene units"));
     assert_eq!(schema["$defs"]["Sphere"]["additionalProperties"], false);
 }

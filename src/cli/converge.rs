@@ -77,27 +77,58 @@ pub struct Series {
 
 /// Reads the series of another run from a CSV file (see [`ConvergeArgs::compare`]).
 pub fn read_series(path: &Path, skip_label: &str) -> Result<Vec<Series>, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     let Some((_, header)) = lines.next() else {
-        return Err(CliError::invalid(format!("{}: empty file (expected a CSV header naming seconds, rmse and peer or label)", path.display())));
+        return Err(CliError::invalid(format!(
+            "{}: empty file (expected a CSV header naming seconds, rmse and peer or label)",
+            path.display()
+        )));
     };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let column = |wanted: &[&str]| {
-        names.iter().position(|n| wanted.contains(n)).ok_or_else(|| {
-            CliError::invalid(format!("{}:1: the header has no `{}` column (it has: {})", path.display(), wanted.join("` or `"), names.join(", ")))
-        })
+        names
+            .iter()
+            .position(|n| wanted.contains(n))
+            .ok_or_else(|| {
+                CliError::invalid(format!(
+                    "{}:1: the header has no `{}` column (it has: {})",
+                    path.display(),
+                    wanted.join("` or `"),
+                    names.join(", ")
+                ))
+            })
     };
-    let (label_at, seconds_at, rmse_at) = (column(&["peer", "label"])?, column(&["seconds"])?, column(&["rmse"])?);
+    let (label_at, seconds_at, rmse_at) = (
+        column(&["peer", "label"])?,
+        column(&["seconds"])?,
+        column(&["rmse"])?,
+    );
     let mut series: Vec<Series> = Vec::new();
     for (i, line) in lines {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         let field = |at: usize, what: &str| {
-            fields.get(at).copied().ok_or_else(|| CliError::invalid(format!("{}:{}: missing the `{what}` field", path.display(), i + 1)))
+            fields.get(at).copied().ok_or_else(|| {
+                CliError::invalid(format!(
+                    "{}:{}: missing the `{what}` field",
+                    path.display(),
+                    i + 1
+                ))
+            })
         };
         let number = |at: usize, what: &str| -> Result<f64, CliError> {
             let f = field(at, what)?;
-            f.parse().map_err(|_| CliError::invalid(format!("{}:{}: `{what}` is `{f}`, expected a number", path.display(), i + 1)))
+            f.parse().map_err(|_| {
+                CliError::invalid(format!(
+                    "{}:{}: `{what}` is `{f}`, expected a number",
+                    path.display(),
+                    i + 1
+                ))
+            })
         };
         let label = field(label_at, "label")?;
         if label == skip_label {
@@ -106,7 +137,10 @@ pub fn read_series(path: &Path, skip_label: &str) -> Result<Vec<Series>, CliErro
         let point = (number(seconds_at, "seconds")?, number(rmse_at, "rmse")?);
         match series.iter_mut().find(|s| s.label == label) {
             Some(s) => s.points.push(point),
-            None => series.push(Series { label: label.to_string(), points: vec![point] }),
+            None => series.push(Series {
+                label: label.to_string(),
+                points: vec![point],
+            }),
         }
     }
     Ok(series)
@@ -122,20 +156,31 @@ pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>
     if let Some(k) = args.sampler {
         inp.scene.render.sampler = k.into();
     }
-    std::fs::create_dir_all(&args.out_dir).map_err(|e| CliError::failure(format!("{}: {e}", args.out_dir.display())))?;
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|e| CliError::failure(format!("{}: {e}", args.out_dir.display())))?;
     let scene_at = |spp: u32, seed: u64| -> Result<Scene, CliError> {
         let mut desc = inp.scene.clone();
         desc.render.spp = spp;
         desc.render.seed = seed;
         desc.render.time_budget_s = None;
-        build(&desc, &inp.base_dir, external).map(|(s, _)| s).map_err(|e| CliError::invalid(e.to_string()))
+        build(&desc, &inp.base_dir, external)
+            .map(|(s, _)| s)
+            .map_err(|e| CliError::invalid(e.to_string()))
     };
     let reference = match &args.reference {
         Some(path) => read_image(path).map_err(|e| CliError::failure(e.to_string()))?,
         None => {
             eprintln!("rendering a reference at {} spp…", args.reference_spp);
-            let r = render_with_error(&scene_at(args.reference_spp, 0x5eed_0f_2ef)?, &RenderOptions::default());
-            write_image(&r.image, &args.out_dir.join("reference.exr"), ToneMap::Clamp).map_err(|e| CliError::failure(e.to_string()))?;
+            let r = render_with_error(
+                &scene_at(args.reference_spp, 0x5eed_0f_2ef)?,
+                &RenderOptions::default(),
+            );
+            write_image(
+                &r.image,
+                &args.out_dir.join("reference.exr"),
+                ToneMap::Clamp,
+            )
+            .map_err(|e| CliError::failure(e.to_string()))?;
             r.image
         }
     };
@@ -145,7 +190,10 @@ pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>
             reference.width, reference.height, inp.scene.image.width, inp.scene.image.height
         )));
     }
-    let options = RenderOptions { adaptive: args.adaptive, ..Default::default() };
+    let options = RenderOptions {
+        adaptive: args.adaptive,
+        ..Default::default()
+    };
     let mut rungs = Vec::new();
     for &spp in &args.spp {
         let scene = scene_at(spp, 1)?;
@@ -163,13 +211,25 @@ pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>
         eprintln!("{:>6} spp  {:>8.3} s  {:>6.2} M samples/s  RMSE {:.5}  relMSE {:.6}  (estimated RMSE {:.5})", rung.spp, rung.seconds, rung.samples_per_second / 1e6, rung.rmse, rung.rel_mse, rung.estimated_rmse);
         rungs.push(rung);
     }
-    let mut csv = String::from("label,spp,seconds,samples_per_second,rmse,rel_mse,estimated_rmse\n");
+    let mut csv =
+        String::from("label,spp,seconds,samples_per_second,rmse,rel_mse,estimated_rmse\n");
     for r in &rungs {
-        csv.push_str(&format!("{},{},{:.6},{:.1},{:.6},{:.8},{:.6}\n", args.label, r.spp, r.seconds, r.samples_per_second, r.rmse, r.rel_mse, r.estimated_rmse));
+        csv.push_str(&format!(
+            "{},{},{:.6},{:.1},{:.6},{:.8},{:.6}\n",
+            args.label, r.spp, r.seconds, r.samples_per_second, r.rmse, r.rel_mse, r.estimated_rmse
+        ));
     }
     super::write_text_atomically(&args.out_dir.join("converge.csv"), &csv)?;
-    let this = Series { label: args.label.clone(), points: rungs.iter().map(|r| (r.seconds, r.rmse)).collect() };
-    plot(&this, &others, &args.out_dir.join("converge.svg"), &args.out_dir.join("converge.png"))?;
+    let this = Series {
+        label: args.label.clone(),
+        points: rungs.iter().map(|r| (r.seconds, r.rmse)).collect(),
+    };
+    plot(
+        &this,
+        &others,
+        &args.out_dir.join("converge.svg"),
+        &args.out_dir.join("converge.png"),
+    )?;
     eprintln!("wrote {}/converge.{{csv,svg,png}}", args.out_dir.display());
     Ok(rungs)
 }
@@ -178,9 +238,22 @@ pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>
 /// through this run's first rung.
 fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), CliError> {
     let fail = |e: String| CliError::failure(format!("plot: {e}"));
-    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).map_err(|_| fail("cannot load the bundled font".into()))?;
-    let positive = |s: &Series| Series { label: s.label.clone(), points: s.points.iter().copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect() };
-    let series: Vec<Series> = std::iter::once(this).chain(others).map(positive).filter(|s| !s.points.is_empty()).collect();
+    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+        .map_err(|_| fail("cannot load the bundled font".into()))?;
+    let positive = |s: &Series| Series {
+        label: s.label.clone(),
+        points: s
+            .points
+            .iter()
+            .copied()
+            .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+            .collect(),
+    };
+    let series: Vec<Series> = std::iter::once(this)
+        .chain(others)
+        .map(positive)
+        .filter(|s| !s.points.is_empty())
+        .collect();
     if series.first().is_none_or(|s| s.label != this.label) {
         return Err(fail("no rung has a positive time and error".into()));
     }
@@ -188,10 +261,30 @@ fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), 
     let (t0, e0) = series[0].points[0];
     let tmin = all().map(|p| p.0).fold(f64::INFINITY, f64::min) / 1.5;
     let tmax = all().map(|p| p.0).fold(0.0, f64::max) * 1.5;
-    let emin = all().map(|p| p.1).fold(f64::INFINITY, f64::min).min(e0 * (t0 / tmax).sqrt()) / 1.5;
-    let emax = all().map(|p| p.1).fold(0.0, f64::max).max(e0 * (t0 / tmin).sqrt()) * 1.5;
-    fn draw<B: DrawingBackend>(root: DrawingArea<B, plotters::coord::Shift>, series: &[Series], x: (f64, f64), y: (f64, f64)) -> Result<(), String> {
-        const COLOURS: [RGBColor; 6] = [BLUE, RED, RGBColor(0, 140, 0), RGBColor(230, 120, 0), MAGENTA, RGBColor(0, 150, 160)];
+    let emin = all()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min)
+        .min(e0 * (t0 / tmax).sqrt())
+        / 1.5;
+    let emax = all()
+        .map(|p| p.1)
+        .fold(0.0, f64::max)
+        .max(e0 * (t0 / tmin).sqrt())
+        * 1.5;
+    fn draw<B: DrawingBackend>(
+        root: DrawingArea<B, plotters::coord::Shift>,
+        series: &[Series],
+        x: (f64, f64),
+        y: (f64, f64),
+    ) -> Result<(), String> {
+        const COLOURS: [RGBColor; 6] = [
+            BLUE,
+            RED,
+            RGBColor(0, 140, 0),
+            RGBColor(230, 120, 0),
+            MAGENTA,
+            RGBColor(0, 150, 160),
+        ];
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let mut chart = ChartBuilder::on(&root)
             .caption("Error against time", ("sans-serif", 22))
@@ -204,7 +297,11 @@ fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), 
         let tick = |v: &f64| {
             let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
             let s = format!("{v:.digits$}");
-            if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+            if s.contains('.') {
+                s.trim_end_matches('0').trim_end_matches('.').to_string()
+            } else {
+                s
+            }
         };
         chart
             .configure_mesh()
@@ -217,30 +314,60 @@ fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), 
             .map_err(|e| e.to_string())?;
         let (t0, e0) = series[0].points[0];
         chart
-            .draw_series(LineSeries::new([x.0, x.1].map(|t| (t, e0 * (t0 / t).sqrt())), BLACK.mix(0.4).stroke_width(1)))
+            .draw_series(LineSeries::new(
+                [x.0, x.1].map(|t| (t, e0 * (t0 / t).sqrt())),
+                BLACK.mix(0.4).stroke_width(1),
+            ))
             .map_err(|e| e.to_string())?
             .label("ideal 1/√t")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.mix(0.4)));
         for (i, s) in series.iter().enumerate() {
             let colour = COLOURS[i % COLOURS.len()];
             chart
-                .draw_series(LineSeries::new(s.points.iter().copied(), colour.stroke_width(2)))
+                .draw_series(LineSeries::new(
+                    s.points.iter().copied(),
+                    colour.stroke_width(2),
+                ))
                 .map_err(|e| e.to_string())?
                 .label(s.label.clone())
                 .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour));
-            chart.draw_series(s.points.iter().map(|p| Circle::new(*p, 4, colour.filled()))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(s.points.iter().map(|p| Circle::new(*p, 4, colour.filled())))
+                .map_err(|e| e.to_string())?;
         }
-        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).label_font(("sans-serif", 14)).draw().map_err(|e| e.to_string())?;
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(|e| e.to_string())?;
         root.present().map_err(|e| e.to_string())
     }
-    draw(SVGBackend::new(svg, (720, 480)).into_drawing_area(), &series, (tmin, tmax), (emin, emax)).map_err(fail)?;
+    draw(
+        SVGBackend::new(svg, (720, 480)).into_drawing_area(),
+        &series,
+        (tmin, tmax),
+        (emin, emax),
+    )
+    .map_err(fail)?;
     let (w, h) = (720u32, 480u32);
     let mut buffer = vec![0u8; (w * h * 3) as usize];
-    draw(BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area(), &series, (tmin, tmax), (emin, emax)).map_err(fail)?;
-    let img = image::RgbImage::from_raw(w, h, buffer).ok_or_else(|| fail("bitmap size mismatch".into()))?;
+    draw(
+        BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area(),
+        &series,
+        (tmin, tmax),
+        (emin, emax),
+    )
+    .map_err(fail)?;
+    let img = image::RgbImage::from_raw(w, h, buffer)
+        .ok_or_else(|| fail("bitmap size mismatch".into()))?;
     let mut bytes = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut bytes, image::ImageFormat::Png).map_err(|e| fail(e.to_string()))?;
+    img.write_to(&mut bytes, image::ImageFormat::Png)
+        .map_err(|e| fail(e.to_string()))?;
     let tmp = png.with_extension("png.tmp");
-    std::fs::write(&tmp, bytes.into_inner()).and_then(|_| std::fs::rename(&tmp, png)).map_err(|e| fail(format!("{}: {e}", png.display())))?;
+    std::fs::write(&tmp, bytes.into_inner())
+        .and_then(|_| std::fs::rename(&tmp, png))
+        .map_err(|e| fail(format!("{}: {e}", png.display())))?;
     Ok(())
 }

@@ -19,7 +19,10 @@ pub struct GltfData {
 
 impl GltfData {
     fn open(&self, file: &Path) -> Result<Arc<GltfFile>, String> {
-        let mut files = self.files.lock().map_err(|_| "glTF cache poisoned by an earlier failure".to_string())?;
+        let mut files = self
+            .files
+            .lock()
+            .map_err(|_| "glTF cache poisoned by an earlier failure".to_string())?;
         if let Some(f) = files.get(file) {
             return Ok(f.clone());
         }
@@ -31,7 +34,10 @@ impl GltfData {
 
 impl ExternalData for GltfData {
     fn gltf_mesh(&self, file: &Path, mesh: u32, primitive: u32) -> Result<MeshData, String> {
-        let d = self.open(file)?.mesh_primitive(mesh, primitive).map_err(|e| e.to_string())?;
+        let d = self
+            .open(file)?
+            .mesh_primitive(mesh, primitive)
+            .map_err(|e| e.to_string())?;
         Ok(MeshData {
             positions: d.positions.into_iter().map(Vec3::from).collect(),
             triangles: d.indices,

@@ -43,7 +43,11 @@ pub struct LoadOptions {
 
 /// The input kind of a path, by extension.
 pub fn kind_of(path: &Path) -> Result<InputKind, CliError> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     match ext.as_str() {
         "json" => Ok(InputKind::Json),
         "txt" => Ok(InputKind::Legacy),
@@ -64,7 +68,10 @@ pub fn load(path: &Path) -> Result<Input, CliError> {
 pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Input, CliError> {
     match kind_of(path)? {
         InputKind::Gltf => {
-            let opts = ImportOptions { camera: options.camera.clone(), scene_dir: options.scene_dir.clone() };
+            let opts = ImportOptions {
+                camera: options.camera.clone(),
+                scene_dir: options.scene_dir.clone(),
+            };
             let imported = gltf::import(path, &opts).map_err(|e| match e {
                 gltf::GltfError::Io { .. } => CliError::failure(e.to_string()),
                 _ => CliError::invalid(e.to_string()),
@@ -75,17 +82,31 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Input, CliError> 
             };
             let diags = schema::validate(&imported.scene, Some(&base_dir));
             if let Some(d) = diags.first() {
-                return Err(CliError::invalid(format!("{}: the imported scene is not valid: {d}", path.display())));
+                return Err(CliError::invalid(format!(
+                    "{}: the imported scene is not valid: {d}",
+                    path.display()
+                )));
             }
-            Ok(Input { scene: imported.scene, base_dir, warnings: imported.warnings })
+            Ok(Input {
+                scene: imported.scene,
+                base_dir,
+                warnings: imported.warnings,
+            })
         }
         InputKind::Json => {
             let scene = schema::load_scene_file(path).map_err(CliError::from_load)?;
-            Ok(Input { scene, base_dir: schema::base_dir_of(path), warnings: Vec::new() })
+            Ok(Input {
+                scene,
+                base_dir: schema::base_dir_of(path),
+                warnings: Vec::new(),
+            })
         }
         InputKind::Legacy => {
             // Paths in the converted scene stay relative to the legacy file's folder.
-            let opts = legacy::ImportOptions { lights: options.lights, output_dir: None };
+            let opts = legacy::ImportOptions {
+                lights: options.lights,
+                output_dir: None,
+            };
             let imported = legacy::import(path, &opts).map_err(|e| match e {
                 legacy::LegacyError::Io { .. } => CliError::failure(e.to_string()),
                 legacy::LegacyError::Invalid { .. } => CliError::invalid(e.to_string()),
@@ -96,9 +117,19 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Input, CliError> 
             let warnings = imported
                 .warnings
                 .iter()
-                .map(|w| w.strip_prefix(&prefix).unwrap_or(w).replacen(" warning: ", " ", 1).trim_start().to_string())
+                .map(|w| {
+                    w.strip_prefix(&prefix)
+                        .unwrap_or(w)
+                        .replacen(" warning: ", " ", 1)
+                        .trim_start()
+                        .to_string()
+                })
                 .collect();
-            Ok(Input { scene: imported.scene, base_dir: schema::base_dir_of(path), warnings })
+            Ok(Input {
+                scene: imported.scene,
+                base_dir: schema::base_dir_of(path),
+                warnings,
+            })
         }
     }
 }

@@ -32,19 +32,27 @@ pub struct CliError {
 impl CliError {
     /// Invalid input (exit code 2).
     pub fn invalid(message: impl Into<String>) -> Self {
-        CliError { code: EXIT_INVALID, message: message.into() }
+        CliError {
+            code: EXIT_INVALID,
+            message: message.into(),
+        }
     }
 
     /// I/O or internal failure (exit code 1).
     pub fn failure(message: impl Into<String>) -> Self {
-        CliError { code: EXIT_FAILURE, message: message.into() }
+        CliError {
+            code: EXIT_FAILURE,
+            message: message.into(),
+        }
     }
 
     /// Maps a scene loading error to its exit code.
     pub fn from_load(e: schema::LoadError) -> Self {
         match e {
             schema::LoadError::Io { .. } => CliError::failure(e.to_string()),
-            schema::LoadError::Invalid { .. } => CliError::invalid(e.to_string().trim_end().to_string()),
+            schema::LoadError::Invalid { .. } => {
+                CliError::invalid(e.to_string().trim_end().to_string())
+            }
         }
     }
 }
@@ -129,11 +137,15 @@ pub enum Command {
         files: Vec<PathBuf>,
     },
     /// Render at a ladder of sample counts and report error against time (CSV and log-log plot).
-    #[command(after_help = "Example:\n  lumo converge scenes/cornell.json --reference tests/reference/cornell_mitsuba_4096.exr --spp 1,4,16,64,256 -o converge")]
+    #[command(
+        after_help = "Example:\n  lumo converge scenes/cornell.json --reference tests/reference/cornell_mitsuba_4096.exr --spp 1,4,16,64,256 -o converge"
+    )]
     Converge(converge::ConvergeArgs),
     /// Convert a scene between formats, by extension: lumo JSON, legacy text (.txt), glTF (.gltf
     /// with a .bin beside it, or .glb).
-    #[command(after_help = "Examples:\n  lumo convert legacy.txt -o scene.json\n  lumo convert model.glb -o scene.json --camera 0\n  lumo convert scenes/cornell.json -o cornell.glb")]
+    #[command(
+        after_help = "Examples:\n  lumo convert legacy.txt -o scene.json\n  lumo convert model.glb -o scene.json --camera 0\n  lumo convert scenes/cornell.json -o cornell.glb"
+    )]
     Convert {
         /// Input scene (.json, .gltf, .glb).
         input: PathBuf,
@@ -237,7 +249,9 @@ fn parse_duration(text: &str) -> Result<f32, String> {
     };
     match num.trim().parse::<f32>() {
         Ok(v) if v > 0.0 && v.is_finite() => Ok(v * scale),
-        _ => Err(format!("`{text}` is not a duration (examples: 30s, 2m, 500ms)")),
+        _ => Err(format!(
+            "`{text}` is not a duration (examples: 30s, 2m, 500ms)"
+        )),
     }
 }
 
@@ -245,7 +259,12 @@ fn parse_duration(text: &str) -> Result<f32, String> {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Render(args) => render_cmd(&args, &gltf::GltfData::default()),
-        Command::Convert { input, output, camera, lights } => convert_cmd(&input, &output, camera.as_deref(), lights),
+        Command::Convert {
+            input,
+            output,
+            camera,
+            lights,
+        } => convert_cmd(&input, &output, camera.as_deref(), lights),
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
         Command::Converge(args) => converge::run(&args, &gltf::GltfData::default()).map(|_| ()),
@@ -259,23 +278,42 @@ fn camera_choice(s: &str) -> lumo_converters::gltf::CameraChoice {
     }
 }
 
-fn convert_cmd(input_path: &Path, output: &Path, camera: Option<&str>, lights: LightsArg) -> Result<(), CliError> {
-    let ext = output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+fn convert_cmd(
+    input_path: &Path,
+    output: &Path,
+    camera: Option<&str>,
+    lights: LightsArg,
+) -> Result<(), CliError> {
+    let ext = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     let out_dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
     if !out_dir.is_dir() {
-        return Err(CliError::failure(format!("{}: the output folder does not exist", output.display())));
+        return Err(CliError::failure(format!(
+            "{}: the output folder does not exist",
+            output.display()
+        )));
     }
     let (json_out, legacy_out) = match ext.as_str() {
         "json" => (true, false),
         "txt" => (false, true),
         "gltf" | "glb" => (false, false),
-        _ => return Err(CliError::invalid(format!("{}: cannot tell the output format from `{ext}` (expected .json, .txt, .gltf or .glb)", output.display()))),
+        _ => return Err(CliError::invalid(format!(
+            "{}: cannot tell the output format from `{ext}` (expected .json, .txt, .gltf or .glb)",
+            output.display()
+        ))),
     };
     // A converted scene's paths are written relative to the output's folder.
-    let options = input::LoadOptions { lights: lights.into(), camera: camera.map(camera_choice), scene_dir: json_out.then(|| out_dir.clone()) };
+    let options = input::LoadOptions {
+        lights: lights.into(),
+        camera: camera.map(camera_choice),
+        scene_dir: json_out.then(|| out_dir.clone()),
+    };
     let mut inp = input::load_with(input_path, &options)?;
     for w in &inp.warnings {
         eprintln!("warning: {}: {w}", input_path.display());
@@ -285,13 +323,16 @@ fn convert_cmd(input_path: &Path, output: &Path, camera: Option<&str>, lights: L
         write_text_atomically(output, &schema::to_json(&inp.scene))?;
     } else if legacy_out {
         rebase_paths(&mut inp.scene, &inp.base_dir, &out_dir);
-        let text = lumo_converters::legacy::export(&inp.scene).map_err(|e| CliError::invalid(format!("{}: {e}", output.display())))?;
+        let text = lumo_converters::legacy::export(&inp.scene)
+            .map_err(|e| CliError::invalid(format!("{}: {e}", output.display())))?;
         write_text_atomically(output, &text)?;
     } else {
-        let warnings = lumo_converters::gltf::export(&inp.scene, &inp.base_dir, output).map_err(|e| match e {
-            lumo_converters::gltf::GltfError::Io { .. } => CliError::failure(e.to_string()),
-            _ => CliError::invalid(e.to_string()),
-        })?;
+        let warnings = lumo_converters::gltf::export(&inp.scene, &inp.base_dir, output).map_err(
+            |e| match e {
+                lumo_converters::gltf::GltfError::Io { .. } => CliError::failure(e.to_string()),
+                _ => CliError::invalid(e.to_string()),
+            },
+        )?;
         for w in warnings {
             eprintln!("warning: {}: {w}", output.display());
         }
@@ -366,13 +407,20 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
     if worst == 0 {
         Ok(())
     } else {
-        Err(CliError { code: worst, message: report.trim_end().to_string() })
+        Err(CliError {
+            code: worst,
+            message: report.trim_end().to_string(),
+        })
     }
 }
 
 fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliError> {
     crate::output::format_of(&args.output).map_err(|e| CliError::invalid(e.to_string()))?;
-    let options = input::LoadOptions { lights: args.lights.into(), camera: args.camera.as_deref().map(camera_choice), scene_dir: None };
+    let options = input::LoadOptions {
+        lights: args.lights.into(),
+        camera: args.camera.as_deref().map(camera_choice),
+        scene_dir: None,
+    };
     let mut inp = input::load_with(&args.scene, &options)?;
     let s = &mut inp.scene;
     if let Some(v) = args.spp {
@@ -407,26 +455,45 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
         s.render.spp = schema::MAX_SPP;
     }
     let reference = match &args.reference {
-        Some(p) => Some(crate::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
+        Some(p) => {
+            Some(crate::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?)
+        }
         None => None,
     };
     if let Some(r) = &reference {
         if (r.width, r.height) != (s.image.width, s.image.height) {
-            return Err(CliError::invalid(format!("{}: reference is {}×{} but the render is {}×{}", args.reference.as_ref().map_or(String::new(), |p| p.display().to_string()), r.width, r.height, s.image.width, s.image.height)));
+            return Err(CliError::invalid(format!(
+                "{}: reference is {}×{} but the render is {}×{}",
+                args.reference
+                    .as_ref()
+                    .map_or(String::new(), |p| p.display().to_string()),
+                r.width,
+                r.height,
+                s.image.width,
+                s.image.height
+            )));
         }
     }
     let pixels = u64::from(s.image.width) * u64::from(s.image.height);
     if pixels > schema::MAX_PIXELS {
-        return Err(CliError::invalid(format!("{}×{} is above the limit of {} pixels", s.image.width, s.image.height, schema::MAX_PIXELS)));
+        return Err(CliError::invalid(format!(
+            "{}×{} is above the limit of {} pixels",
+            s.image.width,
+            s.image.height,
+            schema::MAX_PIXELS
+        )));
     }
     for w in &inp.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    let (scene, warnings) = build(&inp.scene, &inp.base_dir, external).map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
+    let (scene, warnings) = build(&inp.scene, &inp.base_dir, external)
+        .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
     for w in warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    let total = u64::from(scene.settings.width) * u64::from(scene.settings.height) * u64::from(scene.settings.spp);
+    let total = u64::from(scene.settings.width)
+        * u64::from(scene.settings.height)
+        * u64::from(scene.settings.spp);
     let open_ended = scene.settings.time_budget_s.is_some() || args.target_error.is_some();
     let bar = if args.quiet {
         ProgressBar::hidden()
@@ -441,7 +508,11 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
     );
     bar.enable_steady_tick(Duration::from_millis(200));
     let progress = |n: u64| bar.set_position(n);
-    let options = RenderOptions { progress: Some(&progress), target_rel_error: args.target_error, adaptive: args.adaptive };
+    let options = RenderOptions {
+        progress: Some(&progress),
+        target_rel_error: args.target_error,
+        adaptive: args.adaptive,
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0) as usize)
         .build()
@@ -455,12 +526,21 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
     };
     write_image(image, &args.output, tone).map_err(|e| CliError::failure(e.to_string()))?;
     if let Some(path) = &args.error_image {
-        write_image(&rendered.std_error, path, ToneMap::Clamp).map_err(|e| CliError::failure(e.to_string()))?;
+        write_image(&rendered.std_error, path, ToneMap::Clamp)
+            .map_err(|e| CliError::failure(e.to_string()))?;
     }
     let secs = stats.elapsed.as_secs_f64();
-    let nan = if stats.nan_samples > 0 { format!(", {} NaN/Inf samples dropped", stats.nan_samples) } else { String::new() };
+    let nan = if stats.nan_samples > 0 {
+        format!(", {} NaN/Inf samples dropped", stats.nan_samples)
+    } else {
+        String::new()
+    };
     let vs_reference = match &reference {
-        Some(r) => format!(", RMSE {:.5}, relMSE {:.6} vs reference", image.rmse(r), image.rel_mse(r)),
+        Some(r) => format!(
+            ", RMSE {:.5}, relMSE {:.6} vs reference",
+            image.rmse(r),
+            image.rel_mse(r)
+        ),
         None => String::new(),
     };
     eprintln!(

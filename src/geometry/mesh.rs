@@ -41,7 +41,12 @@ impl Mesh {
     /// Makes a mesh (its BVH is built on first use, see [`Mesh::bvh`]). Degenerate (zero-area)
     /// triangles are removed; the number removed is returned alongside so the loader can warn
     /// once.
-    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>, normals: Option<Vec<Vec3>>, uvs: Option<Vec<Vec2>>) -> (Mesh, usize) {
+    pub fn new(
+        positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        normals: Option<Vec<Vec3>>,
+        uvs: Option<Vec<Vec2>>,
+    ) -> (Mesh, usize) {
         let before = triangles.len();
         let triangles: Vec<[u32; 3]> = triangles
             .into_iter()
@@ -51,8 +56,20 @@ impl Mesh {
             })
             .collect();
         let dropped = before - triangles.len();
-        let bounds = triangles.iter().fold(Aabb::EMPTY, |b, t| t.iter().fold(b, |b, &i| b.grow(positions[i as usize])));
-        (Mesh { positions, triangles, normals, uvs, bounds, bvh: OnceLock::new() }, dropped)
+        let bounds = triangles.iter().fold(Aabb::EMPTY, |b, t| {
+            t.iter().fold(b, |b, &i| b.grow(positions[i as usize]))
+        });
+        (
+            Mesh {
+                positions,
+                triangles,
+                normals,
+                uvs,
+                bounds,
+                bvh: OnceLock::new(),
+            },
+            dropped,
+        )
     }
 
     /// Bounds in object space.
@@ -63,7 +80,9 @@ impl Mesh {
     /// The mesh's own BVH (object space), built on first call.
     pub fn bvh(&self) -> &TriangleBvh {
         self.bvh.get_or_init(|| {
-            let corners = (0..self.triangles.len() as u32).map(|p| self.corners(p).map(Vec3A::from)).collect();
+            let corners = (0..self.triangles.len() as u32)
+                .map(|p| self.corners(p).map(Vec3A::from))
+                .collect();
             let ids = (0..self.triangles.len() as u32).map(|p| [0, p]).collect();
             TriangleBvh::new(corners, ids)
         })
@@ -77,7 +96,14 @@ impl Mesh {
 
     /// Closest hit within (t_min, t_max).
     pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<MeshHit> {
-        self.bvh().intersect(&TriRay::new(o, d), t_min, t_max).map(|(id, h)| MeshHit { t: h.t, prim: id[1], b1: h.b1, b2: h.b2 })
+        self.bvh()
+            .intersect(&TriRay::new(o, d), t_min, t_max)
+            .map(|(id, h)| MeshHit {
+                t: h.t,
+                prim: id[1],
+                b1: h.b1,
+                b2: h.b2,
+            })
     }
 
     /// Whether anything is hit within (t_min, t_max).
@@ -94,14 +120,21 @@ impl Mesh {
         let ng = (b - a).cross(c - a).normalize();
         let ns = match &self.normals {
             Some(n) => {
-                let s = n[tri[0] as usize] * b0 + n[tri[1] as usize] * h.b1 + n[tri[2] as usize] * h.b2;
+                let s =
+                    n[tri[0] as usize] * b0 + n[tri[1] as usize] * h.b1 + n[tri[2] as usize] * h.b2;
                 let s = s.normalize_or_zero();
-                if s == Vec3::ZERO { ng } else { s }
+                if s == Vec3::ZERO {
+                    ng
+                } else {
+                    s
+                }
             }
             None => ng,
         };
         let uv = match &self.uvs {
-            Some(t) => t[tri[0] as usize] * b0 + t[tri[1] as usize] * h.b1 + t[tri[2] as usize] * h.b2,
+            Some(t) => {
+                t[tri[0] as usize] * b0 + t[tri[1] as usize] * h.b1 + t[tri[2] as usize] * h.b2
+            }
             None => Vec2::new(h.b1, h.b2),
         };
         (p, ng, ns, uv)
@@ -222,7 +255,9 @@ mod tests {
                     triangle::intersect(&shear, a, b, c, 0.0, f32::INFINITY).map(|h| (h.t, p))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0));
-            let fast = mesh.intersect(o, d, 0.0, f32::INFINITY).map(|h| (h.t, h.prim));
+            let fast = mesh
+                .intersect(o, d, 0.0, f32::INFINITY)
+                .map(|h| (h.t, h.prim));
             assert_eq!(fast.map(|f| f.1), brute.map(|b| b.1));
             assert_eq!(mesh.occluded(o, d, 0.0, f32::INFINITY), brute.is_some());
         }

@@ -13,8 +13,8 @@ use glam::Vec3A;
 use crate::bvh::{Bvh, TraversalRay};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
 pub use mesh::Mesh;
-pub use triangle_bvh::{TriRay, TriangleBvh};
 pub use sphere::{Plane, Sphere};
+pub use triangle_bvh::{TriRay, TriangleBvh};
 
 /// A shape in its own object space.
 #[derive(Debug, Clone)]
@@ -54,7 +54,15 @@ impl Instance {
         let to_object = to_world.inverse();
         let normal_to_world = Mat3::from(to_object.matrix3).transpose();
         let identity = to_world == Affine3A::IDENTITY;
-        Instance { shape, to_world, to_object, normal_to_world, identity, material, light_base: None }
+        Instance {
+            shape,
+            to_world,
+            to_object,
+            normal_to_world,
+            identity,
+            material,
+            light_base: None,
+        }
     }
 
     /// World-space bounds (infinite for planes).
@@ -67,15 +75,26 @@ impl Instance {
                 // f64 bounds widened by a hair so f32 rounding never clips the surface.
                 let (lo, hi) = l.bounds();
                 let pad = 1e-5 * (hi - lo).max_element() + 1e-30;
-                Aabb { min: (lo - pad).as_vec3(), max: (hi + pad).as_vec3() }
+                Aabb {
+                    min: (lo - pad).as_vec3(),
+                    max: (hi + pad).as_vec3(),
+                }
             }
         };
-        Some(if self.identity { local } else { local.transformed(&self.to_world) })
+        Some(if self.identity {
+            local
+        } else {
+            local.transformed(&self.to_world)
+        })
     }
 
     #[inline]
     fn local_ray(&self, ray: &Ray) -> Ray {
-        if self.identity { *ray } else { ray.transformed(&self.to_object) }
+        if self.identity {
+            *ray
+        } else {
+            ray.transformed(&self.to_object)
+        }
     }
 
     /// Closest hit within (t_min, t_max); `t` is in units of the world ray's direction.
@@ -83,13 +102,33 @@ impl Instance {
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<RawHit> {
         let r = self.local_ray(ray);
         match &self.shape {
-            Shape::Sphere(s) => s.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit { t, prim: 0, b1: 0.0, b2: 0.0 }),
-            Shape::Plane(p) => p.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit { t, prim: 0, b1: 0.0, b2: 0.0 }),
-            Shape::Mesh(m) => m.intersect(r.o, r.d, t_min, t_max).map(|h| RawHit { t: h.t, prim: h.prim, b1: h.b1, b2: h.b2 }),
+            Shape::Sphere(s) => s.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit {
+                t,
+                prim: 0,
+                b1: 0.0,
+                b2: 0.0,
+            }),
+            Shape::Plane(p) => p.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit {
+                t,
+                prim: 0,
+                b1: 0.0,
+                b2: 0.0,
+            }),
+            Shape::Mesh(m) => m.intersect(r.o, r.d, t_min, t_max).map(|h| RawHit {
+                t: h.t,
+                prim: h.prim,
+                b1: h.b1,
+                b2: h.b2,
+            }),
             // Solved in f64; the hit keeps (v, u) for the surface record.
             Shape::Lathe(l) => l
                 .intersect(r.o.as_dvec3(), r.d.as_dvec3(), t_min as f64, t_max as f64)
-                .map(|h| RawHit { t: h.s as f32, prim: h.segment as u32, b1: h.uv.y as f32, b2: h.uv.x as f32 }),
+                .map(|h| RawHit {
+                    t: h.s as f32,
+                    prim: h.segment as u32,
+                    b1: h.uv.y as f32,
+                    b2: h.uv.x as f32,
+                }),
         }
     }
 
@@ -117,7 +156,12 @@ impl Instance {
                 let p = pl.project(r.at(raw.t));
                 (p, pl.normal, pl.normal, pl.uv(p))
             }
-            Shape::Mesh(m) => m.surface(&mesh::MeshHit { t: raw.t, prim: raw.prim, b1: raw.b1, b2: raw.b2 }),
+            Shape::Mesh(m) => m.surface(&mesh::MeshHit {
+                t: raw.t,
+                prim: raw.prim,
+                b1: raw.b1,
+                b2: raw.b2,
+            }),
             Shape::Lathe(l) => {
                 let p = r.at(raw.t);
                 let n = l.normal_at(raw.b1 as f64, p.as_dvec3()).as_vec3();
@@ -133,7 +177,15 @@ impl Instance {
                 (self.normal_to_world * ns).normalize(),
             )
         };
-        SurfaceHit { t: raw.t, p, ng, ns, uv, instance, prim: raw.prim }
+        SurfaceHit {
+            t: raw.t,
+            p,
+            ng,
+            ns,
+            uv,
+            instance,
+            prim: raw.prim,
+        }
     }
 }
 
@@ -209,7 +261,8 @@ impl Geometry {
     /// Builds the acceleration structures.
     pub fn new(instances: Vec<Instance>) -> Geometry {
         // How many instances use each mesh.
-        let mut uses: std::collections::HashMap<*const Mesh, usize> = std::collections::HashMap::new();
+        let mut uses: std::collections::HashMap<*const Mesh, usize> =
+            std::collections::HashMap::new();
         for inst in &instances {
             if let Shape::Mesh(m) = &inst.shape {
                 *uses.entry(Arc::as_ptr(m)).or_default() += 1;
@@ -225,7 +278,11 @@ impl Geometry {
                 if uses[&Arc::as_ptr(m)] == 1 || m.triangles.len() <= FLATTEN_MAX_SHARED_TRIANGLES {
                     for prim in 0..m.triangles.len() as u32 {
                         let c = m.corners(prim);
-                        let c = if inst.identity { c } else { c.map(|p| inst.to_world.transform_point3(p)) };
+                        let c = if inst.identity {
+                            c
+                        } else {
+                            c.map(|p| inst.to_world.transform_point3(p))
+                        };
                         corners.push(c.map(Vec3A::from));
                         ids.push([k as u32, prim]);
                     }
@@ -243,7 +300,13 @@ impl Geometry {
                 None => unbounded.push(k as u32),
             }
         }
-        Geometry { flat: TriangleBvh::new(corners, ids), top: Bvh::build(&top_boxes), top_instances, instances, unbounded }
+        Geometry {
+            flat: TriangleBvh::new(corners, ids),
+            top: Bvh::build(&top_boxes),
+            top_instances,
+            instances,
+            unbounded,
+        }
     }
 
     /// Bounds of all bounded instances.
@@ -260,9 +323,20 @@ impl Geometry {
         let mut best: Option<(u32, RawHit)> = None;
         let mut t_max = t_max;
         if !self.flat.is_empty() {
-            if let Some((id, h)) = self.flat.intersect(&TriRay::new(ray.o, ray.d), t_min, t_max) {
+            if let Some((id, h)) = self
+                .flat
+                .intersect(&TriRay::new(ray.o, ray.d), t_min, t_max)
+            {
                 t_max = h.t;
-                best = Some((id[0], RawHit { t: h.t, prim: id[1], b1: h.b1, b2: h.b2 }));
+                best = Some((
+                    id[0],
+                    RawHit {
+                        t: h.t,
+                        prim: id[1],
+                        b1: h.b1,
+                        b2: h.b2,
+                    },
+                ));
             }
         }
         for &k in &self.unbounded {
@@ -272,14 +346,19 @@ impl Geometry {
             }
         }
         if !self.top_instances.is_empty() {
-            self.top.traverse(&TraversalRay::new(ray.o, ray.d), t_min, &mut t_max, |slot, t_max| {
-                let k = self.top_instances[self.top.prims[slot as usize] as usize];
-                if let Some(h) = self.instances[k as usize].intersect(ray, t_min, *t_max) {
-                    *t_max = h.t;
-                    best = Some((k, h));
-                }
-                false
-            });
+            self.top.traverse(
+                &TraversalRay::new(ray.o, ray.d),
+                t_min,
+                &mut t_max,
+                |slot, t_max| {
+                    let k = self.top_instances[self.top.prims[slot as usize] as usize];
+                    if let Some(h) = self.instances[k as usize].intersect(ray, t_min, *t_max) {
+                        *t_max = h.t;
+                        best = Some((k, h));
+                    }
+                    false
+                },
+            );
         }
         best
     }
@@ -287,24 +366,34 @@ impl Geometry {
 
 impl Accel for Geometry {
     fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
-        self.closest(ray, t_min, t_max).map(|(k, h)| self.instances[k as usize].surface(ray, &h, k))
+        self.closest(ray, t_min, t_max)
+            .map(|(k, h)| self.instances[k as usize].surface(ray, &h, k))
     }
 
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         if !self.flat.is_empty() && self.flat.occluded(&TriRay::new(ray.o, ray.d), t_min, t_max) {
             return true;
         }
-        if self.unbounded.iter().any(|&k| self.instances[k as usize].occluded(ray, t_min, t_max)) {
+        if self
+            .unbounded
+            .iter()
+            .any(|&k| self.instances[k as usize].occluded(ray, t_min, t_max))
+        {
             return true;
         }
         if self.top_instances.is_empty() {
             return false;
         }
         let mut t_max = t_max;
-        self.top.traverse(&TraversalRay::new(ray.o, ray.d), t_min, &mut t_max, |slot, t_max| {
-            let k = self.top_instances[self.top.prims[slot as usize] as usize];
-            self.instances[k as usize].occluded(ray, t_min, *t_max)
-        })
+        self.top.traverse(
+            &TraversalRay::new(ray.o, ray.d),
+            t_min,
+            &mut t_max,
+            |slot, t_max| {
+                let k = self.top_instances[self.top.prims[slot as usize] as usize];
+                self.instances[k as usize].occluded(ray, t_min, *t_max)
+            },
+        )
     }
 }
 
@@ -338,20 +427,54 @@ mod tests {
     #[test]
     fn two_level_bvh_agrees_with_brute_force_under_transforms() {
         let mut s = 11u64;
-        let cube_pos: Vec<Vec3> = (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0 - 1.0).collect();
-        let cube_tris = vec![[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4], [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]];
+        let cube_pos: Vec<Vec3> = (0..8)
+            .map(|i| {
+                Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0 - 1.0
+            })
+            .collect();
+        let cube_tris = vec![
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ];
         let (cube, _) = Mesh::new(cube_pos, cube_tris, None, None);
         let cube = Arc::new(cube);
         let mut instances = Vec::new();
         for i in 0..60 {
             let t = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 20.0 - 10.0;
             let scale = Vec3::new(0.2 + lcg(&mut s), 0.2 + lcg(&mut s), 0.2 + lcg(&mut s));
-            let rot = glam::Quat::from_axis_angle(Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s) + 0.1).normalize(), lcg(&mut s) * 6.0);
+            let rot = glam::Quat::from_axis_angle(
+                Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s) + 0.1).normalize(),
+                lcg(&mut s) * 6.0,
+            );
             let m = Affine3A::from_scale_rotation_translation(scale, rot, t);
-            let shape = if i % 2 == 0 { Shape::Mesh(cube.clone()) } else { Shape::Sphere(Sphere { center: Vec3::ZERO, radius: 1.0 }) };
+            let shape = if i % 2 == 0 {
+                Shape::Mesh(cube.clone())
+            } else {
+                Shape::Sphere(Sphere {
+                    center: Vec3::ZERO,
+                    radius: 1.0,
+                })
+            };
             instances.push(Instance::new(shape, m, 0));
         }
-        instances.push(Instance::new(Shape::Plane(Plane { normal: Vec3::Y, offset: -12.0 }), Affine3A::IDENTITY, 0));
+        instances.push(Instance::new(
+            Shape::Plane(Plane {
+                normal: Vec3::Y,
+                offset: -12.0,
+            }),
+            Affine3A::IDENTITY,
+            0,
+        ));
         let geo = Geometry::new(instances.clone());
         agree_with_brute_force(&geo, &instances, &mut s, 4000, 30.0, |a, b| {
             assert!((a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
@@ -371,7 +494,14 @@ mod tests {
     /// and at the brute-force oracle over `instances`: both must report the same closest
     /// (instance, triangle) and the same any-hit answer, and a segment ending just before the
     /// hit is unoccluded. `both_hit` checks each pair of hits further. Returns the number of hits.
-    fn agree_with_brute_force(geo: &Geometry, instances: &[Instance], s: &mut u64, n: usize, span: f32, mut both_hit: impl FnMut(&SurfaceHit, &SurfaceHit)) -> u32 {
+    fn agree_with_brute_force(
+        geo: &Geometry,
+        instances: &[Instance],
+        s: &mut u64,
+        n: usize,
+        span: f32,
+        mut both_hit: impl FnMut(&SurfaceHit, &SurfaceHit),
+    ) -> u32 {
         let brute = BruteForce(instances);
         let mut hits = 0;
         for _ in 0..n {
@@ -380,7 +510,10 @@ mod tests {
             let ray = Ray::new(o, d);
             let a = geo.intersect(&ray, 0.0, f32::INFINITY);
             let b = brute.intersect(&ray, 0.0, f32::INFINITY);
-            assert_eq!(a.map(|h| (h.instance, h.prim)), b.map(|h| (h.instance, h.prim)));
+            assert_eq!(
+                a.map(|h| (h.instance, h.prim)),
+                b.map(|h| (h.instance, h.prim))
+            );
             if let (Some(a), Some(b)) = (&a, &b) {
                 hits += 1;
                 both_hit(a, b);
@@ -404,16 +537,27 @@ mod tests {
         for i in 0..12 {
             let t = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 16.0 - 8.0;
             let scale = Vec3::new(0.5 + lcg(&mut s), 0.5 + lcg(&mut s), 0.5 + lcg(&mut s));
-            let rot = glam::Quat::from_axis_angle(Vec3::new(lcg(&mut s), lcg(&mut s) + 0.1, lcg(&mut s)).normalize(), lcg(&mut s) * 6.0);
+            let rot = glam::Quat::from_axis_angle(
+                Vec3::new(lcg(&mut s), lcg(&mut s) + 0.1, lcg(&mut s)).normalize(),
+                lcg(&mut s) * 6.0,
+            );
             let m = Affine3A::from_scale_rotation_translation(scale, rot, t);
-            let mesh = if i % 3 == 0 { Arc::new(Mesh::new(pos.clone(), tris.clone(), None, None).0) } else { shared.clone() };
+            let mesh = if i % 3 == 0 {
+                Arc::new(Mesh::new(pos.clone(), tris.clone(), None, None).0)
+            } else {
+                shared.clone()
+            };
             instances.push(Instance::new(Shape::Mesh(mesh), m, 0));
         }
         let geo = Geometry::new(instances.clone());
         assert_eq!(geo.flat.len(), 4 * tris.len());
         assert_eq!(geo.top_instances.len(), 8);
         let hits = agree_with_brute_force(&geo, &instances, &mut s, 3000, 24.0, |a, b| {
-            assert!((a.t - b.t).abs() < 1e-4 * b.t.max(1.0) && (a.p - b.p).length() < 1e-4 && (a.ng - b.ng).length() < 1e-4);
+            assert!(
+                (a.t - b.t).abs() < 1e-4 * b.t.max(1.0)
+                    && (a.p - b.p).length() < 1e-4
+                    && (a.ng - b.ng).length() < 1e-4
+            );
         });
         assert!(hits > 50, "too few hits to test anything: {hits}");
     }
@@ -426,7 +570,10 @@ mod tests {
             assert_eq!(pos.len(), 10 * 4usize.pow(n) + 2);
             for t in &tris {
                 let [a, b, c] = t.map(|i| pos[i as usize]);
-                assert!((b - a).cross(c - a).dot(a + b + c) > 0.0, "faces point outwards");
+                assert!(
+                    (b - a).cross(c - a).dot(a + b + c) > 0.0,
+                    "faces point outwards"
+                );
             }
         }
     }

@@ -15,7 +15,10 @@ pub struct Sphere {
 impl Sphere {
     /// Bounds.
     pub fn bounds(&self) -> Aabb {
-        Aabb { min: self.center - Vec3::splat(self.radius), max: self.center + Vec3::splat(self.radius) }
+        Aabb {
+            min: self.center - Vec3::splat(self.radius),
+            max: self.center + Vec3::splat(self.radius),
+        }
     }
 
     /// Closest hit parameter within (t_min, t_max). Uses the discriminant form of Hearn and
@@ -99,20 +102,37 @@ mod tests {
 
     #[test]
     fn sphere_hits_from_outside_inside_and_far_away() {
-        let s = Sphere { center: Vec3::new(0.0, 0.0, -5.0), radius: 1.0 };
-        let t = s.intersect(Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0), 0.0, f32::INFINITY).unwrap();
+        let s = Sphere {
+            center: Vec3::new(0.0, 0.0, -5.0),
+            radius: 1.0,
+        };
+        let t = s
+            .intersect(Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0), 0.0, f32::INFINITY)
+            .unwrap();
         assert!((t - 2.0).abs() < 1e-6);
-        let t = s.intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::X, 0.0, f32::INFINITY).unwrap();
+        let t = s
+            .intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::X, 0.0, f32::INFINITY)
+            .unwrap();
         assert!((t - 1.0).abs() < 1e-6);
-        let far = Sphere { center: Vec3::new(0.0, 0.0, -1e6), radius: 1.0 };
-        let t = far.intersect(Vec3::ZERO, -Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        let far = Sphere {
+            center: Vec3::new(0.0, 0.0, -1e6),
+            radius: 1.0,
+        };
+        let t = far
+            .intersect(Vec3::ZERO, -Vec3::Z, 0.0, f32::INFINITY)
+            .unwrap();
         assert!((t - (1e6 - 1.0)).abs() / 1e6 < 1e-6);
-        assert!(s.intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY).is_none());
+        assert!(s
+            .intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY)
+            .is_none());
     }
 
     #[test]
     fn sphere_uv_convention() {
-        let s = Sphere { center: Vec3::ZERO, radius: 2.0 };
+        let s = Sphere {
+            center: Vec3::ZERO,
+            radius: 2.0,
+        };
         let (_, n, uv) = s.surface(Vec3::new(0.0, 5.0, 0.0));
         assert!((n - Vec3::Y).length() < 1e-6 && (uv.y - 1.0).abs() < 1e-6);
         let (_, _, uv) = s.surface(Vec3::new(0.0, 0.0, -2.0));

@@ -26,9 +26,19 @@ pub struct RayShear {
 #[inline]
 pub fn shear_axes(d: Vec3) -> [usize; 3] {
     let a = d.abs();
-    let kz = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
+    let kz = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
     let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-    if d[kz] < 0.0 { [ky, kx, kz] } else { [kx, ky, kz] }
+    if d[kz] < 0.0 {
+        [ky, kx, kz]
+    } else {
+        [kx, ky, kz]
+    }
 }
 
 impl RayShear {
@@ -41,7 +51,10 @@ impl RayShear {
         cols[kx] = Vec3A::X;
         cols[ky] = Vec3A::Y;
         cols[kz] = Vec3A::new(-sx, -sy, sz);
-        RayShear { o: o.into(), m: Mat3A::from_cols(cols[0], cols[1], cols[2]) }
+        RayShear {
+            o: o.into(),
+            m: Mat3A::from_cols(cols[0], cols[1], cols[2]),
+        }
     }
 
     /// The vertex in the sheared frame: (x, y) relative to the ray, z scaled along it.
@@ -64,7 +77,14 @@ pub struct TriHit {
 
 /// Intersects the sheared ray with triangle (v0, v1, v2) within (t_min, t_max). Both faces hit.
 #[inline]
-pub fn intersect(r: &RayShear, v0: Vec3, v1: Vec3, v2: Vec3, t_min: f32, t_max: f32) -> Option<TriHit> {
+pub fn intersect(
+    r: &RayShear,
+    v0: Vec3,
+    v1: Vec3,
+    v2: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<TriHit> {
     intersect_a(r, &[v0.into(), v1.into(), v2.into()], t_min, t_max)
 }
 
@@ -96,7 +116,11 @@ pub fn intersect_a(r: &RayShear, v: &[Vec3A; 3], t_min: f32, t_max: f32) -> Opti
     if !(t > t_min && t < t_max) {
         return None;
     }
-    Some(TriHit { t, b1: v * inv, b2: w * inv })
+    Some(TriHit {
+        t,
+        b1: v * inv,
+        b2: w * inv,
+    })
 }
 
 #[cfg(test)]
@@ -107,14 +131,24 @@ mod tests {
     fn rays_through_a_shared_edge_hit_exactly_one_side_or_both_never_neither() {
         // Two triangles sharing the diagonal of the unit square; rays aimed exactly at the
         // diagonal from many directions must never pass between them.
-        let (p0, p1, p2, p3) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let (p0, p1, p2, p3) = (
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        );
         let mut misses = 0;
         // Interior points of the shared edge (its ends are on the square's outer boundary,
         // where a miss is legitimate).
         for i in 1..1000 {
             let s = i as f32 / 1000.0;
             let target = Vec3::new(s, s, 0.0);
-            for o in [Vec3::new(0.3, 0.7, 1.0), Vec3::new(-2.0, 5.0, 3.0), Vec3::new(0.5, 0.5, -2.0), Vec3::new(7.1, -3.3, 0.9)] {
+            for o in [
+                Vec3::new(0.3, 0.7, 1.0),
+                Vec3::new(-2.0, 5.0, 3.0),
+                Vec3::new(0.5, 0.5, -2.0),
+                Vec3::new(7.1, -3.3, 0.9),
+            ] {
                 let d = target - o;
                 let r = RayShear::new(o, d);
                 let h1 = intersect(&r, p0, p1, p2, 0.0, f32::INFINITY);
@@ -131,7 +165,9 @@ mod tests {
     fn barycentrics_and_distance_are_right() {
         let r = RayShear::new(Vec3::new(0.25, 0.5, 2.0), Vec3::new(0.0, 0.0, -1.0));
         let h = intersect(&r, Vec3::ZERO, Vec3::X, Vec3::Y, 0.0, 10.0).unwrap();
-        assert!((h.t - 2.0).abs() < 1e-6 && (h.b1 - 0.25).abs() < 1e-6 && (h.b2 - 0.5).abs() < 1e-6);
+        assert!(
+            (h.t - 2.0).abs() < 1e-6 && (h.b1 - 0.25).abs() < 1e-6 && (h.b2 - 0.5).abs() < 1e-6
+        );
         assert!(intersect(&r, Vec3::ZERO, Vec3::X, Vec3::Y, 0.0, 1.5).is_none());
     }
 }

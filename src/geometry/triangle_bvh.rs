@@ -16,8 +16,8 @@ use std::mem::MaybeUninit;
 
 use glam::{BVec4A, Vec3A, Vec4};
 
-use crate::bvh::{Bvh, LeafCost};
 use crate::bvh::pop_nearer;
+use crate::bvh::{Bvh, LeafCost};
 use crate::geometry::triangle::{shear_axes, TriHit};
 use crate::math::{Aabb, Vec3};
 
@@ -51,7 +51,11 @@ impl TriRay {
             negative: inv.map(|i| usize::from(i < 0.0)),
             robust: !inv.iter().all(|i| i.is_finite()),
             k: [kx, ky, kz],
-            shear: [Vec4::splat(d[kx] / d[kz]), Vec4::splat(d[ky] / d[kz]), Vec4::splat(1.0 / d[kz])],
+            shear: [
+                Vec4::splat(d[kx] / d[kz]),
+                Vec4::splat(d[ky] / d[kz]),
+                Vec4::splat(1.0 / d[kz]),
+            ],
         }
     }
 }
@@ -75,7 +79,14 @@ struct Node4 {
 impl Node4 {
     /// No children: empty boxes (lower corner +∞, upper −∞) meet no ray.
     const EMPTY: Node4 = Node4 {
-        planes: [Vec4::INFINITY, Vec4::NEG_INFINITY, Vec4::INFINITY, Vec4::NEG_INFINITY, Vec4::INFINITY, Vec4::NEG_INFINITY],
+        planes: [
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+        ],
         child: [EMPTY; 4],
     };
 
@@ -101,7 +112,10 @@ impl Node4 {
             let near = (p[2 * axis + (neg & 1)] - r.org[axis]) * r.inv[axis];
             let far = (p[2 * axis + (!neg & 1)] - r.org[axis]) * r.inv[axis];
             if ROBUST {
-                (Vec4::select(near.is_nan_mask(), Vec4::NEG_INFINITY, near), Vec4::select(far.is_nan_mask(), Vec4::INFINITY, far))
+                (
+                    Vec4::select(near.is_nan_mask(), Vec4::NEG_INFINITY, near),
+                    Vec4::select(far.is_nan_mask(), Vec4::INFINITY, far),
+                )
             } else {
                 (near, far)
             }
@@ -146,7 +160,10 @@ impl Packet {
                 }
             }
         }
-        Packet { v, first: first as u32 }
+        Packet {
+            v,
+            first: first as u32,
+        }
     }
 
     /// The watertight test on four triangles at once. Per lane the operations are those of the
@@ -175,12 +192,23 @@ impl Packet {
             let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
             let f = |x: Vec4, lane: usize| f64::from(x[lane]);
             for lane in (0..4).filter(|l| m & (1 << l) != 0) {
-                let (ax, ay, bx, by, cx, cy) = (f(ax, lane), f(ay, lane), f(bx, lane), f(by, lane), f(cx, lane), f(cy, lane));
+                let (ax, ay, bx, by, cx, cy) = (
+                    f(ax, lane),
+                    f(ay, lane),
+                    f(bx, lane),
+                    f(by, lane),
+                    f(cx, lane),
+                    f(cy, lane),
+                );
                 ua[lane] = (cx * by - cy * bx) as f32;
                 va[lane] = (ax * cy - ay * cx) as f32;
                 wa[lane] = (bx * ay - by * ax) as f32;
             }
-            (u, v, w) = (Vec4::from_array(ua), Vec4::from_array(va), Vec4::from_array(wa));
+            (u, v, w) = (
+                Vec4::from_array(ua),
+                Vec4::from_array(va),
+                Vec4::from_array(wa),
+            );
         }
         let negative = u.cmplt(Vec4::ZERO) | v.cmplt(Vec4::ZERO) | w.cmplt(Vec4::ZERO);
         let positive = u.cmpgt(Vec4::ZERO) | v.cmpgt(Vec4::ZERO) | w.cmpgt(Vec4::ZERO);
@@ -191,7 +219,13 @@ impl Packet {
         let inside = !(negative & positive) & det.cmpne(Vec4::ZERO);
         let in_range: BVec4A = t.cmpgt(Vec4::splat(t_min)) & t.cmplt(Vec4::splat(t_max));
         let hit = inside & in_range;
-        PacketHits { mask: hit.bitmask(), t: Vec4::select(hit, t, Vec4::INFINITY), v, w, inv_det }
+        PacketHits {
+            mask: hit.bitmask(),
+            t: Vec4::select(hit, t, Vec4::INFINITY),
+            v,
+            w,
+            inv_det,
+        }
     }
 }
 
@@ -213,7 +247,14 @@ pub struct TriangleBvh {
 
 impl Default for TriangleBvh {
     fn default() -> TriangleBvh {
-        TriangleBvh { nodes: Vec::new(), packets: Vec::new(), ids: Vec::new(), root: 0, depth: 0, bounds: Aabb::EMPTY }
+        TriangleBvh {
+            nodes: Vec::new(),
+            packets: Vec::new(),
+            ids: Vec::new(),
+            root: 0,
+            depth: 0,
+            bounds: Aabb::EMPTY,
+        }
     }
 }
 
@@ -226,16 +267,24 @@ impl TriangleBvh {
             .iter()
             .map(|c| {
                 let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
-                Aabb { min: lo.into(), max: hi.into() }
+                Aabb {
+                    min: lo.into(),
+                    max: hi.into(),
+                }
             })
             .collect();
         let bin = Bvh::build_with(&boxes, LeafCost::PACKET4);
         if bin.prims.is_empty() {
             return TriangleBvh::default();
         }
-        let slot_corners: Vec<[Vec3A; 3]> = bin.prims.iter().map(|&p| corners[p as usize]).collect();
+        let slot_corners: Vec<[Vec3A; 3]> =
+            bin.prims.iter().map(|&p| corners[p as usize]).collect();
         let ids = bin.prims.iter().map(|&p| ids[p as usize]).collect();
-        let mut out = TriangleBvh { bounds: bin.bounds(), ids, ..TriangleBvh::default() };
+        let mut out = TriangleBvh {
+            bounds: bin.bounds(),
+            ids,
+            ..TriangleBvh::default()
+        };
         out.root = out.collapse(&bin, 0, &slot_corners, 1);
         out
     }
@@ -244,7 +293,8 @@ impl TriangleBvh {
     fn collapse(&mut self, bin: &Bvh, index: usize, corners: &[[Vec3A; 3]], depth: usize) -> u32 {
         let n = bin.nodes[index];
         if n.count() > 0 {
-            self.packets.push(Packet::new(corners, n.first() as usize, n.count() as usize));
+            self.packets
+                .push(Packet::new(corners, n.first() as usize, n.count() as usize));
             return LEAF | (self.packets.len() - 1) as u32;
         }
         self.depth = self.depth.max(depth);
@@ -253,9 +303,14 @@ impl TriangleBvh {
         let mut kids = [n.first() as usize, n.first() as usize + 1, 0, 0];
         let mut len = 2;
         while len < 4 {
-            let widest = (0..len).filter(|&i| bin.nodes[kids[i]].count() == 0).max_by(|&a, &b| {
-                bin.nodes[kids[a]].aabb().half_area().total_cmp(&bin.nodes[kids[b]].aabb().half_area())
-            });
+            let widest = (0..len)
+                .filter(|&i| bin.nodes[kids[i]].count() == 0)
+                .max_by(|&a, &b| {
+                    bin.nodes[kids[a]]
+                        .aabb()
+                        .half_area()
+                        .total_cmp(&bin.nodes[kids[b]].aabb().half_area())
+                });
             let Some(i) = widest else { break };
             let first = bin.nodes[kids[i]].first() as usize;
             kids[i] = first;
@@ -297,10 +352,18 @@ impl TriangleBvh {
             let h = p.hits(ray, t_min, *t_max);
             if h.mask != 0 {
                 let nearest = h.t.min_element();
-                let lane = (h.t.cmpeq(Vec4::splat(nearest)).bitmask() & h.mask).trailing_zeros() as usize;
+                let lane =
+                    (h.t.cmpeq(Vec4::splat(nearest)).bitmask() & h.mask).trailing_zeros() as usize;
                 let inv = h.inv_det[lane];
                 *t_max = nearest;
-                best = Some((p.first + lane as u32, TriHit { t: nearest, b1: h.v[lane] * inv, b2: h.w[lane] * inv }));
+                best = Some((
+                    p.first + lane as u32,
+                    TriHit {
+                        t: nearest,
+                        b1: h.v[lane] * inv,
+                        b2: h.w[lane] * inv,
+                    },
+                ));
             }
             false
         });
@@ -312,14 +375,22 @@ impl TriangleBvh {
     pub fn occluded(&self, ray: &TriRay, t_min: f32, t_max: f32) -> bool {
         let mut t_max = t_max;
         // Any hit ends the search, so the order of children does not matter.
-        self.traverse::<false>(ray, t_min, &mut t_max, |p, t_max| p.hits(ray, t_min, *t_max).mask != 0)
+        self.traverse::<false>(ray, t_min, &mut t_max, |p, t_max| {
+            p.hits(ray, t_min, *t_max).mask != 0
+        })
     }
 
     /// Visits the packets whose boxes the ray meets within (t_min, *t_max), nearest box first
     /// when `ORDERED`; `leaf` shrinks `*t_max` on closer hits and returns `true` to stop (any-hit
     /// queries). Returns whether it was stopped.
     #[inline(always)]
-    fn traverse<const ORDERED: bool>(&self, r: &TriRay, t_min: f32, t_max: &mut f32, leaf: impl FnMut(&Packet, &mut f32) -> bool) -> bool {
+    fn traverse<const ORDERED: bool>(
+        &self,
+        r: &TriRay,
+        t_min: f32,
+        t_max: &mut f32,
+        leaf: impl FnMut(&Packet, &mut f32) -> bool,
+    ) -> bool {
         if self.ids.is_empty() {
             return false;
         }
@@ -390,7 +461,12 @@ impl TriangleBvh {
                         continue;
                     }
                     // Three or four children: push all but the nearest, farthest first.
-                    let mut hits = [(node.child[a], near[a]), (node.child[b], near[b]), (0, 0.0), (0, 0.0)];
+                    let mut hits = [
+                        (node.child[a], near[a]),
+                        (node.child[b], near[b]),
+                        (0, 0.0),
+                        (0, 0.0),
+                    ];
                     let mut len = 2;
                     while mask != 0 {
                         let c = mask.trailing_zeros() as usize;
@@ -438,7 +514,9 @@ mod tests {
         let shear = RayShear::new(o, d);
         let mut best: Option<(u32, TriHit)> = None;
         for (i, [a, b, c]) in tris.iter().enumerate() {
-            if let Some(h) = triangle::intersect(&shear, *a, *b, *c, 0.0, best.map_or(t_max, |b| b.1.t)) {
+            if let Some(h) =
+                triangle::intersect(&shear, *a, *b, *c, 0.0, best.map_or(t_max, |b| b.1.t))
+            {
                 best = Some((i as u32, h));
             }
         }
@@ -453,18 +531,30 @@ mod tests {
                 assert_eq!(id[0], 7);
                 if id[1] == i {
                     // The same triangle: bit-identical results (the same arithmetic per lane).
-                    assert_eq!((f.t.to_bits(), f.b1.to_bits(), f.b2.to_bits()), (s.t.to_bits(), s.b1.to_bits(), s.b2.to_bits()), "ray {o} {d}");
+                    assert_eq!(
+                        (f.t.to_bits(), f.b1.to_bits(), f.b2.to_bits()),
+                        (s.t.to_bits(), s.b1.to_bits(), s.b2.to_bits()),
+                        "ray {o} {d}"
+                    );
                 } else {
                     // A tie at a shared edge or vertex may name either neighbour; each
                     // neighbour's distance is computed from its own corners.
-                    assert!((f.t - s.t).abs() <= 1e-6 * s.t.abs(), "ray {o} {d}: {f:?} vs {s:?} (triangles {} and {i})", id[1]);
+                    assert!(
+                        (f.t - s.t).abs() <= 1e-6 * s.t.abs(),
+                        "ray {o} {d}: {f:?} vs {s:?} (triangles {} and {i})",
+                        id[1]
+                    );
                 }
             }
             (None, None) => {}
             (f, s) => panic!("ray {o} {d}: BVH {f:?}, brute force {s:?}"),
         }
         let occluded = bvh.occluded(&TriRay::new(o, d), 0.0, f32::INFINITY);
-        assert_eq!(occluded, slow.is_some(), "any-hit disagrees for ray {o} {d}");
+        assert_eq!(
+            occluded,
+            slow.is_some(),
+            "any-hit disagrees for ray {o} {d}"
+        );
         slow.is_some()
     }
 
@@ -506,7 +596,9 @@ mod tests {
             let tris: Vec<[Vec3; 3]> = (0..500)
                 .map(|_| {
                     let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.0;
-                    [0; 3].map(|_| (c + Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 0.5) * scale)
+                    [0; 3].map(|_| {
+                        (c + Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 0.5) * scale
+                    })
                 })
                 .collect();
             let bvh = bvh_of(&tris);
@@ -517,7 +609,10 @@ mod tests {
                 let d = (a + b + c) / 3.0 - o;
                 hits += check(&bvh, &tris, o, d) as u32;
             }
-            assert!(hits > 900, "scale {scale}: {hits} of 1000 rays aimed at centroids hit");
+            assert!(
+                hits > 900,
+                "scale {scale}: {hits} of 1000 rays aimed at centroids hit"
+            );
         }
     }
 
@@ -541,7 +636,11 @@ mod tests {
         let mut s = 5u64;
         for k in 0..4000 {
             // Targets on lattice points, edges and diagonals (all exactly representable).
-            let target = Vec3::new((lcg(&mut s) * 24.0).floor() * 0.5, (lcg(&mut s) * 24.0).floor() * 0.5, 0.0);
+            let target = Vec3::new(
+                (lcg(&mut s) * 24.0).floor() * 0.5,
+                (lcg(&mut s) * 24.0).floor() * 0.5,
+                0.0,
+            );
             let (o, d) = match k % 4 {
                 0 => (target + Vec3::Z * 3.0, Vec3::new(0.0, 0.0, -1.0)),
                 1 => (target - Vec3::Z * 2.0, Vec3::new(0.0, -0.0, 1.0)),
@@ -563,15 +662,23 @@ mod tests {
     #[test]
     fn rays_from_inside_a_closed_mesh_always_hit() {
         let (positions, triangles) = super::super::mesh::icosphere(3);
-        let tris: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
+        let tris: Vec<[Vec3; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|i| positions[i as usize]))
+            .collect();
         let bvh = bvh_of(&tris);
         let mut s = 9u64;
         let mut dirs: Vec<Vec3> = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
         dirs.extend(positions.iter().copied());
-        dirs.extend((0..3000).map(|_| Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5)));
+        dirs.extend(
+            (0..3000).map(|_| Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5)),
+        );
         for o in [Vec3::ZERO, Vec3::new(0.1, -0.2, 0.05)] {
             for &d in &dirs {
-                assert!(check(&bvh, &tris, o, d), "ray {o} {d} escaped the closed sphere");
+                assert!(
+                    check(&bvh, &tris, o, d),
+                    "ray {o} {d} escaped the closed sphere"
+                );
             }
         }
     }
@@ -580,7 +687,9 @@ mod tests {
     fn empty_set_hits_nothing() {
         let bvh = bvh_of(&[]);
         assert!(bvh.is_empty());
-        assert!(bvh.intersect(&TriRay::new(Vec3::ZERO, Vec3::X), 0.0, f32::INFINITY).is_none());
+        assert!(bvh
+            .intersect(&TriRay::new(Vec3::ZERO, Vec3::X), 0.0, f32::INFINITY)
+            .is_none());
         assert!(!bvh.occluded(&TriRay::new(Vec3::ZERO, Vec3::X), 0.0, f32::INFINITY));
     }
 }

@@ -32,17 +32,32 @@ pub(crate) fn spawn(hit: &SurfaceHit, w: Vec3) -> Ray {
 /// Whether the segment from a surface point to `target` is unblocked. The far end is offset
 /// too when it lies on a surface (normal `target_n` non-zero).
 #[inline]
-pub(crate) fn visible(scene: &Scene, hit: &SurfaceHit, target: Vec3, target_n: Vec3, stats: &mut TraceStats) -> bool {
+pub(crate) fn visible(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    target: Vec3,
+    target_n: Vec3,
+    stats: &mut TraceStats,
+) -> bool {
     stats.rays += 1;
     let dir = target - hit.p;
     let o = offset_origin(hit.p, hit.ng, dir);
-    let end = if target_n == Vec3::ZERO { target } else { offset_origin(target, target_n, -dir) };
+    let end = if target_n == Vec3::ZERO {
+        target
+    } else {
+        offset_origin(target, target_n, -dir)
+    };
     !scene.occluded(&Ray::new(o, end - o), 0.0, 1.0)
 }
 
 /// Whether a ray towards a directional light escapes the scene.
 #[inline]
-pub(crate) fn unoccluded_towards(scene: &Scene, hit: &SurfaceHit, w: Vec3, stats: &mut TraceStats) -> bool {
+pub(crate) fn unoccluded_towards(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    w: Vec3,
+    stats: &mut TraceStats,
+) -> bool {
     stats.rays += 1;
     !scene.occluded(&spawn(hit, w), 0.0, f32::INFINITY)
 }

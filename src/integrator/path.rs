@@ -35,7 +35,8 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         if le != Vec3::ZERO {
             let weight = match scene.light_of(&hit) {
                 Some(li) if !prev_delta => {
-                    let pdf_light = scene.light_sampler.pmf(li) * scene.lights[li].pdf(prev_p, hit.p, hit.ng);
+                    let pdf_light =
+                        scene.light_sampler.pmf(li) * scene.lights[li].pdf(prev_p, hit.p, hit.ng);
                     power_heuristic(prev_pdf, pdf_light)
                 }
                 _ => 1.0,
@@ -64,12 +65,18 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
                         let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);
                         if f != Vec3::ZERO {
                             let unblocked = match light {
-                                Light::Directional { .. } => unoccluded_towards(scene, &hit, ls.wi, stats),
+                                Light::Directional { .. } => {
+                                    unoccluded_towards(scene, &hit, ls.wi, stats)
+                                }
                                 _ => visible(scene, &hit, ls.point, ls.normal, stats),
                             };
                             if unblocked {
                                 let pdf_light = pmf * ls.pdf;
-                                let weight = if ls.delta { 1.0 } else { power_heuristic(pdf_light, pdf_bsdf) };
+                                let weight = if ls.delta {
+                                    1.0
+                                } else {
+                                    power_heuristic(pdf_light, pdf_bsdf)
+                                };
                                 l += beta * f * li * (weight / pdf_light);
                             }
                         }
@@ -81,7 +88,9 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         // Continue the path by sampling the BSDF.
         let u_lobe = sampler.get_1d();
         let u_dir = sampler.get_2d();
-        let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else { break };
+        let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else {
+            break;
+        };
         beta *= s.weight;
         prev_pdf = s.pdf;
         prev_delta = s.delta;

@@ -27,19 +27,42 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             l += beta * direct(scene, &bsdf, &hit, wo, sampler, stats);
         }
         // Follow only the delta lobes (mirror, glass): pick one by weight.
-        let smooth_weight = bsdf.w_diffuse + if bsdf.alpha >= crate::bsdf::DELTA_ALPHA { bsdf.w_specular } else { 0.0 };
-        let delta_bsdf = Bsdf { w_diffuse: 0.0, w_specular: bsdf.w_specular - if bsdf.alpha >= crate::bsdf::DELTA_ALPHA { bsdf.w_specular } else { 0.0 }, ..bsdf };
+        let smooth_weight = bsdf.w_diffuse
+            + if bsdf.alpha >= crate::bsdf::DELTA_ALPHA {
+                bsdf.w_specular
+            } else {
+                0.0
+            };
+        let delta_bsdf = Bsdf {
+            w_diffuse: 0.0,
+            w_specular: bsdf.w_specular
+                - if bsdf.alpha >= crate::bsdf::DELTA_ALPHA {
+                    bsdf.w_specular
+                } else {
+                    0.0
+                },
+            ..bsdf
+        };
         if delta_bsdf.w_specular + delta_bsdf.w_transmission <= 0.0 || smooth_weight >= 1.0 {
             break;
         }
-        let Some(s) = delta_bsdf.sample(wo, sampler.get_1d(), sampler.get_2d()) else { break };
+        let Some(s) = delta_bsdf.sample(wo, sampler.get_1d(), sampler.get_2d()) else {
+            break;
+        };
         beta *= s.weight;
         ray = spawn(&hit, s.wi);
     }
     l
 }
 
-fn direct(scene: &Scene, bsdf: &Bsdf, hit: &crate::geometry::SurfaceHit, wo: Vec3, sampler: &mut Sampler, stats: &mut TraceStats) -> Rgb {
+fn direct(
+    scene: &Scene,
+    bsdf: &Bsdf,
+    hit: &crate::geometry::SurfaceHit,
+    wo: Vec3,
+    sampler: &mut Sampler,
+    stats: &mut TraceStats,
+) -> Rgb {
     let mut l = Vec3::ZERO;
     let u = sampler.get_2d();
     let u_area = sampler.get_1d();
@@ -68,9 +91,17 @@ fn direct(scene: &Scene, bsdf: &Bsdf, hit: &crate::geometry::SurfaceHit, wo: Vec
         let light = &scene.lights[index];
         if matches!(light, Light::Triangle { .. } | Light::Sphere { .. }) {
             if let Some(ls) = light.sample(hit.p, u) {
-                let li = scene.material_of_light(light).emitted(&scene.textures, ls.normal, ls.uv, -ls.wi);
+                let li = scene.material_of_light(light).emitted(
+                    &scene.textures,
+                    ls.normal,
+                    ls.uv,
+                    -ls.wi,
+                );
                 let (f, _) = bsdf.eval(wo, ls.wi);
-                if li != Vec3::ZERO && f != Vec3::ZERO && visible(scene, hit, ls.point, ls.normal, stats) {
+                if li != Vec3::ZERO
+                    && f != Vec3::ZERO
+                    && visible(scene, hit, ls.point, ls.normal, stats)
+                {
                     l += f * li / (pmf * ls.pdf);
                 }
             }

@@ -77,7 +77,11 @@ pub fn eval_with_derivative(b: &[f64], t: f64) -> (f64, f64) {
 /// degree is the derivative.
 fn value_and_derivative<T>(c: &[T], t: f64) -> (T, T)
 where
-    T: Copy + Default + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<f64, Output = T>,
+    T: Copy
+        + Default
+        + std::ops::Add<Output = T>
+        + std::ops::Sub<Output = T>
+        + std::ops::Mul<f64, Output = T>,
 {
     let m = c.len() - 1;
     if m == 0 {
@@ -190,7 +194,10 @@ pub fn roots_in_unit_interval(b: &[f64], zero_tol: f64) -> Vec<f64> {
     if b.len() < 2 {
         return out;
     }
-    let snapped: Vec<f64> = b.iter().map(|&v| if v.abs() <= zero_tol { 0.0 } else { v }).collect();
+    let snapped: Vec<f64> = b
+        .iter()
+        .map(|&v| if v.abs() <= zero_tol { 0.0 } else { v })
+        .collect();
     let m = b.len() - 1;
     let mut stack: Vec<(Vec<f64>, f64, f64, u32)> = vec![(snapped, 0.0, 1.0, 0)];
     while let Some((c, a, w, depth)) = stack.pop() {

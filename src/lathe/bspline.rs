@@ -23,7 +23,11 @@ fn insert_knot(p: usize, knots: &mut Vec<f64>, points: &mut Vec<DVec2>, u: f64) 
             new_points.push(points[i - 1]);
         } else {
             let denom = knots[i + p] - knots[i];
-            let alpha = if denom > 0.0 { (u - knots[i]) / denom } else { 0.0 };
+            let alpha = if denom > 0.0 {
+                (u - knots[i]) / denom
+            } else {
+                0.0
+            };
             new_points.push((1.0 - alpha) * points[i - 1] + alpha * points[i]);
         }
     }
@@ -51,7 +55,11 @@ pub fn decompose(p: usize, points: &[DVec2], knots: &[f64]) -> Vec<BezierSpan> {
     let mut k: Vec<f64> = knots.to_vec();
     let mut pts: Vec<DVec2> = points.to_vec();
     // Distinct knot values inside the traced domain (ends included).
-    let mut values: Vec<f64> = knots.iter().copied().filter(|&u| u >= start && u <= end).collect();
+    let mut values: Vec<f64> = knots
+        .iter()
+        .copied()
+        .filter(|&u| u >= start && u <= end)
+        .collect();
     values.dedup();
     for &u in &values {
         loop {
@@ -66,7 +74,11 @@ pub fn decompose(p: usize, points: &[DVec2], knots: &[f64]) -> Vec<BezierSpan> {
     let n2 = pts.len();
     for s in p..n2 {
         if k[s + 1] > k[s] && k[s] >= start && k[s + 1] <= end {
-            spans.push(BezierSpan { points: pts[s - p..=s].to_vec(), u0: k[s], u1: k[s + 1] });
+            spans.push(BezierSpan {
+                points: pts[s - p..=s].to_vec(),
+                u0: k[s],
+                u1: k[s + 1],
+            });
         }
     }
     spans
@@ -88,7 +100,11 @@ mod tests {
             for j in (r..=p).rev() {
                 let i = j + k - p;
                 let denom = knots[i + p + 1 - r] - knots[i];
-                let a = if denom > 0.0 { (u - knots[i]) / denom } else { 0.0 };
+                let a = if denom > 0.0 {
+                    (u - knots[i]) / denom
+                } else {
+                    0.0
+                };
                 d[j] = (1.0 - a) * d[j - 1] + a * d[j];
             }
         }
@@ -97,10 +113,17 @@ mod tests {
 
     #[test]
     fn spans_reproduce_the_spline_including_unclamped_and_repeated_knots() {
-        let pts: Vec<DVec2> = [(0.0, 0.0), (1.0, 0.2), (1.4, 1.0), (0.6, 1.8), (0.9, 2.5), (0.0, 3.0)]
-            .iter()
-            .map(|&(x, y)| DVec2::new(x, y))
-            .collect();
+        let pts: Vec<DVec2> = [
+            (0.0, 0.0),
+            (1.0, 0.2),
+            (1.4, 1.0),
+            (0.6, 1.8),
+            (0.9, 2.5),
+            (0.0, 3.0),
+        ]
+        .iter()
+        .map(|&(x, y)| DVec2::new(x, y))
+        .collect();
         for knots in [
             vec![0.0, 0.0, 0.0, 0.0, 0.3, 0.7, 1.0, 1.0, 1.0, 1.0],
             vec![0.0, 0.1, 0.2, 0.3, 0.5, 0.5, 0.8, 0.9, 1.0, 1.2],
@@ -116,7 +139,10 @@ mod tests {
                     let u = s.u0 + t * (s.u1 - s.u0);
                     let want = de_boor(3, &pts, &knots, u);
                     let got = crate::lathe::bernstein::eval_curve(&s.points, t);
-                    assert!((want - got).length() < 1e-12, "{knots:?} u={u} {want} {got}");
+                    assert!(
+                        (want - got).length() < 1e-12,
+                        "{knots:?} u={u} {want} {got}"
+                    );
                 }
             }
         }

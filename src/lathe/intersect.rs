@@ -50,7 +50,10 @@
 //! * **Cusps, extrema and axis crossings** are piece boundaries (see [`super::Lathe::new`]),
 //!   so each piece is monotone in x and y; tangencies give double roots handled as above.
 
-use super::bernstein::{eval_curve_with_derivative, eval_with_derivative, solve_bracketed, split_curve, MAX_COEFFS, MAX_POINTS};
+use super::bernstein::{
+    eval_curve_with_derivative, eval_with_derivative, solve_bracketed, split_curve, MAX_COEFFS,
+    MAX_POINTS,
+};
 use super::{Lathe, LatheHit, Piece, PieceKind};
 use glam::{DVec2, DVec3};
 use std::f64::consts::TAU;
@@ -103,9 +106,16 @@ pub(crate) struct Frame {
 }
 
 impl Frame {
-    pub(crate) fn new(origin: DVec3, dir: DVec3, s_min: f64, s_max: f64, scale: f64) -> Option<Frame> {
+    pub(crate) fn new(
+        origin: DVec3,
+        dir: DVec3,
+        s_min: f64,
+        s_max: f64,
+        scale: f64,
+    ) -> Option<Frame> {
         let len = dir.length();
-        if !(len > 0.0 && len.is_finite() && origin.is_finite()) || s_max.is_nan() || s_min.is_nan() {
+        if !(len > 0.0 && len.is_finite() && origin.is_finite()) || s_max.is_nan() || s_min.is_nan()
+        {
             return None;
         }
         let d = dir / len;
@@ -140,7 +150,11 @@ impl Frame {
             b_xz: b,
             s0,
             y_c,
-            rho0sq: if mode == Mode::ThroughAxis { 0.0 } else { rho0sq },
+            rho0sq: if mode == Mode::ThroughAxis {
+                0.0
+            } else {
+                rho0sq
+            },
             wa: a / m,
             wc: d.y * d.y / m,
             mode,
@@ -157,7 +171,14 @@ impl Frame {
 
     /// Range [s_lo, s_hi] ⊂ [s_min, limit] of ray parameters inside the solid annulus
     /// {r ∈ [r_lo, r_hi], y ∈ [y_lo, y_hi]}, or None. Bounds are padded by the tolerance.
-    fn annulus(&self, r_lo: f64, r_hi: f64, y_lo: f64, y_hi: f64, limit: f64) -> Option<(f64, f64)> {
+    fn annulus(
+        &self,
+        r_lo: f64,
+        r_hi: f64,
+        y_lo: f64,
+        y_hi: f64,
+        limit: f64,
+    ) -> Option<(f64, f64)> {
         let pad = self.tol;
         let (r_lo, r_hi, y_lo, y_hi) = ((r_lo - pad).max(0.0), r_hi + pad, y_lo - pad, y_hi + pad);
         let (mut lo, mut hi) = (self.s_min, limit);
@@ -173,16 +194,27 @@ impl Frame {
             return None;
         }
         if let Mode::Parallel { r } = self.mode {
-            return if r >= r_lo && r <= r_hi { Some((lo, hi)) } else { None };
+            return if r >= r_lo && r <= r_hi {
+                Some((lo, hi))
+            } else {
+                None
+            };
         }
         let r_hi2 = r_hi * r_hi;
         if self.rho0sq > r_hi2 {
             return None;
         }
         let h_hi = ((r_hi2 - self.rho0sq) / self.a_xz).sqrt();
-        let h_lo = if r_lo * r_lo > self.rho0sq { ((r_lo * r_lo - self.rho0sq) / self.a_xz).sqrt() } else { 0.0 };
+        let h_lo = if r_lo * r_lo > self.rho0sq {
+            ((r_lo * r_lo - self.rho0sq) / self.a_xz).sqrt()
+        } else {
+            0.0
+        };
         let mut out: Option<(f64, f64)> = None;
-        for (a, b) in [(self.s0 - h_hi, self.s0 - h_lo), (self.s0 + h_lo, self.s0 + h_hi)] {
+        for (a, b) in [
+            (self.s0 - h_hi, self.s0 - h_lo),
+            (self.s0 + h_lo, self.s0 + h_hi),
+        ] {
             let (a, b) = (a.max(lo), b.min(hi));
             if a <= b {
                 out = Some(match out {
@@ -272,7 +304,14 @@ impl Lathe {
     }
 
     /// Nearest hit on piece `i` only (for BVHs holding pieces as primitives).
-    pub fn intersect_segment(&self, i: usize, origin: DVec3, dir: DVec3, s_min: f64, s_max: f64) -> Option<LatheHit> {
+    pub fn intersect_segment(
+        &self,
+        i: usize,
+        origin: DVec3,
+        dir: DVec3,
+        s_min: f64,
+        s_max: f64,
+    ) -> Option<LatheHit> {
         let f = Frame::new(origin, dir, s_min, s_max, self.scale)?;
         let mut best = None;
         self.piece_hits(i, &f, &mut best);
@@ -282,7 +321,8 @@ impl Lathe {
     fn piece_hits(&self, i: usize, f: &Frame, best: &mut Option<Best>) {
         let piece = &self.pieces[i];
         let limit = best.map_or(f.s_max, |b| b.s);
-        let Some((s_lo, _)) = f.annulus(piece.r_lo, piece.r_hi, piece.y_lo, piece.y_hi, limit) else {
+        let Some((s_lo, _)) = f.annulus(piece.r_lo, piece.r_hi, piece.y_lo, piece.y_hi, limit)
+        else {
             return;
         };
         match piece.kind {
@@ -376,7 +416,14 @@ impl Lathe {
     }
 
     /// Coefficients of the node polynomial and a bound on each one's rounding error.
-    fn coefficients(&self, f: &Frame, eq: Equation, pts: &[DVec2], c: &mut [f64; MAX_COEFFS], e: &mut [f64; MAX_COEFFS]) -> usize {
+    fn coefficients(
+        &self,
+        f: &Frame,
+        eq: Equation,
+        pts: &[DVec2],
+        c: &mut [f64; MAX_COEFFS],
+        e: &mut [f64; MAX_COEFFS],
+    ) -> usize {
         let n = pts.len() - 1;
         match eq {
             Equation::Full => {
@@ -389,7 +436,8 @@ impl Lathe {
                     ub[i] = u[i].abs() + 2.0 * EPS * (pts[i].y.abs() + f.y_c.abs());
                 }
                 for k in 0..=2 * n {
-                    let (mut uu, mut uu_up, mut uu_abs, mut xx, mut xx_abs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                    let (mut uu, mut uu_up, mut uu_abs, mut xx, mut xx_abs) =
+                        (0.0, 0.0, 0.0, 0.0, 0.0);
                     let lo = k.saturating_sub(n);
                     for i in lo..=k.min(n) {
                         let j = k - i;
@@ -402,9 +450,12 @@ impl Lathe {
                         xx_abs += w * xp.abs();
                     }
                     let inv = 1.0 / bin.c(2 * n, k);
-                    let (uu, uu_up, uu_abs, xx, xx_abs) = (uu * inv, uu_up * inv, uu_abs * inv, xx * inv, xx_abs * inv);
+                    let (uu, uu_up, uu_abs, xx, xx_abs) =
+                        (uu * inv, uu_up * inv, uu_abs * inv, xx * inv, xx_abs * inv);
                     c[k] = f.wa * uu - f.wc * (xx - f.rho0sq);
-                    e[k] = f.wa * ((uu_up - uu_abs) + gamma * uu_up) + f.wc * gamma * (xx_abs + f.rho0sq) + gamma * c[k].abs();
+                    e[k] = f.wa * ((uu_up - uu_abs) + gamma * uu_up)
+                        + f.wc * gamma * (xx_abs + f.rho0sq)
+                        + gamma * c[k].abs();
                 }
                 2 * n
             }
@@ -438,7 +489,13 @@ impl Lathe {
     fn search(&self, i: usize, f: &Frame, eq: Equation, s_lo: f64, best: &mut Option<Best>) {
         let piece = &self.pieces[i];
         let np = piece.points.len();
-        let mut root = Node { pts: [DVec2::ZERO; MAX_POINTS], a: 0.0, w: 1.0, depth: 0, s_lo };
+        let mut root = Node {
+            pts: [DVec2::ZERO; MAX_POINTS],
+            a: 0.0,
+            w: 1.0,
+            depth: 0,
+            s_lo,
+        };
         root.pts[..np].copy_from_slice(&piece.points);
         STACK.with(|cell| {
             let mut stack = cell.borrow_mut();
@@ -448,7 +505,14 @@ impl Lathe {
         });
     }
 
-    fn search_nodes(&self, i: usize, f: &Frame, eq: Equation, stack: &mut Vec<Node>, best: &mut Option<Best>) {
+    fn search_nodes(
+        &self,
+        i: usize,
+        f: &Frame,
+        eq: Equation,
+        stack: &mut Vec<Node>,
+        best: &mut Option<Best>,
+    ) {
         let np = self.pieces[i].points.len();
         let mut c = [0.0; MAX_COEFFS];
         let mut e = [0.0; MAX_COEFFS];
@@ -470,7 +534,10 @@ impl Lathe {
             // Descartes' rule of signs in the Bernstein basis: with every coefficient's sign
             // certain, exactly one sign variation means exactly one root in the node.
             if cs.iter().zip(es).all(|(v, e)| v.abs() > *e) {
-                let variations = cs.windows(2).filter(|w| (w[0] < 0.0) != (w[1] < 0.0)).count();
+                let variations = cs
+                    .windows(2)
+                    .filter(|w| (w[0] < 0.0) != (w[1] < 0.0))
+                    .count();
                 if variations == 1 {
                     let tau = solve_bracketed(|t| eval_with_derivative(cs, t), 0.0, 1.0);
                     self.candidate(i, f, eq, node.a + tau * node.w, best);
@@ -597,7 +664,9 @@ impl Lathe {
             // A cusp (vanishing derivative): use the chord through nearby points instead.
             let h = 1e-6;
             let (lo, hi) = ((b.t - h).max(0.0), (b.t + h).min(1.0));
-            dp = (eval_curve_with_derivative(&piece.points, hi).0 - eval_curve_with_derivative(&piece.points, lo).0) / (hi - lo);
+            dp = (eval_curve_with_derivative(&piece.points, hi).0
+                - eval_curve_with_derivative(&piece.points, lo).0)
+                / (hi - lo);
         }
         let q = f.o + b.s * f.d;
         let r = (q.x * q.x + q.z * q.z).sqrt();
@@ -611,7 +680,11 @@ impl Lathe {
             n = if dp.x > 0.0 { -DVec3::Y } else { DVec3::Y };
         }
         let n = n.normalize();
-        let theta = if piece.mirrored { phi + std::f64::consts::PI } else { phi };
+        let theta = if piece.mirrored {
+            phi + std::f64::consts::PI
+        } else {
+            phi
+        };
         let u = theta.rem_euclid(TAU) / TAU;
         let dv = piece.v1 - piece.v0;
         LatheHit {

@@ -135,7 +135,10 @@ pub struct Profile {
 fn check_points(points: &[[f64; 2]]) -> Result<Vec<DVec2>, LatheError> {
     for (i, p) in points.iter().enumerate() {
         if !p[0].is_finite() || !p[1].is_finite() {
-            return Err(LatheError::NotFinite { what: "point", index: i });
+            return Err(LatheError::NotFinite {
+                what: "point",
+                index: i,
+            });
         }
     }
     let pts: Vec<DVec2> = points.iter().map(|p| DVec2::new(p[0], p[1])).collect();
@@ -149,38 +152,67 @@ impl Profile {
     /// One Bézier curve of degree `points.len() − 1` (2 to 17 points), parameter v = t ∈ [0, 1].
     pub fn bezier(points: &[[f64; 2]]) -> Result<Profile, LatheError> {
         if points.len() < 2 {
-            return Err(LatheError::TooFewPoints { got: points.len(), need: 2, degree: 1 });
+            return Err(LatheError::TooFewPoints {
+                got: points.len(),
+                need: 2,
+                degree: 1,
+            });
         }
         if points.len() - 1 > MAX_DEGREE {
             return Err(LatheError::BadDegree(points.len() - 1));
         }
         let pts = check_points(points)?;
-        Ok(Profile { segments: vec![Segment { points: pts, v0: 0.0, v1: 1.0 }] })
+        Ok(Profile {
+            segments: vec![Segment {
+                points: pts,
+                v0: 0.0,
+                v1: 1.0,
+            }],
+        })
     }
 
     /// A B-spline of the given degree. `knots`: `points.len() + degree + 1` non-decreasing
     /// values, or `None` for the clamped uniform vector on [0, 1]. The curve is traced over
     /// [knots[degree], knots[points.len()]], and v is that interval mapped to [0, 1].
-    pub fn bspline(degree: usize, points: &[[f64; 2]], knots: Option<&[f64]>) -> Result<Profile, LatheError> {
+    pub fn bspline(
+        degree: usize,
+        points: &[[f64; 2]],
+        knots: Option<&[f64]>,
+    ) -> Result<Profile, LatheError> {
         if degree == 0 || degree > MAX_DEGREE {
             return Err(LatheError::BadDegree(degree));
         }
         if points.len() < degree + 1 {
-            return Err(LatheError::TooFewPoints { got: points.len(), need: degree + 1, degree });
+            return Err(LatheError::TooFewPoints {
+                got: points.len(),
+                need: degree + 1,
+                degree,
+            });
         }
         let pts = check_points(points)?;
         let n = pts.len();
         let knots: Vec<f64> = match knots {
             Some(k) => {
                 if k.len() != n + degree + 1 {
-                    return Err(LatheError::KnotCount { got: k.len(), need: n + degree + 1, points: n, degree });
+                    return Err(LatheError::KnotCount {
+                        got: k.len(),
+                        need: n + degree + 1,
+                        points: n,
+                        degree,
+                    });
                 }
                 for (i, v) in k.iter().enumerate() {
                     if !v.is_finite() {
-                        return Err(LatheError::NotFinite { what: "knot", index: i });
+                        return Err(LatheError::NotFinite {
+                            what: "knot",
+                            index: i,
+                        });
                     }
                     if i > 0 && *v < k[i - 1] {
-                        return Err(LatheError::KnotsDecrease { index: i, value: *v });
+                        return Err(LatheError::KnotsDecrease {
+                            index: i,
+                            value: *v,
+                        });
                     }
                 }
                 k.to_vec()
@@ -194,7 +226,11 @@ impl Profile {
         let spans = bspline::decompose(degree, &pts, &knots);
         let segments = spans
             .into_iter()
-            .map(|s| Segment { points: s.points, v0: (s.u0 - start) / (end - start), v1: (s.u1 - start) / (end - start) })
+            .map(|s| Segment {
+                points: s.points,
+                v0: (s.u0 - start) / (end - start),
+                v1: (s.u1 - start) / (end - start),
+            })
             .collect();
         Ok(Profile { segments })
     }
@@ -202,11 +238,11 @@ impl Profile {
     /// Evaluates the profile point and its derivative with respect to v at v ∈ [0, 1].
     pub fn eval(&self, v: f64) -> (DVec2, DVec2) {
         let v = v.clamp(0.0, 1.0);
-        let seg = self
-            .segments
-            .iter()
-            .find(|s| v <= s.v1)
-            .unwrap_or_else(|| self.segments.last().expect("a profile has at least one segment"));
+        let seg = self.segments.iter().find(|s| v <= s.v1).unwrap_or_else(|| {
+            self.segments
+                .last()
+                .expect("a profile has at least one segment")
+        });
         let t = ((v - seg.v0) / (seg.v1 - seg.v0)).clamp(0.0, 1.0);
         let (p, dp) = eval_curve_with_derivative(&seg.points, t);
         (p, dp / (seg.v1 - seg.v0))
@@ -270,14 +306,23 @@ impl Lathe {
                 hi = hi.max(*p);
             }
         }
-        let scale = (hi - lo).max_element().max(lo.x.abs()).max(hi.x.abs()).max(f64::MIN_POSITIVE);
+        let scale = (hi - lo)
+            .max_element()
+            .max(lo.x.abs())
+            .max(hi.x.abs())
+            .max(f64::MIN_POSITIVE);
         for seg in &profile.segments {
             split_into_pieces(seg, scale, &mut pieces);
         }
         let r = pieces.iter().fold(0.0f64, |m, p| m.max(p.r_hi));
         let y_lo = pieces.iter().fold(f64::INFINITY, |m, p| m.min(p.y_lo));
         let y_hi = pieces.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.y_hi));
-        Lathe { profile, pieces, scale, bounds: (DVec3::new(-r, y_lo, -r), DVec3::new(r, y_hi, r)) }
+        Lathe {
+            profile,
+            pieces,
+            scale,
+            bounds: (DVec3::new(-r, y_lo, -r), DVec3::new(r, y_hi, r)),
+        }
     }
 
     /// The profile.
@@ -298,7 +343,10 @@ impl Lathe {
     /// Axis-aligned bounds of piece `i` (object space).
     pub fn segment_bounds(&self, i: usize) -> (DVec3, DVec3) {
         let p = &self.pieces[i];
-        (DVec3::new(-p.r_hi, p.y_lo, -p.r_hi), DVec3::new(p.r_hi, p.y_hi, p.r_hi))
+        (
+            DVec3::new(-p.r_hi, p.y_lo, -p.r_hi),
+            DVec3::new(p.r_hi, p.y_hi, p.r_hi),
+        )
     }
 
     /// The unit normal (orientation rule above) at profile parameter `v` for the surface point
@@ -306,16 +354,38 @@ impl Lathe {
     pub fn normal_at(&self, v: f64, point: DVec3) -> DVec3 {
         let (p, dp) = self.profile.eval(v);
         let r = (point.x * point.x + point.z * point.z).sqrt();
-        let e_r = if r > 0.0 { DVec3::new(point.x / r, 0.0, point.z / r) } else { DVec3::X };
+        let e_r = if r > 0.0 {
+            DVec3::new(point.x / r, 0.0, point.z / r)
+        } else {
+            DVec3::X
+        };
         // n ∝ x·(y′ cos θ, −x′, −y′ sin θ); with θ from the point (θ + π for x < 0) this is
         // y′ e_r − x′ ŷ for x > 0 and y′ e_r + x′ ŷ for x < 0.
-        let xs = if p.x != 0.0 { p.x.signum() } else if dp.x != 0.0 { if v < 0.5 { dp.x.signum() } else { -dp.x.signum() } } else { 1.0 };
-        let n = if r > 1e-12 * self.scale { dp.y * e_r - xs * dp.x * DVec3::Y } else { DVec3::ZERO };
+        let xs = if p.x != 0.0 {
+            p.x.signum()
+        } else if dp.x != 0.0 {
+            if v < 0.5 {
+                dp.x.signum()
+            } else {
+                -dp.x.signum()
+            }
+        } else {
+            1.0
+        };
+        let n = if r > 1e-12 * self.scale {
+            dp.y * e_r - xs * dp.x * DVec3::Y
+        } else {
+            DVec3::ZERO
+        };
         if n.length_squared() > 0.0 {
             n.normalize()
         } else {
             // On the axis: the limit along it, −sign(x·x′)·ŷ.
-            if xs * dp.x > 0.0 { -DVec3::Y } else { DVec3::Y }
+            if xs * dp.x > 0.0 {
+                -DVec3::Y
+            } else {
+                DVec3::Y
+            }
         }
     }
 
@@ -366,7 +436,9 @@ fn split_into_pieces(seg: &Segment, scale: f64, out: &mut Vec<Piece>) {
 }
 
 fn make_piece(mut pts: Vec<DVec2>, v0: f64, v1: f64, scale: f64) -> Option<Piece> {
-    let extent = pts.iter().fold(0.0f64, |m, p| m.max((*p - pts[0]).abs().max_element()));
+    let extent = pts
+        .iter()
+        .fold(0.0f64, |m, p| m.max((*p - pts[0]).abs().max_element()));
     if extent <= 1e-14 * scale {
         return None; // a point: no area
     }
@@ -400,5 +472,15 @@ fn make_piece(mut pts: Vec<DVec2>, v0: f64, v1: f64, scale: f64) -> Option<Piece
     let r_hi = pts.iter().fold(0.0f64, |m, p| m.max(p.x.abs()));
     let y_lo = pts.iter().fold(f64::INFINITY, |m, p| m.min(p.y));
     let y_hi = pts.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.y));
-    Some(Piece { points: pts, v0, v1, mirrored, kind, r_lo, r_hi, y_lo, y_hi })
+    Some(Piece {
+        points: pts,
+        v0,
+        v1,
+        mirrored,
+        kind,
+        r_lo,
+        r_hi,
+        y_lo,
+        y_hi,
+    })
 }

@@ -49,7 +49,14 @@ pub struct Reference {
 /// magnitude below which qa counts as zero.
 fn solve_quadratic(qa: f64, qb: f64, qc: f64, size: f64) -> [f64; 2] {
     if qa.abs() <= 1e-14 * size {
-        return [if qb != 0.0 { -qc / (2.0 * qb) } else { f64::NAN }, f64::NAN];
+        return [
+            if qb != 0.0 {
+                -qc / (2.0 * qb)
+            } else {
+                f64::NAN
+            },
+            f64::NAN,
+        ];
     }
     let disc = qb * qb - qa * qc;
     if disc < 0.0 {
@@ -70,13 +77,20 @@ impl Reference {
             RefCurve::Bezier(_) => (0.0, 1.0),
             RefCurve::Bspline(p, pts, k) => (k[*p], k[pts.len()]),
         };
-        let mut params: Vec<f64> = (0..=n).map(|i| domain.0 + (domain.1 - domain.0) * i as f64 / n as f64).collect();
+        let mut params: Vec<f64> = (0..=n)
+            .map(|i| domain.0 + (domain.1 - domain.0) * i as f64 / n as f64)
+            .collect();
         if let RefCurve::Bspline(_, _, k) = &curve {
             params.extend(k.iter().copied().filter(|&u| u > domain.0 && u < domain.1));
         }
         params.sort_by(f64::total_cmp);
         params.dedup();
-        let mut r = Reference { curve, domain, samples: Vec::new(), scale: 0.0 };
+        let mut r = Reference {
+            curve,
+            domain,
+            samples: Vec::new(),
+            scale: 0.0,
+        };
         r.samples = params.iter().map(|&u| (u, r.eval(u))).collect();
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         for (_, p) in &r.samples {
@@ -92,7 +106,9 @@ impl Reference {
         match &self.curve {
             RefCurve::Bezier(p) => {
                 let n = p.len() - 1;
-                (0..=n).map(|i| p[i] * binom(n, i) * u.powi(i as i32) * (1.0 - u).powi((n - i) as i32)).sum()
+                (0..=n)
+                    .map(|i| p[i] * binom(n, i) * u.powi(i as i32) * (1.0 - u).powi((n - i) as i32))
+                    .sum()
             }
             RefCurve::Bspline(deg, pts, knots) => {
                 let p = *deg;
@@ -136,7 +152,11 @@ impl Reference {
             let ((u1, p1), (u2, p2)) = (w[0], w[1]);
             let (r1, r2) = (p1.x.abs(), p2.x.abs());
             let mut consider = |s: f64, frac: f64| {
-                if s > lo && s < hi && (-1e-9..=1.0 + 1e-9).contains(&frac) && best.is_none_or(|bb| s < bb.0) {
+                if s > lo
+                    && s < hi
+                    && (-1e-9..=1.0 + 1e-9).contains(&frac)
+                    && best.is_none_or(|bb| s < bb.0)
+                {
                     best = Some((s, u1 + frac.clamp(0.0, 1.0) * (u2 - u1)));
                 }
             };
@@ -186,7 +206,13 @@ impl Reference {
                     let s0 = -b / a;
                     let cross = o.x * d.z - o.z * d.x;
                     let rho0sq = cross * cross / a;
-                    let h = |r: f64| if r * r >= rho0sq { Some(((r * r - rho0sq) / a).sqrt()) } else { None };
+                    let h = |r: f64| {
+                        if r * r >= rho0sq {
+                            Some(((r * r - rho0sq) / a).sqrt())
+                        } else {
+                            None
+                        }
+                    };
                     match (h(rmin), h(rmax)) {
                         (_, None) => Vec::new(),
                         (None, Some(hx)) => vec![(s0 - hx, s0 + hx)],
@@ -248,9 +274,21 @@ impl Reference {
             let frac_of = |s: f64| (o.y + s * d.y - p1.y) / (p2.y - p1.y);
             let roots = if a < 1e-24 {
                 // Parallel to the axis: constant radius √c, linear in s.
-                [if beta != 0.0 { (c.sqrt() - alpha) / beta } else { f64::NAN }, f64::NAN]
+                [
+                    if beta != 0.0 {
+                        (c.sqrt() - alpha) / beta
+                    } else {
+                        f64::NAN
+                    },
+                    f64::NAN,
+                ]
             } else {
-                solve_quadratic(a - beta * beta, b - alpha * beta, c - alpha * alpha, a + beta * beta)
+                solve_quadratic(
+                    a - beta * beta,
+                    b - alpha * beta,
+                    c - alpha * alpha,
+                    a + beta * beta,
+                )
             };
             for s in roots {
                 if s.is_finite() && alpha + beta * s >= -1e-12 * self.scale {
@@ -271,7 +309,11 @@ impl Reference {
                 break;
             }
             let dp = self.derivative(u);
-            let drho = if rho > 0.0 { (q.x * d.x + q.z * d.z) / rho } else { 0.0 };
+            let drho = if rho > 0.0 {
+                (q.x * d.x + q.z * d.z) / rho
+            } else {
+                0.0
+            };
             let dxabs = dp.x * p.x.signum();
             let det = d.y * (-dxabs) - (-dp.y) * drho;
             if det == 0.0 || !det.is_finite() {
@@ -293,7 +335,11 @@ impl Reference {
         let p = self.eval(u);
         let dp = self.derivative(u);
         let phi = (-q.z).atan2(q.x);
-        let theta = if p.x >= 0.0 { phi } else { phi + std::f64::consts::PI };
+        let theta = if p.x >= 0.0 {
+            phi
+        } else {
+            phi + std::f64::consts::PI
+        };
         let n = p.x * DVec3::new(dp.y * theta.cos(), -dp.x, -dp.y * theta.sin());
         Some(RefHit {
             s: s / len,

@@ -68,19 +68,29 @@ impl Lathe {
             let n = p.x.signum() * DVec2::new(dp.y, -dp.x);
             let len = n.length();
             if len > 0.0 {
-                return ProfileNormal { radial: n.x / len, axial: n.y / len };
+                return ProfileNormal {
+                    radial: n.x / len,
+                    axial: n.y / len,
+                };
             }
         }
         // Pole (or a vanishing derivative): take the side the curve lies on just inside.
         let vn = if v < 0.5 { v + 1e-6 } else { v - 1e-6 };
         let (pn, dpn) = self.profile.eval(vn);
-        let axial = if dp.x != 0.0 { -(pn.x * dp.x).signum() } else { -(pn.x * dpn.x).signum() };
+        let axial = if dp.x != 0.0 {
+            -(pn.x * dp.x).signum()
+        } else {
+            -(pn.x * dpn.x).signum()
+        };
         if p.x.abs() <= 1e-12 * scale {
             return ProfileNormal { radial: 0.0, axial };
         }
         let n = pn.x.signum() * DVec2::new(dpn.y, -dpn.x);
         let n = n.normalize_or(DVec2::new(0.0, axial));
-        ProfileNormal { radial: n.x, axial: n.y }
+        ProfileNormal {
+            radial: n.x,
+            axial: n.y,
+        }
     }
 }
 

@@ -12,7 +12,6 @@ use super::reference::{RefCurve, RefHit, Reference, Rng};
 use super::{Lathe, LatheHit, PieceKind, Profile};
 use glam::{DVec2, DVec3};
 
-
 /// A test profile: name, plain data, scaled copies.
 #[derive(Clone)]
 struct Case {
@@ -27,7 +26,10 @@ impl Case {
             RefCurve::Bezier(p) => RefCurve::Bezier(sc(p)),
             RefCurve::Bspline(d, p, kn) => RefCurve::Bspline(*d, sc(p), kn.clone()),
         };
-        Case { name: self.name, curve }
+        Case {
+            name: self.name,
+            curve,
+        }
     }
     fn lathe(&self) -> Lathe {
         let arr = |v: &Vec<DVec2>| v.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>();
@@ -48,24 +50,51 @@ fn cases() -> Vec<Case> {
         // Cylinder with flat caps as a degree-1 B-spline: poles, flat discs, a wall, sharp rims.
         Case {
             name: "capped cylinder (polyline)",
-            curve: RefCurve::Bspline(1, pts(&[(0.0, 0.0), (1.0, 0.0), (1.0, 2.0), (0.0, 2.0)]), vec![0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0]),
+            curve: RefCurve::Bspline(
+                1,
+                pts(&[(0.0, 0.0), (1.0, 0.0), (1.0, 2.0), (0.0, 2.0)]),
+                vec![0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0],
+            ),
         },
         // Smooth closed dome: cubic Bézier with horizontal tangents at both poles.
-        Case { name: "egg (smooth poles)", curve: RefCurve::Bezier(pts(&[(0.0, -1.0), (1.4, -1.0), (1.4, 1.2), (0.0, 1.2)])) },
+        Case {
+            name: "egg (smooth poles)",
+            curve: RefCurve::Bezier(pts(&[(0.0, -1.0), (1.4, -1.0), (1.4, 1.2), (0.0, 1.2)])),
+        },
         // Cone tips at both poles (non-smooth poles).
-        Case { name: "spindle (cone poles)", curve: RefCurve::Bezier(pts(&[(0.0, -1.0), (2.0, 0.0), (0.0, 1.0)])) },
+        Case {
+            name: "spindle (cone poles)",
+            curve: RefCurve::Bezier(pts(&[(0.0, -1.0), (2.0, 0.0), (0.0, 1.0)])),
+        },
         // A cubic with a cusp at t = 1/2, moved off the axis.
-        Case { name: "cusp", curve: RefCurve::Bezier(pts(&[(0.5, 0.0), (1.5, 1.0), (0.5, 1.0), (1.5, 0.0)])) },
+        Case {
+            name: "cusp",
+            curve: RefCurve::Bezier(pts(&[(0.5, 0.0), (1.5, 1.0), (0.5, 1.0), (1.5, 0.0)])),
+        },
         // S-shaped cubic: an inflection, saddle-shaped neck.
-        Case { name: "inflection", curve: RefCurve::Bezier(pts(&[(1.0, 0.0), (2.0, 1.0), (0.2, 2.0), (1.0, 3.0)])) },
+        Case {
+            name: "inflection",
+            curve: RefCurve::Bezier(pts(&[(1.0, 0.0), (2.0, 1.0), (0.2, 2.0), (1.0, 3.0)])),
+        },
         // A line through the axis: a double cone whose profile changes sign.
-        Case { name: "double cone (crosses axis)", curve: RefCurve::Bezier(pts(&[(1.0, -1.0), (-1.0, 1.0)])) },
+        Case {
+            name: "double cone (crosses axis)",
+            curve: RefCurve::Bezier(pts(&[(1.0, -1.0), (-1.0, 1.0)])),
+        },
         // Vase: cubic B-spline, pole at the bottom centre, flat base, default-like knots.
         Case {
             name: "vase (B-spline)",
             curve: RefCurve::Bspline(
                 3,
-                pts(&[(0.0, 0.0), (0.5, 0.0), (0.9, 0.0), (1.0, 0.3), (0.5, 1.2), (0.35, 1.8), (0.6, 2.2)]),
+                pts(&[
+                    (0.0, 0.0),
+                    (0.5, 0.0),
+                    (0.9, 0.0),
+                    (1.0, 0.3),
+                    (0.5, 1.2),
+                    (0.35, 1.8),
+                    (0.6, 2.2),
+                ]),
                 vec![0.0, 0.0, 0.0, 0.0, 0.25, 0.5, 0.75, 1.0, 1.0, 1.0, 1.0],
             ),
         },
@@ -74,7 +103,16 @@ fn cases() -> Vec<Case> {
             name: "chess piece (double knot)",
             curve: RefCurve::Bspline(
                 3,
-                pts(&[(0.0, 0.0), (0.9, 0.0), (0.9, 0.25), (0.45, 0.4), (0.3, 1.1), (0.5, 1.3), (0.5, 1.5), (0.0, 1.6)]),
+                pts(&[
+                    (0.0, 0.0),
+                    (0.9, 0.0),
+                    (0.9, 0.25),
+                    (0.45, 0.4),
+                    (0.3, 1.1),
+                    (0.5, 1.3),
+                    (0.5, 1.5),
+                    (0.0, 1.6),
+                ]),
                 vec![0.0, 0.0, 0.0, 0.0, 0.2, 0.4, 0.4, 0.7, 1.0, 1.0, 1.1, 1.3],
             ),
         },
@@ -94,7 +132,12 @@ struct Stats {
 }
 
 fn finite(h: &LatheHit) -> bool {
-    h.s.is_finite() && h.point.is_finite() && h.normal.is_finite() && h.uv.is_finite() && h.dpdu.is_finite() && h.dpdv.is_finite()
+    h.s.is_finite()
+        && h.point.is_finite()
+        && h.normal.is_finite()
+        && h.uv.is_finite()
+        && h.dpdu.is_finite()
+        && h.dpdv.is_finite()
 }
 
 /// Reference answer, or None when the ray is within the 1e-6 band (see the module docs).
@@ -132,23 +175,35 @@ fn check(lathe: &Lathe, r: &Reference, o: DVec3, d: DVec3, st: &mut Stats, label
         (None, None) => {}
         (None, Some(w)) => {
             st.false_miss += 1;
-            eprintln!("false miss [{label}] o={o:?} d={d:?} ref s={} v={}", w.s, w.v);
+            eprintln!(
+                "false miss [{label}] o={o:?} d={d:?} ref s={} v={}",
+                w.s, w.v
+            );
         }
         (Some(g), None) => {
             st.false_hit += 1;
-            eprintln!("false hit [{label}] o={o:?} d={d:?} got s={} v={}", g.s, g.uv.y);
+            eprintln!(
+                "false hit [{label}] o={o:?} d={d:?} got s={} v={}",
+                g.s, g.uv.y
+            );
         }
         (Some(g), Some(w)) => {
             let rel = (g.s - w.s).abs() / w.s.abs().max(1e-300);
             if rel > 1e-6 {
-                eprintln!("distance error {rel:e} [{label}] o={o:?} d={d:?} got {} want {}", g.s, w.s);
+                eprintln!(
+                    "distance error {rel:e} [{label}] o={o:?} d={d:?} got {} want {}",
+                    g.s, w.s
+                );
             }
             st.max_rel_err = st.max_rel_err.max(rel);
             // Normals are defined away from cusps (vanishing derivative) and poles.
             if w.speed > 1e-3 * r.scale && w.radius > 1e-4 * r.scale {
                 let ang = g.normal.angle_between(w.normal);
                 if ang > 1e-4 {
-                    eprintln!("normal error {ang:e} [{label}] o={o:?} d={d:?} got {:?} want {:?}", g.normal, w.normal);
+                    eprintln!(
+                        "normal error {ang:e} [{label}] o={o:?} d={d:?} got {:?} want {:?}",
+                        g.normal, w.normal
+                    );
                 }
                 st.max_normal_err = st.max_normal_err.max(ang);
                 st.max_v_err = st.max_v_err.max((g.uv.y - w.v).abs());
@@ -172,26 +227,66 @@ fn run_case(case: &Case, scale: f64, seed: u64, n: usize) -> Stats {
     // Random rays from a sphere around the object at random points of its box.
     for _ in 0..n {
         let o = centre + far * rng.unit();
-        let target = DVec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
-        check(&lathe, &r, o, target - o, &mut st, &format!("{name} random"));
+        let target = DVec3::new(
+            rng.range(lo.x, hi.x),
+            rng.range(lo.y, hi.y),
+            rng.range(lo.z, hi.z),
+        );
+        check(
+            &lathe,
+            &r,
+            o,
+            target - o,
+            &mut st,
+            &format!("{name} random"),
+        );
     }
     // Rays through the axis at random heights and directions.
     for _ in 0..n / 2 {
         let a = DVec3::new(0.0, rng.range(lo.y - 0.1 * size, hi.y + 0.1 * size), 0.0);
         let d = rng.unit();
-        check(&lathe, &r, a - far * d, d, &mut st, &format!("{name} through axis"));
+        check(
+            &lathe,
+            &r,
+            a - far * d,
+            d,
+            &mut st,
+            &format!("{name} through axis"),
+        );
     }
     // Rays along the axis, and parallel to it at small and random radii.
     for (k, dy) in [(0.0, -1.0), (0.0, 1.0)] {
         let o = DVec3::new(k, if dy < 0.0 { hi.y + size } else { lo.y - size }, 0.0);
-        check(&lathe, &r, o, DVec3::new(0.0, dy, 0.0), &mut st, &format!("{name} along axis"));
+        check(
+            &lathe,
+            &r,
+            o,
+            DVec3::new(0.0, dy, 0.0),
+            &mut st,
+            &format!("{name} along axis"),
+        );
     }
     for i in 0..n / 4 {
-        let rad = if i % 3 == 0 { size * 10f64.powf(rng.range(-9.0, -3.0)) } else { rng.range(0.0, hi.x * 1.05) };
+        let rad = if i % 3 == 0 {
+            size * 10f64.powf(rng.range(-9.0, -3.0))
+        } else {
+            rng.range(0.0, hi.x * 1.05)
+        };
         let phi = rng.range(0.0, 6.3);
         let down = i % 2 == 0;
-        let o = DVec3::new(rad * phi.cos(), if down { hi.y + size } else { lo.y - size }, rad * phi.sin());
-        check(&lathe, &r, o, DVec3::new(0.0, if down { -1.0 } else { 1.0 }, 0.0), &mut st, &format!("{name} parallel"));
+        let o = DVec3::new(
+            rad * phi.cos(),
+            if down { hi.y + size } else { lo.y - size },
+            rad * phi.sin(),
+        );
+        check(
+            &lathe,
+            &r,
+            o,
+            DVec3::new(0.0, if down { -1.0 } else { 1.0 }, 0.0),
+            &mut st,
+            &format!("{name} parallel"),
+        );
     }
     // Horizontal and nearly horizontal rays.
     for i in 0..n / 2 {
@@ -202,7 +297,14 @@ fn run_case(case: &Case, scale: f64, seed: u64, n: usize) -> Stats {
         let d = DVec3::new(phi.cos(), dy, phi.sin());
         let side = DVec3::new(-phi.sin(), 0.0, phi.cos());
         let o = DVec3::new(0.0, y, 0.0) + off * side - far * d;
-        check(&lathe, &r, o, d, &mut st, &format!("{name} horizontal dy={dy}"));
+        check(
+            &lathe,
+            &r,
+            o,
+            d,
+            &mut st,
+            &format!("{name} horizontal dy={dy}"),
+        );
     }
     // Grazing rays: tangent to the surface at a point, pushed off along the normal.
     let mut made = 0;
@@ -227,19 +329,42 @@ fn run_case(case: &Case, scale: f64, seed: u64, n: usize) -> Stats {
         let d = alpha.cos() * e_theta + alpha.sin() * e_t;
         let delta = [2e-6, -2e-6, 1e-5, -1e-5, 1e-3, -1e-3][made % 6] * size;
         let o = point + delta * n_vec - far * d;
-        check(&lathe, &r, o, d, &mut st, &format!("{name} grazing delta={delta:e}"));
+        check(
+            &lathe,
+            &r,
+            o,
+            d,
+            &mut st,
+            &format!("{name} grazing delta={delta:e}"),
+        );
         made += 1;
     }
     // Flat rings edge-on: in their plane, just above and below, and at shallow angles.
-    for (i, piece) in lathe.pieces.iter().enumerate().filter(|(_, p)| p.kind == PieceKind::Flat) {
+    for (i, piece) in lathe
+        .pieces
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.kind == PieceKind::Flat)
+    {
         let y = piece.points[0].y;
         for k in 0..n / 4 {
             let dy_off = [0.0, 1e-5, -1e-5, 1e-3, -1e-3][k % 5] * size;
             let slope = [0.0, 0.0, 1e-3, -1e-3, 0.1][(k / 5) % 5];
             let phi = rng.range(0.0, 6.3);
             let d = DVec3::new(phi.cos(), slope, phi.sin());
-            let aim = DVec3::new(-piece.r_hi * rng.range(0.9, 1.0) * phi.cos(), y + dy_off, -piece.r_hi * phi.sin());
-            check(&lathe, &r, aim - far * d, d, &mut st, &format!("{name} edge-on piece {i}"));
+            let aim = DVec3::new(
+                -piece.r_hi * rng.range(0.9, 1.0) * phi.cos(),
+                y + dy_off,
+                -piece.r_hi * phi.sin(),
+            );
+            check(
+                &lathe,
+                &r,
+                aim - far * d,
+                d,
+                &mut st,
+                &format!("{name} edge-on piece {i}"),
+            );
         }
     }
     st
@@ -253,7 +378,11 @@ fn exact_intersection_agrees_with_the_reference_on_hard_cases() {
         for (si, scale) in [1e-3, 1.0, 1e4].into_iter().enumerate() {
             let st = run_case(case, scale, 1000 + 10 * ci as u64 + si as u64, 120);
             eprintln!("{:32} scale {:6}: {:?}", case.name, scale, st);
-            if st.false_miss + st.false_hit + st.nan > 0 || st.max_rel_err > 1e-6 || st.max_normal_err > 1e-4 || st.max_v_err > 1e-6 {
+            if st.false_miss + st.false_hit + st.nan > 0
+                || st.max_rel_err > 1e-6
+                || st.max_normal_err > 1e-4
+                || st.max_v_err > 1e-6
+            {
                 failures.push(format!("{} at scale {scale}: {st:?}", case.name));
             }
             total.rays += st.rays;
@@ -263,9 +392,13 @@ fn exact_intersection_agrees_with_the_reference_on_hard_cases() {
     eprintln!("total rays {} ambiguous {}", total.rays, total.ambiguous);
     assert!(failures.is_empty(), "{failures:#?}");
     // The band must stay a band: most rays, grazing ones included, are decided.
-    assert!(total.ambiguous * 20 < total.rays, "too many ambiguous rays: {} of {}", total.ambiguous, total.rays);
+    assert!(
+        total.ambiguous * 20 < total.rays,
+        "too many ambiguous rays: {} of {}",
+        total.ambiguous,
+        total.rays
+    );
 }
-
 
 /// A ray through the axis that crosses the vase's nearly flat bottom (y ∝ u³ near the pole)
 /// at radius 0.0054: found in the benchmark, where an earlier reference lost the hit.
@@ -275,10 +408,23 @@ fn ray_through_the_axis_hits_the_nearly_flat_bottom() {
     let lathe = case.lathe();
     let r = Reference::new(case.curve.clone(), 6000);
     let o = DVec3::new(2.927019455064807, -4.976013451328282, 3.1891141811114836);
-    let d = DVec3::new(-0.44348779622194046, 0.7548756100363636, -0.4831991183502247);
-    let got = lathe.intersect(o, d, 0.0, f64::INFINITY).expect("hits the bottom");
-    let want = r.intersect(o, d, 0.0, f64::INFINITY).expect("reference hits the bottom");
-    assert!((got.s - want.s).abs() <= 1e-9 * want.s, "{} vs {}", got.s, want.s);
+    let d = DVec3::new(
+        -0.44348779622194046,
+        0.7548756100363636,
+        -0.4831991183502247,
+    );
+    let got = lathe
+        .intersect(o, d, 0.0, f64::INFINITY)
+        .expect("hits the bottom");
+    let want = r
+        .intersect(o, d, 0.0, f64::INFINITY)
+        .expect("reference hits the bottom");
+    assert!(
+        (got.s - want.s).abs() <= 1e-9 * want.s,
+        "{} vs {}",
+        got.s,
+        want.s
+    );
     assert!(got.uv.y < 1e-3 && got.normal.y < -0.999, "{got:?}");
 }
 
@@ -291,8 +437,15 @@ fn tessellation_lies_on_the_surface_and_faces_out() {
         assert_eq!(t.indices.len(), 2 * 24 * 39);
         for (k, p) in t.positions.iter().enumerate() {
             let (c, _) = lathe.profile().eval(t.uvs[k].y);
-            assert!(((p.x * p.x + p.z * p.z).sqrt() - c.x.abs()).abs() < 1e-12 && (p.y - c.y).abs() < 1e-12);
-            assert!((t.normals[k].length() - 1.0).abs() < 1e-9, "{}: normal {k}", case.name);
+            assert!(
+                ((p.x * p.x + p.z * p.z).sqrt() - c.x.abs()).abs() < 1e-12
+                    && (p.y - c.y).abs() < 1e-12
+            );
+            assert!(
+                (t.normals[k].length() - 1.0).abs() < 1e-9,
+                "{}: normal {k}",
+                case.name
+            );
         }
         // Front faces agree with the vertex normals wherever the triangle is not degenerate.
         let mut agree = 0;
@@ -304,29 +457,54 @@ fn tessellation_lies_on_the_surface_and_faces_out() {
                 continue;
             }
             total += 1;
-            let vn = tri.iter().map(|&i| t.normals[i as usize]).fold(DVec3::ZERO, |s, v| s + v);
+            let vn = tri
+                .iter()
+                .map(|&i| t.normals[i as usize])
+                .fold(DVec3::ZERO, |s, v| s + v);
             if n.dot(vn) > 0.0 {
                 agree += 1;
             }
         }
-        assert!(agree * 100 >= total * 97, "{}: {agree} of {total} faces agree", case.name);
+        assert!(
+            agree * 100 >= total * 97,
+            "{}: {agree} of {total} faces agree",
+            case.name
+        );
     }
 }
 
 #[test]
 fn invalid_profiles_are_rejected_with_reasons() {
     use super::LatheError;
-    assert!(matches!(Profile::bezier(&[[0.0, 0.0]]), Err(LatheError::TooFewPoints { .. })));
-    assert!(matches!(Profile::bezier(&[[1.0, 0.0], [1.0, 0.0]]), Err(LatheError::Degenerate)));
-    assert!(matches!(Profile::bezier(&[[f64::NAN, 0.0], [1.0, 1.0]]), Err(LatheError::NotFinite { index: 0, .. })));
+    assert!(matches!(
+        Profile::bezier(&[[0.0, 0.0]]),
+        Err(LatheError::TooFewPoints { .. })
+    ));
+    assert!(matches!(
+        Profile::bezier(&[[1.0, 0.0], [1.0, 0.0]]),
+        Err(LatheError::Degenerate)
+    ));
+    assert!(matches!(
+        Profile::bezier(&[[f64::NAN, 0.0], [1.0, 1.0]]),
+        Err(LatheError::NotFinite { index: 0, .. })
+    ));
     let pts = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-    assert!(matches!(Profile::bspline(3, &pts, Some(&[0.0; 3])), Err(LatheError::KnotCount { need: 8, .. })));
+    assert!(matches!(
+        Profile::bspline(3, &pts, Some(&[0.0; 3])),
+        Err(LatheError::KnotCount { need: 8, .. })
+    ));
     assert!(matches!(
         Profile::bspline(1, &pts, Some(&[0.0, 0.0, 0.5, 0.4, 1.0, 1.0])),
         Err(LatheError::KnotsDecrease { index: 3, .. })
     ));
-    assert!(matches!(Profile::bspline(1, &pts, Some(&[0.0, 0.5, 0.5, 0.5, 0.5, 1.0])), Err(LatheError::EmptyDomain(_))));
-    assert!(matches!(Profile::bspline(0, &pts, None), Err(LatheError::BadDegree(0))));
+    assert!(matches!(
+        Profile::bspline(1, &pts, Some(&[0.0, 0.5, 0.5, 0.5, 0.5, 1.0])),
+        Err(LatheError::EmptyDomain(_))
+    ));
+    assert!(matches!(
+        Profile::bspline(0, &pts, None),
+        Err(LatheError::BadDegree(0))
+    ));
     let msg = Profile::bspline(5, &pts, None).unwrap_err().to_string();
     assert!(msg.contains("at least 6"), "{msg}");
 }
@@ -335,21 +513,57 @@ fn invalid_profiles_are_rejected_with_reasons() {
 fn uv_and_orientation_follow_the_schema_rule() {
     // A unit cylinder wall traversed upwards faces outwards; v runs with the curve.
     let lathe = Lathe::new(Profile::bezier(&[[1.0, 0.0], [1.0, 1.0]]).unwrap());
-    let h = lathe.intersect(DVec3::new(5.0, 0.25, 0.0), DVec3::new(-1.0, 0.0, 0.0), 0.0, f64::INFINITY).unwrap();
-    assert!((h.s - 4.0).abs() < 1e-12 && h.normal.abs_diff_eq(DVec3::X, 1e-12), "{h:?}");
+    let h = lathe
+        .intersect(
+            DVec3::new(5.0, 0.25, 0.0),
+            DVec3::new(-1.0, 0.0, 0.0),
+            0.0,
+            f64::INFINITY,
+        )
+        .unwrap();
+    assert!(
+        (h.s - 4.0).abs() < 1e-12 && h.normal.abs_diff_eq(DVec3::X, 1e-12),
+        "{h:?}"
+    );
     assert!(h.uv.abs_diff_eq(DVec2::new(0.0, 0.25), 1e-12), "{h:?}");
     // θ = 90° is the −z direction: u = 1/4. ∂p/∂u and ∂p/∂v point along increasing u and v.
-    let h = lathe.intersect(DVec3::new(0.0, 0.5, -5.0), DVec3::new(0.0, 0.0, 1.0), 0.0, f64::INFINITY).unwrap();
+    let h = lathe
+        .intersect(
+            DVec3::new(0.0, 0.5, -5.0),
+            DVec3::new(0.0, 0.0, 1.0),
+            0.0,
+            f64::INFINITY,
+        )
+        .unwrap();
     assert!((h.uv.x - 0.25).abs() < 1e-12, "{h:?}");
-    assert!(h.dpdv.abs_diff_eq(DVec3::Y, 1e-12) && h.dpdu.abs_diff_eq(DVec3::new(-std::f64::consts::TAU, 0.0, 0.0), 1e-9), "{h:?}");
+    assert!(
+        h.dpdv.abs_diff_eq(DVec3::Y, 1e-12)
+            && h.dpdu
+                .abs_diff_eq(DVec3::new(-std::f64::consts::TAU, 0.0, 0.0), 1e-9),
+        "{h:?}"
+    );
     // Traversed downwards, the same wall faces the axis; mirrored (x < 0) profiles agree.
     let down = Lathe::new(Profile::bezier(&[[1.0, 1.0], [1.0, 0.0]]).unwrap());
     let mirror = Lathe::new(Profile::bezier(&[[-1.0, 1.0], [-1.0, 0.0]]).unwrap());
     for l in [&down, &mirror] {
-        let h = l.intersect(DVec3::new(5.0, 0.25, 0.0), DVec3::new(-1.0, 0.0, 0.0), 0.0, f64::INFINITY).unwrap();
+        let h = l
+            .intersect(
+                DVec3::new(5.0, 0.25, 0.0),
+                DVec3::new(-1.0, 0.0, 0.0),
+                0.0,
+                f64::INFINITY,
+            )
+            .unwrap();
         assert!(h.normal.abs_diff_eq(-DVec3::X, 1e-12), "{h:?}");
     }
     // u of the mirrored profile is measured from θ + π.
-    let h = mirror.intersect(DVec3::new(5.0, 0.25, 0.0), DVec3::new(-1.0, 0.0, 0.0), 0.0, f64::INFINITY).unwrap();
+    let h = mirror
+        .intersect(
+            DVec3::new(5.0, 0.25, 0.0),
+            DVec3::new(-1.0, 0.0, 0.0),
+            0.0,
+            f64::INFINITY,
+        )
+        .unwrap();
     assert!((h.uv.x - 0.5).abs() < 1e-12, "{h:?}");
 }

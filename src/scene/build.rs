@@ -67,17 +67,33 @@ pub fn compose_transform(ops: &[schema::TransformOp]) -> Affine3A {
 fn step(op: &schema::TransformOp) -> Affine3A {
     match op {
         schema::TransformOp::Translate(t) => Affine3A::from_translation(Vec3::from(*t)),
-        schema::TransformOp::Rotate(r) => Affine3A::from_axis_angle(Vec3::from(r.axis).normalize(), r.degrees.to_radians()),
-        schema::TransformOp::Scale(schema::Scale::Uniform(s)) => Affine3A::from_scale(Vec3::splat(*s)),
-        schema::TransformOp::Scale(schema::Scale::PerAxis(s)) => Affine3A::from_scale(Vec3::from(*s)),
-        schema::TransformOp::Matrix(rows) => Affine3A::from_mat4(Mat4::from_cols_array_2d(rows).transpose()),
+        schema::TransformOp::Rotate(r) => {
+            Affine3A::from_axis_angle(Vec3::from(r.axis).normalize(), r.degrees.to_radians())
+        }
+        schema::TransformOp::Scale(schema::Scale::Uniform(s)) => {
+            Affine3A::from_scale(Vec3::splat(*s))
+        }
+        schema::TransformOp::Scale(schema::Scale::PerAxis(s)) => {
+            Affine3A::from_scale(Vec3::from(*s))
+        }
+        schema::TransformOp::Matrix(rows) => {
+            Affine3A::from_mat4(Mat4::from_cols_array_2d(rows).transpose())
+        }
     }
 }
 
 /// Builds the scene graph. `base_dir` is where relative paths resolve (the scene file's folder).
-pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData) -> Result<(Scene, Vec<String>), BuildError> {
+pub fn build(
+    desc: &schema::Scene,
+    base_dir: &Path,
+    external: &dyn ExternalData,
+) -> Result<(Scene, Vec<String>), BuildError> {
     let mut warnings = Vec::new();
-    let file_err = |file: PathBuf, json_path: String, message: String| BuildError::File { file, json_path, message };
+    let file_err = |file: PathBuf, json_path: String, message: String| BuildError::File {
+        file,
+        json_path,
+        message,
+    };
 
     // Textures, by name → index.
     let mut texture_index = HashMap::new();
@@ -86,17 +102,43 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
         let path = base_dir.join(&t.file);
         let json_path = format!("textures.{name}");
         let bytes = match t.gltf_image {
-            Some(i) => external.gltf_image(&path, i).map_err(|m| file_err(path.clone(), json_path.clone(), m))?,
-            None => std::fs::read(&path).map_err(|e| file_err(path.clone(), json_path.clone(), format!("cannot read texture: {e}")))?,
+            Some(i) => external
+                .gltf_image(&path, i)
+                .map_err(|m| file_err(path.clone(), json_path.clone(), m))?,
+            None => std::fs::read(&path).map_err(|e| {
+                file_err(
+                    path.clone(),
+                    json_path.clone(),
+                    format!("cannot read texture: {e}"),
+                )
+            })?,
         };
-        let img = image::load_from_memory(&bytes).map_err(|e| file_err(path.clone(), json_path.clone(), format!("cannot decode image: {e}")))?;
+        let img = image::load_from_memory(&bytes).map_err(|e| {
+            file_err(
+                path.clone(),
+                json_path.clone(),
+                format!("cannot decode image: {e}"),
+            )
+        })?;
         let rgb = img.to_rgb32f();
-        let srgb = t.color_space == schema::ColorSpace::Srgb && !matches!(img, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
+        let srgb = t.color_space == schema::ColorSpace::Srgb
+            && !matches!(
+                img,
+                image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+            );
         let texels = rgb
             .pixels()
             .map(|p| {
                 let c = Vec3::new(p[0], p[1], p[2]);
-                if srgb { Vec3::new(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z)) } else { c }
+                if srgb {
+                    Vec3::new(
+                        srgb_to_linear(c.x),
+                        srgb_to_linear(c.y),
+                        srgb_to_linear(c.z),
+                    )
+                } else {
+                    c
+                }
             })
             .collect();
         let wrap = match t.wrap {
@@ -105,16 +147,23 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
             schema::Wrap::Clamp => Wrap::Clamp,
         };
         texture_index.insert(name.as_str(), textures.len() as u32);
-        textures.push(Texture { width: rgb.width(), height: rgb.height(), texels, wrap });
+        textures.push(Texture {
+            width: rgb.width(),
+            height: rgb.height(),
+            texels,
+            wrap,
+        });
     }
     let tex_ref = |r: &Option<schema::TextureRef>| {
         r.as_ref().and_then(|r| {
-            texture_index.get(r.texture.as_str()).map(|&texture| TextureRef {
-                texture,
-                transform: Affine2::from_translation(Vec2::from(r.offset))
-                    * Affine2::from_angle(r.rotation_deg.to_radians())
-                    * Affine2::from_scale(Vec2::from(r.scale)),
-            })
+            texture_index
+                .get(r.texture.as_str())
+                .map(|&texture| TextureRef {
+                    texture,
+                    transform: Affine2::from_translation(Vec2::from(r.offset))
+                        * Affine2::from_angle(r.rotation_deg.to_radians())
+                        * Affine2::from_scale(Vec2::from(r.scale)),
+                })
         })
     };
 
@@ -145,18 +194,32 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
     for (i, obj) in desc.objects.iter().enumerate() {
         let json_path = format!("objects[{i}].{}", obj.kind());
         let Some(&material) = material_index.get(obj.material()) else {
-            return Err(BuildError::Limit(format!("{json_path}.material: unknown material `{}`", obj.material())));
+            return Err(BuildError::Limit(format!(
+                "{json_path}.material: unknown material `{}`",
+                obj.material()
+            )));
         };
         let to_world = compose_transform(obj.transform());
         let shape = match obj {
-            schema::Object::Sphere(s) => Shape::Sphere(Sphere { center: Vec3::from(s.center), radius: s.radius }),
+            schema::Object::Sphere(s) => Shape::Sphere(Sphere {
+                center: Vec3::from(s.center),
+                radius: s.radius,
+            }),
             schema::Object::Plane(p) => {
                 let n = Vec3::from(p.normal);
                 let len = n.length();
-                Shape::Plane(Plane { normal: n / len, offset: p.offset })
+                Shape::Plane(Plane {
+                    normal: n / len,
+                    offset: p.offset,
+                })
             }
             schema::Object::Triangle(t) => {
-                let (mesh, dropped) = Mesh::new(t.vertices.iter().map(|v| Vec3::from(*v)).collect(), vec![[0, 1, 2]], None, None);
+                let (mesh, dropped) = Mesh::new(
+                    t.vertices.iter().map(|v| Vec3::from(*v)).collect(),
+                    vec![[0, 1, 2]],
+                    None,
+                    None,
+                );
                 degenerate += dropped;
                 total_triangles += 1;
                 Shape::Mesh(Arc::new(mesh))
@@ -174,11 +237,14 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
                             )));
                         }
                         let normals = if m.smooth {
-                            Some(data.normals.clone().unwrap_or_else(|| Mesh::angle_weighted_normals(&data.positions, &data.triangles)))
+                            Some(data.normals.clone().unwrap_or_else(|| {
+                                Mesh::angle_weighted_normals(&data.positions, &data.triangles)
+                            }))
                         } else {
                             None
                         };
-                        let (mesh, dropped) = Mesh::new(data.positions, data.triangles, normals, data.uvs);
+                        let (mesh, dropped) =
+                            Mesh::new(data.positions, data.triangles, normals, data.uvs);
                         degenerate += dropped;
                         let mesh = Arc::new(mesh);
                         mesh_cache.insert(key, mesh.clone());
@@ -187,12 +253,16 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
                 };
                 Shape::Mesh(mesh)
             }
-            schema::Object::Lathe(l) => Shape::Lathe(Arc::new(build_lathe(&l.profile, &json_path)?)),
+            schema::Object::Lathe(l) => {
+                Shape::Lathe(Arc::new(build_lathe(&l.profile, &json_path)?))
+            }
         };
         instances.push(Instance::new(shape, to_world, material));
     }
     if degenerate > 0 {
-        warnings.push(format!("dropped {degenerate} degenerate (zero-area) triangles"));
+        warnings.push(format!(
+            "dropped {degenerate} degenerate (zero-area) triangles"
+        ));
     }
 
     // Area lights from emissive instances.
@@ -207,20 +277,36 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
             Shape::Mesh(mesh) => {
                 inst.light_base = Some(lights.len() as u32);
                 for prim in 0..mesh.triangles.len() as u32 {
-                    let v = mesh.corners(prim).map(|p| inst.to_world.transform_point3(p));
+                    let v = mesh
+                        .corners(prim)
+                        .map(|p| inst.to_world.transform_point3(p));
                     let tri = mesh.triangles[prim as usize];
                     let uv = match &mesh.uvs {
                         Some(uvs) => tri.map(|i| uvs[i as usize]),
                         None => [Vec2::ZERO, Vec2::X, Vec2::Y],
                     };
                     let c = (v[1] - v[0]).cross(v[2] - v[0]);
-                    lights.push(Light::Triangle { instance: k as u32, prim, v, uv, n: c.normalize(), area: 0.5 * c.length(), emission: m.emission, two_sided: m.two_sided_emission });
+                    lights.push(Light::Triangle {
+                        instance: k as u32,
+                        prim,
+                        v,
+                        uv,
+                        n: c.normalize(),
+                        area: 0.5 * c.length(),
+                        emission: m.emission,
+                        two_sided: m.two_sided_emission,
+                    });
                 }
             }
             Shape::Sphere(s) => match similarity_scale(&inst.to_world) {
                 Some(scale) => {
                     inst.light_base = Some(lights.len() as u32);
-                    lights.push(Light::Sphere { instance: k as u32, center: inst.to_world.transform_point3(s.center), radius: s.radius * scale, emission: m.emission });
+                    lights.push(Light::Sphere {
+                        instance: k as u32,
+                        center: inst.to_world.transform_point3(s.center),
+                        radius: s.radius * scale,
+                        emission: m.emission,
+                    });
                 }
                 None => unsampled += 1,
             },
@@ -234,11 +320,22 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
     }
     let geometry = Geometry::new(instances);
     let bounds = geometry.bounds();
-    let scene_radius = if bounds.is_empty() { 1.0 } else { (bounds.max - bounds.min).length() * 0.5 };
+    let scene_radius = if bounds.is_empty() {
+        1.0
+    } else {
+        (bounds.max - bounds.min).length() * 0.5
+    };
     for l in &desc.lights {
         lights.push(match l {
-            schema::Light::Point(p) => Light::Point { position: Vec3::from(p.position), intensity: Vec3::from(p.intensity) },
-            schema::Light::Directional(d) => Light::Directional { to_light: -Vec3::from(d.direction).normalize(), irradiance: Vec3::from(d.irradiance), scene_radius },
+            schema::Light::Point(p) => Light::Point {
+                position: Vec3::from(p.position),
+                intensity: Vec3::from(p.intensity),
+            },
+            schema::Light::Directional(d) => Light::Directional {
+                to_light: -Vec3::from(d.direction).normalize(),
+                irradiance: Vec3::from(d.irradiance),
+                scene_radius,
+            },
             schema::Light::Spot(s) => Light::Spot {
                 position: Vec3::from(s.position),
                 axis: Vec3::from(s.direction).normalize(),
@@ -252,7 +349,15 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
 
     let c = &desc.camera;
     let aspect = desc.image.width as f32 / desc.image.height as f32;
-    let camera = Camera::look_at(Vec3::from(c.position), Vec3::from(c.look_at), Vec3::from(c.up), c.fov_y_deg, aspect, c.aperture_radius, c.focus_distance);
+    let camera = Camera::look_at(
+        Vec3::from(c.position),
+        Vec3::from(c.look_at),
+        Vec3::from(c.up),
+        c.fov_y_deg,
+        aspect,
+        c.aperture_radius,
+        c.focus_distance,
+    );
     let r = &desc.render;
     let settings = Settings {
         width: desc.image.width,
@@ -270,7 +375,16 @@ pub fn build(desc: &schema::Scene, base_dir: &Path, external: &dyn ExternalData)
         },
         time_budget_s: r.time_budget_s,
     };
-    let scene = Scene { camera, background: Vec3::from(desc.background.color), geometry, materials, textures, lights, light_sampler, settings };
+    let scene = Scene {
+        camera,
+        background: Vec3::from(desc.background.color),
+        geometry,
+        materials,
+        textures,
+        lights,
+        light_sampler,
+        settings,
+    };
     Ok((scene, warnings))
 }
 
@@ -280,14 +394,24 @@ fn similarity_scale(m: &Affine3A) -> Option<f32> {
     let cols = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
     let s = cols[0].length();
     let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * s.max(1e-30);
-    let ok = cols.iter().all(|c| close(c.length(), s)) && close(cols[0].dot(cols[1]) / s, 0.0) && close(cols[1].dot(cols[2]) / s, 0.0) && close(cols[0].dot(cols[2]) / s, 0.0);
+    let ok = cols.iter().all(|c| close(c.length(), s))
+        && close(cols[0].dot(cols[1]) / s, 0.0)
+        && close(cols[1].dot(cols[2]) / s, 0.0)
+        && close(cols[0].dot(cols[2]) / s, 0.0);
     ok.then_some(s)
 }
 
 /// The renderer's lathe from the schema's profile (f32 data widened to f64).
-fn build_lathe(profile: &schema::Profile, json_path: &str) -> Result<crate::lathe::Lathe, BuildError> {
+fn build_lathe(
+    profile: &schema::Profile,
+    json_path: &str,
+) -> Result<crate::lathe::Lathe, BuildError> {
     use crate::lathe::{Lathe, Profile};
-    let pts = |v: &[[f32; 2]]| v.iter().map(|p| [p[0] as f64, p[1] as f64]).collect::<Vec<_>>();
+    let pts = |v: &[[f32; 2]]| {
+        v.iter()
+            .map(|p| [p[0] as f64, p[1] as f64])
+            .collect::<Vec<_>>()
+    };
     let built = match profile {
         schema::Profile::Bezier(b) => Profile::bezier(&pts(&b.points)),
         schema::Profile::Bspline(b) => {
@@ -295,24 +419,48 @@ fn build_lathe(profile: &schema::Profile, json_path: &str) -> Result<crate::lath
             Profile::bspline(b.degree as usize, &pts(&b.points), Some(&knots))
         }
     };
-    built.map(Lathe::new).map_err(|e| BuildError::Limit(format!("{json_path}.profile: {e}")))
+    built
+        .map(Lathe::new)
+        .map_err(|e| BuildError::Limit(format!("{json_path}.profile: {e}")))
 }
 
-fn load_mesh(source: &schema::MeshSource, base_dir: &Path, external: &dyn ExternalData, json_path: &str) -> Result<MeshData, BuildError> {
+fn load_mesh(
+    source: &schema::MeshSource,
+    base_dir: &Path,
+    external: &dyn ExternalData,
+    json_path: &str,
+) -> Result<MeshData, BuildError> {
     match source {
         schema::MeshSource::Obj(file) => {
             let path = base_dir.join(file);
-            load_obj(&path).map_err(|message| BuildError::File { file: path, json_path: format!("{json_path}.source.obj"), message })
+            load_obj(&path).map_err(|message| BuildError::File {
+                file: path,
+                json_path: format!("{json_path}.source.obj"),
+                message,
+            })
         }
         schema::MeshSource::Gltf(g) => {
             let path = base_dir.join(&g.file);
-            external.gltf_mesh(&path, g.mesh, g.primitive).map_err(|message| BuildError::File { file: path, json_path: format!("{json_path}.source.gltf"), message })
+            external
+                .gltf_mesh(&path, g.mesh, g.primitive)
+                .map_err(|message| BuildError::File {
+                    file: path,
+                    json_path: format!("{json_path}.source.gltf"),
+                    message,
+                })
         }
         schema::MeshSource::Inline(m) => Ok(MeshData {
             positions: m.positions.iter().map(|p| Vec3::from(*p)).collect(),
             triangles: m.indices.clone(),
-            normals: m.normals.as_ref().map(|n| n.iter().map(|v| Vec3::from(*v).normalize_or_zero()).collect()),
-            uvs: m.uvs.as_ref().map(|t| t.iter().map(|v| Vec2::from(*v)).collect()),
+            normals: m.normals.as_ref().map(|n| {
+                n.iter()
+                    .map(|v| Vec3::from(*v).normalize_or_zero())
+                    .collect()
+            }),
+            uvs: m
+                .uvs
+                .as_ref()
+                .map(|t| t.iter().map(|v| Vec2::from(*v)).collect()),
         }),
     }
 }
@@ -327,14 +475,22 @@ mod tests {
         // Scale by 2, then rotate +90° about y, then translate by (1, 0, 0).
         let ops = vec![
             TransformOp::Scale(Scale::Uniform(2.0)),
-            TransformOp::Rotate(Rotation { axis: [0.0, 1.0, 0.0], degrees: 90.0 }),
+            TransformOp::Rotate(Rotation {
+                axis: [0.0, 1.0, 0.0],
+                degrees: 90.0,
+            }),
             TransformOp::Translate([1.0, 0.0, 0.0]),
         ];
         let m = compose_transform(&ops);
         // (1,0,0) → (2,0,0) → rotated +90° about y: (cos, 0, −sin)·2 = (0,0,−2) → (1,0,−2).
         assert!((m.transform_point3(Vec3::X) - Vec3::new(1.0, 0.0, -2.0)).length() < 1e-5);
         // A row-major matrix op equal to a translation.
-        let t = compose_transform(&[TransformOp::Matrix([[1.0, 0.0, 0.0, 5.0], [0.0, 1.0, 0.0, 6.0], [0.0, 0.0, 1.0, 7.0], [0.0, 0.0, 0.0, 1.0]])]);
+        let t = compose_transform(&[TransformOp::Matrix([
+            [1.0, 0.0, 0.0, 5.0],
+            [0.0, 1.0, 0.0, 6.0],
+            [0.0, 0.0, 1.0, 7.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ])]);
         assert!((t.transform_point3(Vec3::ZERO) - Vec3::new(5.0, 6.0, 7.0)).length() < 1e-6);
     }
 }

@@ -88,7 +88,14 @@ impl Scene {
     #[inline]
     pub fn light_of(&self, hit: &SurfaceHit) -> Option<usize> {
         let inst = &self.geometry.instances[hit.instance as usize];
-        inst.light_base.map(|b| b as usize + if matches!(inst.shape, crate::geometry::Shape::Mesh(_)) { hit.prim as usize } else { 0 })
+        inst.light_base.map(|b| {
+            b as usize
+                + if matches!(inst.shape, crate::geometry::Shape::Mesh(_)) {
+                    hit.prim as usize
+                } else {
+                    0
+                }
+        })
     }
 
     /// The material of an area light's surface.

@@ -20,8 +20,14 @@ pub struct MeshData {
 
 /// Reads an OBJ file. Errors name the file; index and NaN problems name the object.
 pub fn load_obj(path: &Path) -> Result<MeshData, String> {
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| format!("cannot read OBJ: {e}"))?;
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, _materials) =
+        tobj::load_obj(path, &options).map_err(|e| format!("cannot read OBJ: {e}"))?;
     let mut out = MeshData::default();
     let mut all_normals = true;
     let mut all_uvs = true;
@@ -33,12 +39,20 @@ pub fn load_obj(path: &Path) -> Result<MeshData, String> {
         for (i, p) in m.positions.chunks_exact(3).enumerate() {
             let v = Vec3::new(p[0], p[1], p[2]);
             if !v.is_finite() {
-                return Err(format!("object `{}`: vertex {} is not finite ({v})", model.name, i + 1));
+                return Err(format!(
+                    "object `{}`: vertex {} is not finite ({v})",
+                    model.name,
+                    i + 1
+                ));
             }
             out.positions.push(v);
         }
         if m.normals.len() == m.positions.len() {
-            normals.extend(m.normals.chunks_exact(3).map(|v| Vec3::new(v[0], v[1], v[2]).normalize_or_zero()));
+            normals.extend(
+                m.normals
+                    .chunks_exact(3)
+                    .map(|v| Vec3::new(v[0], v[1], v[2]).normalize_or_zero()),
+            );
         } else {
             all_normals = false;
         }
@@ -49,7 +63,12 @@ pub fn load_obj(path: &Path) -> Result<MeshData, String> {
         }
         for (f, t) in m.indices.chunks_exact(3).enumerate() {
             if let Some(&bad) = t.iter().find(|&&i| i as usize >= n) {
-                return Err(format!("object `{}`: face {} refers to vertex {} but there are {n}", model.name, f + 1, bad + 1));
+                return Err(format!(
+                    "object `{}`: face {} refers to vertex {} but there are {n}",
+                    model.name,
+                    f + 1,
+                    bad + 1
+                ));
             }
             out.triangles.push([base + t[0], base + t[1], base + t[2]]);
         }

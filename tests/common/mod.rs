@@ -11,12 +11,17 @@ pub fn root() -> PathBuf {
 /// The shared test data folder (`../shared` beside the checkout, or `$LUMO_SHARED`). When it is
 /// missing, returns `None` after a loud message, or panics under `LUMO_REQUIRE_SHARED=1` (CI).
 pub fn shared() -> Option<PathBuf> {
-    let dir = std::env::var_os("LUMO_SHARED").map(PathBuf::from).unwrap_or_else(|| root().join("../shared"));
+    let dir = std::env::var_os("LUMO_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("../shared"));
     if dir.join("README.md").is_file() {
         return Some(dir);
     }
     if std::env::var_os("LUMO_REQUIRE_SHARED").is_some_and(|v| v == "1") {
-        panic!("shared test data not found at {} and LUMO_REQUIRE_SHARED=1", dir.display());
+        panic!(
+            "shared test data not found at {} and LUMO_REQUIRE_SHARED=1",
+            dir.display()
+        );
     }
     eprintln!("\n=== SKIPPED: shared test data not found at {} (set LUMO_SHARED or place ../shared beside the checkout) ===\n", dir.display());
     None
@@ -29,7 +34,9 @@ pub fn load_scene(path: &Path) -> lumo_schema::Scene {
 
 /// Builds a scene description into a renderable scene.
 pub fn build(desc: &lumo_schema::Scene, base: &Path) -> lumo::scene::Scene {
-    lumo::scene::build(desc, base, &lumo::scene::build::NoExternalData).unwrap_or_else(|e| panic!("{e}")).0
+    lumo::scene::build(desc, base, &lumo::scene::build::NoExternalData)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .0
 }
 
 /// Renders with the scene's own settings on the current rayon pool.
@@ -39,7 +46,12 @@ pub fn render(scene: &lumo::scene::Scene) -> lumo::render::Image {
 
 /// The reference Cornell box (`scenes/cornell.json`) at `size`² pixels with the given samples,
 /// seed and sample sequence, ready to render.
-pub fn cornell(size: u32, spp: u32, seed: u64, sampler: lumo_schema::SamplerKind) -> lumo::scene::Scene {
+pub fn cornell(
+    size: u32,
+    spp: u32,
+    seed: u64,
+    sampler: lumo_schema::SamplerKind,
+) -> lumo::scene::Scene {
     let mut desc = load_scene(&root().join("scenes/cornell.json"));
     desc.image.width = size;
     desc.image.height = size;

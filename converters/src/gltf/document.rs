@@ -24,11 +24,26 @@ pub struct Loaded {
 
 /// Reads a file with a size limit.
 pub fn read_file(file: &Path) -> Result<Vec<u8>, GltfError> {
-    let meta = std::fs::metadata(file).map_err(|source| GltfError::Io { file: file.to_path_buf(), action: "cannot read", source })?;
+    let meta = std::fs::metadata(file).map_err(|source| GltfError::Io {
+        file: file.to_path_buf(),
+        action: "cannot read",
+        source,
+    })?;
     if meta.len() > MAX_FILE_BYTES {
-        return Err(GltfError::invalid(file, "file", format!("{} bytes is above the {MAX_FILE_BYTES}-byte limit", meta.len())));
+        return Err(GltfError::invalid(
+            file,
+            "file",
+            format!(
+                "{} bytes is above the {MAX_FILE_BYTES}-byte limit",
+                meta.len()
+            ),
+        ));
     }
-    std::fs::read(file).map_err(|source| GltfError::Io { file: file.to_path_buf(), action: "cannot read", source })
+    std::fs::read(file).map_err(|source| GltfError::Io {
+        file: file.to_path_buf(),
+        action: "cannot read",
+        source,
+    })
 }
 
 /// Decodes `%XX` escapes of a URI path (glTF URIs are RFC 3986 URI references).
@@ -38,7 +53,9 @@ pub fn percent_decode(uri: &str) -> String {
     let mut i = 0;
     while i < b.len() {
         if b[i] == b'%' && i + 2 < b.len() {
-            let hex = std::str::from_utf8(&b[i + 1..i + 3]).ok().and_then(|h| u8::from_str_radix(h, 16).ok());
+            let hex = std::str::from_utf8(&b[i + 1..i + 3])
+                .ok()
+                .and_then(|h| u8::from_str_radix(h, 16).ok());
             if let Some(v) = hex {
                 out.push(v);
                 i += 3;
@@ -67,13 +84,25 @@ pub fn percent_encode(path: &str) -> String {
 
 /// Decodes a `data:` URI's payload (base64 only, as glTF requires). `None` when `uri` is not a
 /// data URI.
-pub fn decode_data_uri(file: &Path, element: &str, uri: &str) -> Option<Result<(Vec<u8>, Option<String>), GltfError>> {
+pub fn decode_data_uri(
+    file: &Path,
+    element: &str,
+    uri: &str,
+) -> Option<Result<(Vec<u8>, Option<String>), GltfError>> {
     let rest = uri.strip_prefix("data:")?;
     let Some((meta, payload)) = rest.split_once(',') else {
-        return Some(Err(GltfError::invalid(file, element, "data URI without a comma")));
+        return Some(Err(GltfError::invalid(
+            file,
+            element,
+            "data URI without a comma",
+        )));
     };
     let Some(mime) = meta.strip_suffix(";base64") else {
-        return Some(Err(GltfError::invalid(file, element, "data URI is not base64-encoded (glTF requires `;base64,`)")));
+        return Some(Err(GltfError::invalid(
+            file,
+            element,
+            "data URI is not base64-encoded (glTF requires `;base64,`)",
+        )));
     };
     let mime = (!mime.is_empty()).then(|| mime.to_string());
     Some(
@@ -90,21 +119,46 @@ fn parse_error(file: &Path, e: gltf::Error) -> GltfError {
         gltf::Error::Validation(errors) => {
             for (path, err) in &errors {
                 let p = path.to_string();
-                if matches!(err, gltf::json::validation::Error::Unsupported) && p.starts_with("extensionsRequired[") {
-                    let index = p.trim_start_matches("extensionsRequired[").trim_end_matches(']').parse().unwrap_or(0);
-                    return GltfError::UnsupportedExtension { file: file.to_path_buf(), index, extension: String::new() };
+                if matches!(err, gltf::json::validation::Error::Unsupported)
+                    && p.starts_with("extensionsRequired[")
+                {
+                    let index = p
+                        .trim_start_matches("extensionsRequired[")
+                        .trim_end_matches(']')
+                        .parse()
+                        .unwrap_or(0);
+                    return GltfError::UnsupportedExtension {
+                        file: file.to_path_buf(),
+                        index,
+                        extension: String::new(),
+                    };
                 }
             }
-            let element = errors.first().map(|(p, _)| p.to_string()).unwrap_or_default();
-            let message = errors.iter().map(|(p, e)| format!("{p}: {e}")).collect::<Vec<_>>().join("; ");
-            GltfError::invalid(file, element, format!("invalid glTF ({message}); fix or re-export the file"))
+            let element = errors
+                .first()
+                .map(|(p, _)| p.to_string())
+                .unwrap_or_default();
+            let message = errors
+                .iter()
+                .map(|(p, e)| format!("{p}: {e}"))
+                .collect::<Vec<_>>()
+                .join("; ");
+            GltfError::invalid(
+                file,
+                element,
+                format!("invalid glTF ({message}); fix or re-export the file"),
+            )
         }
         gltf::Error::Deserialize(e) => GltfError::invalid(
             file,
             format!("JSON line {} column {}", e.line(), e.column()),
             format!("not valid glTF JSON: {e}"),
         ),
-        gltf::Error::Binary(e) => GltfError::invalid(file, "GLB", format!("broken binary glTF: {e:?} (the file is truncated or not a .glb)")),
+        gltf::Error::Binary(e) => GltfError::invalid(
+            file,
+            "GLB",
+            format!("broken binary glTF: {e:?} (the file is truncated or not a .glb)"),
+        ),
         other => GltfError::invalid(file, "file", other.to_string()),
     }
 }
@@ -122,7 +176,10 @@ impl Loaded {
         precheck(file, bytes)?;
         let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| {
             let mut err = parse_error(file, e);
-            if let GltfError::UnsupportedExtension { index, extension, .. } = &mut err {
+            if let GltfError::UnsupportedExtension {
+                index, extension, ..
+            } = &mut err
+            {
                 // Recover the extension's name from the raw JSON for the message.
                 if let Ok(raw) = gltf::Gltf::from_slice_without_validation(bytes) {
                     if let Some(name) = raw.document.extensions_required().nth(*index) {
@@ -140,14 +197,24 @@ impl Loaded {
             let data = match buffer.source() {
                 gltf::buffer::Source::Bin => match &blob {
                     Some(b) => b.clone(),
-                    None => return Err(GltfError::invalid(file, element, "refers to the GLB binary chunk, but the file has none")),
+                    None => {
+                        return Err(GltfError::invalid(
+                            file,
+                            element,
+                            "refers to the GLB binary chunk, but the file has none",
+                        ))
+                    }
                 },
                 gltf::buffer::Source::Uri(uri) => match decode_data_uri(file, &element, uri) {
                     Some(r) => r?.0,
                     None => {
                         let path = dir.join(percent_decode(uri));
                         if !external {
-                            return Err(GltfError::invalid(file, element, format!("external buffer `{uri}` cannot be read here")));
+                            return Err(GltfError::invalid(
+                                file,
+                                element,
+                                format!("external buffer `{uri}` cannot be read here"),
+                            ));
                         }
                         if !path.is_file() {
                             return Err(GltfError::invalid(
@@ -164,12 +231,20 @@ impl Loaded {
                 return Err(GltfError::invalid(
                     file,
                     element,
-                    format!("holds {} bytes but its byteLength is {}: the buffer is truncated", data.len(), buffer.length()),
+                    format!(
+                        "holds {} bytes but its byteLength is {}: the buffer is truncated",
+                        data.len(),
+                        buffer.length()
+                    ),
                 ));
             }
             buffers.push(data);
         }
-        Ok(Loaded { file: file.to_path_buf(), doc: document, buffers })
+        Ok(Loaded {
+            file: file.to_path_buf(),
+            doc: document,
+            buffers,
+        })
     }
 
     /// The bytes of a buffer view, checked against its buffer.
@@ -196,20 +271,30 @@ impl Loaded {
     /// Reads an accessor as f64 components (count × components), applying the normalisation
     /// of integer types when `normalized` is set, and sparse substitution. `element` names the
     /// user (e.g. `meshes[0].primitives[1].attributes.POSITION`) for messages.
-    pub fn read_accessor(&self, acc: &gltf::Accessor, element: &str) -> Result<Vec<f64>, GltfError> {
+    pub fn read_accessor(
+        &self,
+        acc: &gltf::Accessor,
+        element: &str,
+    ) -> Result<Vec<f64>, GltfError> {
         let n = match acc.dimensions() {
             Dimensions::Scalar => 1,
             Dimensions::Vec2 => 2,
             Dimensions::Vec3 => 3,
             Dimensions::Vec4 => 4,
             other => {
-                return Err(self.acc_err(acc, element, format!("has type {other:?}; lumo reads only SCALAR and VEC2..4 here")));
+                return Err(self.acc_err(
+                    acc,
+                    element,
+                    format!("has type {other:?}; lumo reads only SCALAR and VEC2..4 here"),
+                ));
             }
         };
         let dt = acc.data_type();
         let csize = dt.size();
         let count = acc.count();
-        let total = count.checked_mul(n).filter(|t| *t <= (MAX_FILE_BYTES as usize) / csize.max(1));
+        let total = count
+            .checked_mul(n)
+            .filter(|t| *t <= (MAX_FILE_BYTES as usize) / csize.max(1));
         let Some(total) = total else {
             return Err(self.acc_err(acc, element, format!("count {count} is impossibly large")));
         };
@@ -223,7 +308,8 @@ impl Loaded {
                 return Err(self.acc_err(acc, element, format!("bufferViews[{}].byteStride {stride} is smaller than one element ({elem} bytes)", view.index())));
             }
             if count > 0 {
-                let need = acc.offset() as u128 + (count as u128 - 1) * stride as u128 + elem as u128;
+                let need =
+                    acc.offset() as u128 + (count as u128 - 1) * stride as u128 + elem as u128;
                 if need > bytes.len() as u128 {
                     return Err(self.acc_err(
                         acc,
@@ -272,7 +358,8 @@ impl Loaded {
                     ));
                 }
                 for c in 0..n {
-                    out[target * n + c] = component(&val_bytes[vo + (j * n + c) * csize..], dt, norm);
+                    out[target * n + c] =
+                        component(&val_bytes[vo + (j * n + c) * csize..], dt, norm);
                 }
             }
         }
@@ -280,28 +367,40 @@ impl Loaded {
     }
 
     fn acc_err(&self, acc: &gltf::Accessor, element: &str, msg: String) -> GltfError {
-        GltfError::invalid(&self.file, format!("{element} (accessors[{}])", acc.index()), msg)
+        GltfError::invalid(
+            &self.file,
+            format!("{element} (accessors[{}])", acc.index()),
+            msg,
+        )
     }
 
     /// The encoded bytes of an image and its MIME type when known.
     pub fn image_bytes(&self, image: &gltf::Image) -> Result<(Vec<u8>, Option<String>), GltfError> {
         let element = format!("images[{}]", image.index());
         match image.source() {
-            gltf::image::Source::View { view, mime_type } => Ok((self.view_bytes(&view, &element)?.to_vec(), Some(mime_type.to_string()))),
-            gltf::image::Source::Uri { uri, mime_type } => match decode_data_uri(&self.file, &element, uri) {
-                Some(r) => r.map(|(b, m)| (b, m.or(mime_type.map(str::to_string)))),
-                None => {
-                    let path = self.dir().join(percent_decode(uri));
-                    if !path.is_file() {
-                        return Err(GltfError::invalid(
+            gltf::image::Source::View { view, mime_type } => Ok((
+                self.view_bytes(&view, &element)?.to_vec(),
+                Some(mime_type.to_string()),
+            )),
+            gltf::image::Source::Uri { uri, mime_type } => {
+                match decode_data_uri(&self.file, &element, uri) {
+                    Some(r) => r.map(|(b, m)| (b, m.or(mime_type.map(str::to_string)))),
+                    None => {
+                        let path = self.dir().join(percent_decode(uri));
+                        if !path.is_file() {
+                            return Err(GltfError::invalid(
                             &self.file,
                             format!("{element}.uri"),
                             format!("texture image `{uri}` not found (looked for {}); copy it next to the glTF file", path.display()),
                         ));
+                        }
+                        Ok((
+                            read_file(&path)?,
+                            mime_type.map(str::to_string).or_else(|| mime_of_name(uri)),
+                        ))
                     }
-                    Ok((read_file(&path)?, mime_type.map(str::to_string).or_else(|| mime_of_name(uri))))
                 }
-            },
+            }
         }
     }
 
@@ -340,19 +439,35 @@ fn component(b: &[u8], dt: DataType, normalized: bool) -> f64 {
     match dt {
         DataType::I8 => {
             let v = f64::from(b[0] as i8);
-            if normalized { (v / 127.0).max(-1.0) } else { v }
+            if normalized {
+                (v / 127.0).max(-1.0)
+            } else {
+                v
+            }
         }
         DataType::U8 => {
             let v = f64::from(b[0]);
-            if normalized { v / 255.0 } else { v }
+            if normalized {
+                v / 255.0
+            } else {
+                v
+            }
         }
         DataType::I16 => {
             let v = f64::from(i16::from_le_bytes([b[0], b[1]]));
-            if normalized { (v / 32767.0).max(-1.0) } else { v }
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
         }
         DataType::U16 => {
             let v = f64::from(u16::from_le_bytes([b[0], b[1]]));
-            if normalized { v / 65535.0 } else { v }
+            if normalized {
+                v / 65535.0
+            } else {
+                v
+            }
         }
         DataType::U32 => f64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
         DataType::F32 => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
@@ -379,7 +494,9 @@ fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
         }
     }
     // Parse errors are reported by the validating parse that follows.
-    let Ok(raw) = gltf::Gltf::from_slice_without_validation(bytes) else { return Ok(()) };
+    let Ok(raw) = gltf::Gltf::from_slice_without_validation(bytes) else {
+        return Ok(());
+    };
     let root = raw.document.as_json();
     let n = root.accessors.len();
     for (i, m) in root.meshes.iter().enumerate() {
@@ -393,7 +510,10 @@ fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
                     return Err(GltfError::invalid(
                         file,
                         format!("meshes[{i}].primitives[{j}].attributes.{name}"),
-                        format!("accessor index {} is out of range: the file has {n} accessors", acc.value()),
+                        format!(
+                            "accessor index {} is out of range: the file has {n} accessors",
+                            acc.value()
+                        ),
                     ));
                 }
             }
@@ -402,8 +522,20 @@ fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
     for (i, img) in root.images.iter().enumerate() {
         let el = format!("images[{i}]");
         match (&img.uri, &img.buffer_view, &img.mime_type) {
-            (None, None, _) => return Err(GltfError::invalid(file, el, "has neither `uri` nor `bufferView`")),
-            (_, Some(_), None) => return Err(GltfError::invalid(file, format!("{el}.mimeType"), "is required with `bufferView`")),
+            (None, None, _) => {
+                return Err(GltfError::invalid(
+                    file,
+                    el,
+                    "has neither `uri` nor `bufferView`",
+                ))
+            }
+            (_, Some(_), None) => {
+                return Err(GltfError::invalid(
+                    file,
+                    format!("{el}.mimeType"),
+                    "is required with `bufferView`",
+                ))
+            }
             _ => {}
         }
     }
@@ -412,27 +544,51 @@ fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
         use gltf::json::validation::Checked;
         let missing = match c.type_ {
             Checked::Valid(Type::Perspective) => c.perspective.is_none().then_some("perspective"),
-            Checked::Valid(Type::Orthographic) => c.orthographic.is_none().then_some("orthographic"),
+            Checked::Valid(Type::Orthographic) => {
+                c.orthographic.is_none().then_some("orthographic")
+            }
             Checked::Invalid => None,
         };
         if let Some(key) = missing {
-            return Err(GltfError::invalid(file, format!("cameras[{i}].{key}"), "is missing for a camera of this type"));
+            return Err(GltfError::invalid(
+                file,
+                format!("cameras[{i}].{key}"),
+                "is missing for a camera of this type",
+            ));
         }
     }
-    let lights = root.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()).map(|k| k.lights.as_slice()).unwrap_or(&[]);
+    let lights = root
+        .extensions
+        .as_ref()
+        .and_then(|e| e.khr_lights_punctual.as_ref())
+        .map(|k| k.lights.as_slice())
+        .unwrap_or(&[]);
     for (i, l) in lights.iter().enumerate() {
         use gltf::json::extensions::scene::khr_lights_punctual::Type;
-        if matches!(l.type_, gltf::json::validation::Checked::Valid(Type::Spot)) && l.spot.is_none() {
-            return Err(GltfError::invalid(file, format!("extensions.KHR_lights_punctual.lights[{i}].spot"), "is missing for a spot light"));
+        if matches!(l.type_, gltf::json::validation::Checked::Valid(Type::Spot)) && l.spot.is_none()
+        {
+            return Err(GltfError::invalid(
+                file,
+                format!("extensions.KHR_lights_punctual.lights[{i}].spot"),
+                "is missing for a spot light",
+            ));
         }
     }
     for (i, n) in root.nodes.iter().enumerate() {
-        if let Some(k) = n.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
+        if let Some(k) = n
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+        {
             if k.light.value() >= lights.len() {
                 return Err(GltfError::invalid(
                     file,
                     format!("nodes[{i}].extensions.KHR_lights_punctual.light"),
-                    format!("light index {} is out of range: the file has {} lights", k.light.value(), lights.len()),
+                    format!(
+                        "light index {} is out of range: the file has {} lights",
+                        k.light.value(),
+                        lights.len()
+                    ),
                 ));
             }
         }

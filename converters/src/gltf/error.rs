@@ -59,7 +59,15 @@ pub enum GltfError {
 }
 
 impl GltfError {
-    pub(crate) fn invalid(file: &std::path::Path, element: impl Into<String>, message: impl Into<String>) -> Self {
-        GltfError::Invalid { file: file.to_path_buf(), element: element.into(), message: message.into() }
+    pub(crate) fn invalid(
+        file: &std::path::Path,
+        element: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        GltfError::Invalid {
+            file: file.to_path_buf(),
+            element: element.into(),
+            message: message.into(),
+        }
     }
 }

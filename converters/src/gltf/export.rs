@@ -4,7 +4,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use lumo_schema::gltf_extras::{CameraExtras, LightExtras, LumoExtras, MaterialExtras, NodeExtras, PlaneShape, SceneExtras, SphereShape, Tessellation, TextureExtras};
+use lumo_schema::gltf_extras::{
+    CameraExtras, LightExtras, LumoExtras, MaterialExtras, NodeExtras, PlaneShape, SceneExtras,
+    SphereShape, Tessellation, TextureExtras,
+};
 use lumo_schema::{GltfMeshRef, MeshSource, Object, Scene, Texture, Wrap};
 use serde_json::{json, Value};
 
@@ -22,7 +25,10 @@ use super::tessellate;
 /// scene's relative paths resolve against. Returns warnings (e.g. textures in formats glTF
 /// cannot hold). Files are written atomically (temporary file, then rename).
 pub fn export(scene: &Scene, scene_dir: &Path, out: &Path) -> Result<Vec<String>, GltfError> {
-    let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     let glb = match ext.as_deref() {
         Some("glb") => true,
         Some("gltf") => false,
@@ -38,11 +44,22 @@ pub fn export(scene: &Scene, scene_dir: &Path, out: &Path) -> Result<Vec<String>
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut b = Builder { scene_dir: scene_dir.to_path_buf(), out_dir, ..Builder::default() };
+    let mut b = Builder {
+        scene_dir: scene_dir.to_path_buf(),
+        out_dir,
+        ..Builder::default()
+    };
     b.build(scene)?;
-    let bin_name = format!("{}.bin", out.file_stem().and_then(|s| s.to_str()).unwrap_or("scene"));
+    let bin_name = format!(
+        "{}.bin",
+        out.file_stem().and_then(|s| s.to_str()).unwrap_or("scene")
+    );
     let root = b.root(scene, if glb { None } else { Some(&bin_name) });
-    let mut text = serde_json::to_string(&root).map_err(|e| GltfError::Export { file: out.to_path_buf(), element: "JSON".into(), message: e.to_string() })?;
+    let mut text = serde_json::to_string(&root).map_err(|e| GltfError::Export {
+        file: out.to_path_buf(),
+        element: "JSON".into(),
+        message: e.to_string(),
+    })?;
     if glb {
         while text.len() % 4 != 0 {
             text.push(' ');
@@ -77,9 +94,20 @@ pub fn export(scene: &Scene, scene_dir: &Path, out: &Path) -> Result<Vec<String>
 /// Writes via a temporary file in the same folder and a rename, so readers never see a
 /// half-written file.
 fn write_atomic(path: &Path, data: &[u8]) -> Result<(), GltfError> {
-    let io = |source| GltfError::Io { file: path.to_path_buf(), action: "cannot write", source };
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let tmp = dir.join(format!(".{}.tmp{}", path.file_name().and_then(|n| n.to_str()).unwrap_or("out"), std::process::id()));
+    let io = |source| GltfError::Io {
+        file: path.to_path_buf(),
+        action: "cannot write",
+        source,
+    };
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        path.file_name().and_then(|n| n.to_str()).unwrap_or("out"),
+        std::process::id()
+    ));
     let mut f = std::fs::File::create(&tmp).map_err(io)?;
     f.write_all(data).and_then(|_| f.sync_all()).map_err(io)?;
     std::fs::rename(&tmp, path).map_err(io)
@@ -116,7 +144,11 @@ fn extras<T: serde::Serialize>(t: T) -> Value {
 
 impl Builder {
     fn err(&self, element: impl Into<String>, message: impl Into<String>) -> GltfError {
-        GltfError::Export { file: self.scene_dir.clone(), element: element.into(), message: message.into() }
+        GltfError::Export {
+            file: self.scene_dir.clone(),
+            element: element.into(),
+            message: message.into(),
+        }
     }
 
     /// A path relative to the scene folder, re-based onto the output folder.
@@ -174,8 +206,11 @@ impl Builder {
             let pbr = pbr_of_material(m, &index_of);
             let mut v = material_json(&pbr, &mut self.used);
             v["name"] = json!(name);
-            v["extras"] = extras(MaterialExtras { material: m.clone() });
-            self.material_index.insert(name.clone(), self.materials.len());
+            v["extras"] = extras(MaterialExtras {
+                material: m.clone(),
+            });
+            self.material_index
+                .insert(name.clone(), self.materials.len());
             self.materials.push(v);
         }
         // Tessellate everything but planes first: planes are squares sized from the rest.
@@ -214,7 +249,8 @@ impl Builder {
             "extras": extras(CameraExtras { camera: scene.camera }),
         }));
         let (t, r) = camera_node_trs(&scene.camera);
-        self.nodes.push(json!({"name": "camera", "camera": 0, "translation": t, "rotation": r}));
+        self.nodes
+            .push(json!({"name": "camera", "camera": 0, "translation": t, "rotation": r}));
         // Lights.
         for (i, l) in scene.lights.iter().enumerate() {
             let v = light_values(l);
@@ -241,15 +277,25 @@ impl Builder {
         let el = format!("textures.{name}");
         let path = self.scene_dir.join(&tex.file);
         let bytes = match tex.gltf_image {
-            Some(i) => load_image(&path, i).map_err(|e| self.err(&el, e.to_string()))?.0,
-            None => read_file(&path).map_err(|e| self.err(format!("{el}.file"), format!("{e}; fix the path (relative to the scene file)")))?,
+            Some(i) => {
+                load_image(&path, i)
+                    .map_err(|e| self.err(&el, e.to_string()))?
+                    .0
+            }
+            None => read_file(&path).map_err(|e| {
+                self.err(
+                    format!("{el}.file"),
+                    format!("{e}; fix the path (relative to the scene file)"),
+                )
+            })?,
         };
         let Some(mime) = mime_of_bytes(&bytes) else {
             self.warnings.push(format!("{el}: `{}` is not PNG or JPEG, which glTF requires; the texture is left out of the glTF materials (lumo's extras keep it)", tex.file));
             return Ok(());
         };
         let view = self.view(&bytes, None);
-        self.images.push(json!({"bufferView": view, "mimeType": mime, "name": name}));
+        self.images
+            .push(json!({"bufferView": view, "mimeType": mime, "name": name}));
         let (key, mode) = match tex.wrap {
             Wrap::Repeat => ("repeat", 10497),
             Wrap::Mirror => ("mirror", 33648),
@@ -263,57 +309,118 @@ impl Builder {
                 self.samplers.len() - 1
             }
         };
-        let exact = Texture { file: self.rebase(&tex.file), ..tex.clone() };
-        self.texture_index.insert(name.to_string(), self.textures.len());
+        let exact = Texture {
+            file: self.rebase(&tex.file),
+            ..tex.clone()
+        };
+        self.texture_index
+            .insert(name.to_string(), self.textures.len());
         self.textures.push(json!({"name": name, "source": self.images.len() - 1, "sampler": sampler, "extras": extras(TextureExtras { texture: exact })}));
         Ok(())
     }
 
     /// The object's triangles in object space and the exact description for its node.
-    fn geometry(&mut self, i: usize, obj: &Object, half: f32) -> Result<(MeshData, NodeExtras), GltfError> {
+    fn geometry(
+        &mut self,
+        i: usize,
+        obj: &Object,
+        half: f32,
+    ) -> Result<(MeshData, NodeExtras), GltfError> {
         let el = format!("objects[{i}]");
         let mut ex = NodeExtras::default();
         let data = match obj {
             Object::Sphere(s) => {
-                ex.sphere = Some(SphereShape { center: s.center, radius: s.radius });
-                ex.tessellation = Some(Tessellation { segments: tessellate::SPHERE_SEGMENTS, rings: tessellate::SPHERE_RINGS, half_size: None });
-                tessellate::sphere(s.center, s.radius, tessellate::SPHERE_SEGMENTS, tessellate::SPHERE_RINGS)
+                ex.sphere = Some(SphereShape {
+                    center: s.center,
+                    radius: s.radius,
+                });
+                ex.tessellation = Some(Tessellation {
+                    segments: tessellate::SPHERE_SEGMENTS,
+                    rings: tessellate::SPHERE_RINGS,
+                    half_size: None,
+                });
+                tessellate::sphere(
+                    s.center,
+                    s.radius,
+                    tessellate::SPHERE_SEGMENTS,
+                    tessellate::SPHERE_RINGS,
+                )
             }
             Object::Plane(p) => {
-                ex.plane = Some(PlaneShape { normal: p.normal, offset: p.offset });
-                ex.tessellation = Some(Tessellation { segments: 1, rings: 1, half_size: Some(half) });
+                ex.plane = Some(PlaneShape {
+                    normal: p.normal,
+                    offset: p.offset,
+                });
+                ex.tessellation = Some(Tessellation {
+                    segments: 1,
+                    rings: 1,
+                    half_size: Some(half),
+                });
                 tessellate::plane(p.normal, p.offset, half)
             }
             Object::Lathe(l) => {
                 ex.lathe = Some(l.profile.clone());
-                ex.tessellation = Some(Tessellation { segments: tessellate::LATHE_SEGMENTS, rings: tessellate::LATHE_RINGS, half_size: None });
-                tessellate::lathe(&l.profile, tessellate::LATHE_SEGMENTS, tessellate::LATHE_RINGS)
+                ex.tessellation = Some(Tessellation {
+                    segments: tessellate::LATHE_SEGMENTS,
+                    rings: tessellate::LATHE_RINGS,
+                    half_size: None,
+                });
+                tessellate::lathe(
+                    &l.profile,
+                    tessellate::LATHE_SEGMENTS,
+                    tessellate::LATHE_RINGS,
+                )
             }
             Object::Triangle(t) => {
                 ex.triangle = Some(t.vertices);
-                MeshData { positions: t.vertices.to_vec(), normals: None, uvs: None, indices: vec![[0, 1, 2]] }
+                MeshData {
+                    positions: t.vertices.to_vec(),
+                    normals: None,
+                    uvs: None,
+                    indices: vec![[0, 1, 2]],
+                }
             }
             Object::Mesh(m) => {
                 let mut data = match &m.source {
                     MeshSource::Obj(f) => {
                         ex.source = Some(MeshSource::Obj(self.rebase(f)));
-                        load_obj(&self.scene_dir.join(f)).map_err(|e| self.err(format!("{el}.mesh.source.obj"), e))?
+                        load_obj(&self.scene_dir.join(f))
+                            .map_err(|e| self.err(format!("{el}.mesh.source.obj"), e))?
                     }
                     MeshSource::Gltf(g) => {
-                        ex.source = Some(MeshSource::Gltf(GltfMeshRef { file: self.rebase(&g.file), ..g.clone() }));
-                        load_mesh_primitive(&self.scene_dir.join(&g.file), g.mesh, g.primitive).map_err(|e| self.err(format!("{el}.mesh.source.gltf"), e.to_string()))?
+                        ex.source = Some(MeshSource::Gltf(GltfMeshRef {
+                            file: self.rebase(&g.file),
+                            ..g.clone()
+                        }));
+                        load_mesh_primitive(&self.scene_dir.join(&g.file), g.mesh, g.primitive)
+                            .map_err(|e| {
+                                self.err(format!("{el}.mesh.source.gltf"), e.to_string())
+                            })?
                     }
                     MeshSource::Inline(inl) => {
                         ex.source = Some(MeshSource::Inline(inl.clone()));
-                        MeshData { positions: inl.positions.clone(), normals: inl.normals.clone(), uvs: inl.uvs.clone(), indices: inl.indices.clone() }
+                        MeshData {
+                            positions: inl.positions.clone(),
+                            normals: inl.normals.clone(),
+                            uvs: inl.uvs.clone(),
+                            indices: inl.indices.clone(),
+                        }
                     }
                 };
                 let n = data.positions.len();
-                if data.indices.is_empty() || data.indices.iter().flatten().any(|k| *k as usize >= n) {
-                    return Err(self.err(format!("{el}.mesh"), "the mesh has no triangles or an index out of range"));
+                if data.indices.is_empty()
+                    || data.indices.iter().flatten().any(|k| *k as usize >= n)
+                {
+                    return Err(self.err(
+                        format!("{el}.mesh"),
+                        "the mesh has no triangles or an index out of range",
+                    ));
                 }
                 if data.positions.iter().flatten().any(|x| !x.is_finite()) {
-                    return Err(self.err(format!("{el}.mesh"), "the mesh has a NaN or infinite position"));
+                    return Err(self.err(
+                        format!("{el}.mesh"),
+                        "the mesh has a NaN or infinite position",
+                    ));
                 }
                 if data.normals.as_ref().is_some_and(|v| v.len() != n) {
                     data.normals = None;
@@ -321,14 +428,25 @@ impl Builder {
                 if data.uvs.as_ref().is_some_and(|v| v.len() != n) {
                     data.uvs = None;
                 }
-                data.normals = if m.smooth { Some(data.normals.take().unwrap_or_else(|| vertex_normals(&data))) } else { None };
+                data.normals = if m.smooth {
+                    Some(data.normals.take().unwrap_or_else(|| vertex_normals(&data)))
+                } else {
+                    None
+                };
                 data
             }
         };
         Ok((data, ex))
     }
 
-    fn object(&mut self, i: usize, obj: &Object, mut data: MeshData, mut ex: NodeExtras, w: &Mat4) -> Result<(), GltfError> {
+    fn object(
+        &mut self,
+        i: usize,
+        obj: &Object,
+        mut data: MeshData,
+        mut ex: NodeExtras,
+        w: &Mat4,
+    ) -> Result<(), GltfError> {
         let ops = obj.transform().clone();
         let wf = math::to_f32(w);
         let mut node = json!({});
@@ -349,14 +467,19 @@ impl Builder {
             }
             if let Some(ns) = &mut data.normals {
                 for nn in ns.iter_mut() {
-                    *nn = math::normalize(math::normal(w, math::f64x3(*nn))).unwrap_or([0.0, 0.0, 1.0]).map(|x| x as f32);
+                    *nn = math::normalize(math::normal(w, math::f64x3(*nn)))
+                        .unwrap_or([0.0, 0.0, 1.0])
+                        .map(|x| x as f32);
                 }
             }
             ex.baked = true;
             ex.transform = Some(ops);
         }
         let Some(&material) = self.material_index.get(obj.material()) else {
-            return Err(self.err(format!("objects[{i}].{}.material", obj.kind()), format!("unknown material `{}`", obj.material())));
+            return Err(self.err(
+                format!("objects[{i}].{}.material", obj.kind()),
+                format!("unknown material `{}`", obj.material()),
+            ));
         };
         let flat: Vec<f32> = data.positions.iter().flatten().copied().collect();
         let pos = self.accessor_f32(&flat, 3, "VEC3", true);
@@ -365,7 +488,11 @@ impl Builder {
             // glTF requires unit normals.
             let flat: Vec<f32> = ns
                 .iter()
-                .flat_map(|n| math::normalize(math::f64x3(*n)).unwrap_or([0.0, 0.0, 1.0]).map(|x| x as f32))
+                .flat_map(|n| {
+                    math::normalize(math::f64x3(*n))
+                        .unwrap_or([0.0, 0.0, 1.0])
+                        .map(|x| x as f32)
+                })
                 .collect();
             attributes["NORMAL"] = json!(self.accessor_f32(&flat, 3, "VEC3", false));
         }
@@ -389,7 +516,12 @@ impl Builder {
     }
 
     fn root(&self, scene: &Scene, bin_uri: Option<&str>) -> Value {
-        let sx = SceneExtras { schema: scene.schema.clone(), image: Some(scene.image), render: Some(scene.render), background: Some(scene.background) };
+        let sx = SceneExtras {
+            schema: scene.schema.clone(),
+            image: Some(scene.image),
+            render: Some(scene.render),
+            background: Some(scene.background),
+        };
         let mut root = json!({
             "asset": {"version": "2.0", "generator": concat!("lumo ", env!("CARGO_PKG_VERSION"))},
             "scene": 0,
@@ -435,7 +567,8 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
             v["texCoord"] = json!(t.tex_coord);
         }
         if let Some((o, r, s)) = t.transform {
-            v["extensions"] = json!({"KHR_texture_transform": {"offset": o, "rotation": r, "scale": s}});
+            v["extensions"] =
+                json!({"KHR_texture_transform": {"offset": o, "rotation": r, "scale": s}});
             used.insert("KHR_texture_transform");
         }
         v
@@ -456,11 +589,17 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
     }
     let mut exts = serde_json::Map::new();
     if p.emissive_strength != 1.0 {
-        exts.insert("KHR_materials_emissive_strength".into(), json!({"emissiveStrength": p.emissive_strength}));
+        exts.insert(
+            "KHR_materials_emissive_strength".into(),
+            json!({"emissiveStrength": p.emissive_strength}),
+        );
         used.insert("KHR_materials_emissive_strength");
     }
     if p.transmission != 0.0 {
-        exts.insert("KHR_materials_transmission".into(), json!({"transmissionFactor": p.transmission}));
+        exts.insert(
+            "KHR_materials_transmission".into(),
+            json!({"transmissionFactor": p.transmission}),
+        );
         used.insert("KHR_materials_transmission");
     }
     if p.ior != 1.5 {
@@ -475,14 +614,26 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
 
 /// Loads an OBJ file's triangles (all objects and groups, polygons fan-triangulated by tobj).
 fn load_obj(path: &Path) -> Result<MeshData, String> {
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
-    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| format!("cannot load OBJ `{}`: {e}", path.display()))?;
-    let mut d = MeshData { positions: Vec::new(), normals: Some(Vec::new()), uvs: Some(Vec::new()), indices: Vec::new() };
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, _) = tobj::load_obj(path, &opts)
+        .map_err(|e| format!("cannot load OBJ `{}`: {e}", path.display()))?;
+    let mut d = MeshData {
+        positions: Vec::new(),
+        normals: Some(Vec::new()),
+        uvs: Some(Vec::new()),
+        indices: Vec::new(),
+    };
     for m in &models {
         let mesh = &m.mesh;
         let base = d.positions.len() as u32;
         let n = mesh.positions.len() / 3;
-        d.positions.extend(mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        d.positions
+            .extend(mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
         if mesh.normals.len() == n * 3 {
             if let Some(ns) = &mut d.normals {
                 ns.extend(mesh.normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
@@ -497,7 +648,11 @@ fn load_obj(path: &Path) -> Result<MeshData, String> {
         } else {
             d.uvs = None;
         }
-        d.indices.extend(mesh.indices.chunks_exact(3).map(|c| [base + c[0], base + c[1], base + c[2]]));
+        d.indices.extend(
+            mesh.indices
+                .chunks_exact(3)
+                .map(|c| [base + c[0], base + c[1], base + c[2]]),
+        );
     }
     Ok(d)
 }
@@ -508,9 +663,15 @@ pub fn vertex_normals(d: &MeshData) -> Vec<[f32; 3]> {
     let mut acc = vec![[0.0f64; 3]; d.positions.len()];
     for t in &d.indices {
         let p = t.map(|k| math::f64x3(d.positions[k as usize]));
-        let Some(n) = math::normalize(math::cross(math::sub(p[1], p[0]), math::sub(p[2], p[0]))) else { continue };
+        let Some(n) = math::normalize(math::cross(math::sub(p[1], p[0]), math::sub(p[2], p[0])))
+        else {
+            continue;
+        };
         for c in 0..3 {
-            let (a, b) = (math::sub(p[(c + 1) % 3], p[c]), math::sub(p[(c + 2) % 3], p[c]));
+            let (a, b) = (
+                math::sub(p[(c + 1) % 3], p[c]),
+                math::sub(p[(c + 2) % 3], p[c]),
+            );
             let cos = math::dot(a, b) / (math::len(a) * math::len(b));
             let angle = cos.clamp(-1.0, 1.0).acos();
             if angle.is_finite() {
@@ -520,7 +681,13 @@ pub fn vertex_normals(d: &MeshData) -> Vec<[f32; 3]> {
             }
         }
     }
-    acc.iter().map(|a| math::normalize(*a).unwrap_or([0.0, 0.0, 1.0]).map(|x| x as f32)).collect()
+    acc.iter()
+        .map(|a| {
+            math::normalize(*a)
+                .unwrap_or([0.0, 0.0, 1.0])
+                .map(|x| x as f32)
+        })
+        .collect()
 }
 
 #[derive(Default)]

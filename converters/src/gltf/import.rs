@@ -8,10 +8,13 @@ use gltf::camera::Projection;
 use gltf::khr_lights_punctual::Kind;
 use gltf::mesh::Mode;
 use gltf::Semantic;
-use lumo_schema::gltf_extras::{CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY};
+use lumo_schema::gltf_extras::{
+    CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
+};
 use lumo_schema::{
-    Background, Camera, ColorSpace, DirectionalLight, GltfMeshRef, Image, Lathe, Light, Material, Mesh, MeshSource, Object, Plane,
-    PointLight, RenderSettings, Scene, Sphere, SpotLight, Texture, Transform, Triangle, Wrap, FORMAT_VERSION,
+    Background, Camera, ColorSpace, DirectionalLight, GltfMeshRef, Image, Lathe, Light, Material,
+    Mesh, MeshSource, Object, Plane, PointLight, RenderSettings, Scene, Sphere, SpotLight, Texture,
+    Transform, Triangle, Wrap, FORMAT_VERSION,
 };
 use serde::de::DeserializeOwned;
 
@@ -79,8 +82,15 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, GltfErro
 
 /// Imports an already loaded document (used by [`import`] and the fuzz target).
 pub fn import_loaded(loaded: &Loaded, options: &ImportOptions) -> Result<Imported, GltfError> {
-    let scene_dir = options.scene_dir.clone().unwrap_or_else(|| loaded.dir().to_path_buf());
-    let scene_dir = if scene_dir.as_os_str().is_empty() { PathBuf::from(".") } else { scene_dir };
+    let scene_dir = options
+        .scene_dir
+        .clone()
+        .unwrap_or_else(|| loaded.dir().to_path_buf());
+    let scene_dir = if scene_dir.as_os_str().is_empty() {
+        PathBuf::from(".")
+    } else {
+        scene_dir
+    };
     let imp = Importer {
         l: loaded,
         file_ref: relative(&loaded.file, &scene_dir),
@@ -118,12 +128,18 @@ struct Importer<'a> {
 }
 
 /// Parses `extras.lumo` of an element into `T`; `Err` carries a warning.
-fn lumo_extras<T: DeserializeOwned>(extras: &gltf::json::Extras, element: &str) -> Result<Option<T>, String> {
+fn lumo_extras<T: DeserializeOwned>(
+    extras: &gltf::json::Extras,
+    element: &str,
+) -> Result<Option<T>, String> {
     let Some(raw) = extras else { return Ok(None) };
-    let value: serde_json::Value = serde_json::from_str(raw.get()).map_err(|e| format!("{element}.extras: {e}"))?;
+    let value: serde_json::Value =
+        serde_json::from_str(raw.get()).map_err(|e| format!("{element}.extras: {e}"))?;
     match value.get(EXTRAS_KEY) {
         None => Ok(None),
-        Some(v) => serde_json::from_value(v.clone()).map(Some).map_err(|e| format!("{element}.extras.{EXTRAS_KEY} ignored: {e}")),
+        Some(v) => serde_json::from_value(v.clone())
+            .map(Some)
+            .map_err(|e| format!("{element}.extras.{EXTRAS_KEY} ignored: {e}")),
     }
 }
 
@@ -131,7 +147,10 @@ fn unique(name: &str, taken: &dyn Fn(&str) -> bool) -> String {
     if !taken(name) {
         return name.to_string();
     }
-    (2..).map(|k| format!("{name}_{k}")).find(|n| !taken(n)).unwrap_or_default()
+    (2..)
+        .map(|k| format!("{name}_{k}"))
+        .find(|n| !taken(n))
+        .unwrap_or_default()
 }
 
 impl Importer<'_> {
@@ -139,7 +158,11 @@ impl Importer<'_> {
         &self.l.file
     }
 
-    fn extras<T: DeserializeOwned>(&mut self, extras: &gltf::json::Extras, element: &str) -> Option<T> {
+    fn extras<T: DeserializeOwned>(
+        &mut self,
+        extras: &gltf::json::Extras,
+        element: &str,
+    ) -> Option<T> {
         match lumo_extras(extras, element) {
             Ok(v) => v,
             Err(w) => {
@@ -152,10 +175,12 @@ impl Importer<'_> {
     fn run(mut self, options: &ImportOptions) -> Result<Imported, GltfError> {
         let doc = &self.l.doc;
         if doc.animations().len() > 0 {
-            self.ignored.insert(format!("animations ({})", doc.animations().len()));
+            self.ignored
+                .insert(format!("animations ({})", doc.animations().len()));
         }
         if doc.skins().len() > 0 {
-            self.ignored.insert(format!("skins ({})", doc.skins().len()));
+            self.ignored
+                .insert(format!("skins ({})", doc.skins().len()));
         }
         for ext in doc.extensions_used() {
             if !HANDLED_EXTENSIONS.contains(&ext) {
@@ -178,19 +203,31 @@ impl Importer<'_> {
         };
         if n_scenes > 1 {
             let k = scene.as_ref().map(|s| s.index()).unwrap_or(0);
-            self.warnings.push(format!("the file has {n_scenes} scenes; imported scenes[{k}] (the default)"));
+            self.warnings.push(format!(
+                "the file has {n_scenes} scenes; imported scenes[{k}] (the default)"
+            ));
         }
         let scene_extras: SceneExtras = match &scene {
-            Some(s) => self.extras(s.extras(), &format!("scenes[{}]", s.index())).unwrap_or_default(),
+            Some(s) => self
+                .extras(s.extras(), &format!("scenes[{}]", s.index()))
+                .unwrap_or_default(),
             None => SceneExtras::default(),
         };
 
         // Depth-first traversal, in the order of the scene's node list, children in order.
-        let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots.into_iter().rev().map(|n| (n, math::IDENTITY, 0)).collect();
+        let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots
+            .into_iter()
+            .rev()
+            .map(|n| (n, math::IDENTITY, 0))
+            .collect();
         let limit = doc.nodes().len();
         while let Some((node, parent, depth)) = stack.pop() {
             if depth > limit {
-                return Err(GltfError::invalid(self.file(), format!("nodes[{}].children", node.index()), "the node hierarchy has a cycle"));
+                return Err(GltfError::invalid(
+                    self.file(),
+                    format!("nodes[{}].children", node.index()),
+                    "the node hierarchy has a cycle",
+                ));
             }
             let world = math::mul(&parent, &self.local_matrix(&node)?);
             self.node(&node, &world)?;
@@ -212,16 +249,21 @@ impl Importer<'_> {
         let (camera, image) = self.camera(options, &scene_extras)?;
         if !self.ignored.is_empty() {
             let list: Vec<String> = self.ignored.iter().cloned().collect();
-            self.warnings.push(format!("not imported: {}", list.join(", ")));
+            self.warnings
+                .push(format!("not imported: {}", list.join(", ")));
         }
         // A file with neither lights nor emitters would render black; glTF viewers light such
         // models with a neutral environment, so lumo uses a uniform white background (unless
         // lumo's own extras give one).
-        let unlit = self.lights.is_empty() && self.materials.values().all(|m| m.emission == [0.0; 3]);
+        let unlit =
+            self.lights.is_empty() && self.materials.values().all(|m| m.emission == [0.0; 3]);
         let background = match scene_extras.background {
             Some(b) => b,
             None if unlit => {
-                self.warnings.push("no lights or emissive materials: lit by a uniform white background".to_string());
+                self.warnings.push(
+                    "no lights or emissive materials: lit by a uniform white background"
+                        .to_string(),
+                );
                 Background { color: [1.0; 3] }
             }
             None => Background::default(),
@@ -238,7 +280,10 @@ impl Importer<'_> {
             objects: self.objects,
             lights: self.lights,
         };
-        Ok(Imported { scene, warnings: self.warnings })
+        Ok(Imported {
+            scene,
+            warnings: self.warnings,
+        })
     }
 
     fn local_matrix(&self, node: &gltf::Node) -> Result<Mat4, GltfError> {
@@ -247,14 +292,30 @@ impl Importer<'_> {
             gltf::scene::Transform::Matrix { matrix } => {
                 let flat: [f32; 16] = std::array::from_fn(|k| matrix[k / 4][k % 4]);
                 if let Some(k) = flat.iter().position(|x| !x.is_finite()) {
-                    return Err(GltfError::invalid(self.file(), format!("{el}.matrix[{k}]"), format!("is {}: the matrix must be finite", flat[k])));
+                    return Err(GltfError::invalid(
+                        self.file(),
+                        format!("{el}.matrix[{k}]"),
+                        format!("is {}: the matrix must be finite", flat[k]),
+                    ));
                 }
                 Ok(math::from_f32(&math::from_column_major(&flat)))
             }
-            gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
-                for (key, v) in [("translation", &translation[..]), ("rotation", &rotation[..]), ("scale", &scale[..])] {
+            gltf::scene::Transform::Decomposed {
+                translation,
+                rotation,
+                scale,
+            } => {
+                for (key, v) in [
+                    ("translation", &translation[..]),
+                    ("rotation", &rotation[..]),
+                    ("scale", &scale[..]),
+                ] {
                     if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-                        return Err(GltfError::invalid(self.file(), format!("{el}.{key}[{k}]"), format!("is {}: must be finite", v[k])));
+                        return Err(GltfError::invalid(
+                            self.file(),
+                            format!("{el}.{key}[{k}]"),
+                            format!("is {}: must be finite", v[k]),
+                        ));
                     }
                 }
                 Ok(math::trs(translation, rotation, scale))
@@ -266,7 +327,11 @@ impl Importer<'_> {
         let el = format!("nodes[{}]", node.index());
         let wf = math::to_f32(world);
         if wf.iter().flatten().any(|x| !x.is_finite()) {
-            return Err(GltfError::invalid(self.file(), el, "the composed world transform overflows (NaN or infinity)"));
+            return Err(GltfError::invalid(
+                self.file(),
+                el,
+                "the composed world transform overflows (NaN or infinity)",
+            ));
         }
         if let Some(c) = node.camera() {
             self.cameras.push((c.index(), node.index(), wf));
@@ -274,13 +339,17 @@ impl Importer<'_> {
         if let Some(light) = node.light() {
             self.light(&light, world, &wf);
         }
-        let Some(mesh) = node.mesh() else { return Ok(()) };
+        let Some(mesh) = node.mesh() else {
+            return Ok(());
+        };
         if node.skin().is_some() || node.weights().is_some() || mesh.weights().is_some() {
             self.ignored.insert("skinning and morph weights".into());
         }
         let singular = math::det3(&math::from_f32(&wf)) == 0.0;
         if singular {
-            self.warnings.push(format!("{el}: skipped: its world transform is singular (scaled to zero)"));
+            self.warnings.push(format!(
+                "{el}: skipped: its world transform is singular (scaled to zero)"
+            ));
             return Ok(());
         }
         let ex: NodeExtras = self.extras(node.extras(), &el).unwrap_or_default();
@@ -308,11 +377,15 @@ impl Importer<'_> {
         for (j, p) in prims.iter().enumerate() {
             let pel = format!("meshes[{}].primitives[{j}]", mesh.index());
             if p.mode() != Mode::Triangles {
-                self.warnings.push(format!("{pel}: mode {:?} skipped (only TRIANGLES are rendered)", p.mode()));
+                self.warnings.push(format!(
+                    "{pel}: mode {:?} skipped (only TRIANGLES are rendered)",
+                    p.mode()
+                ));
                 continue;
             }
             if p.get(&Semantic::Positions).is_none() {
-                self.warnings.push(format!("{pel}: skipped: no POSITION attribute"));
+                self.warnings
+                    .push(format!("{pel}: skipped: no POSITION attribute"));
                 continue;
             }
             if p.morph_targets().len() > 0 {
@@ -324,38 +397,87 @@ impl Importer<'_> {
                 (Some(n), _) => Some(format!("{n}#{j}")),
                 (None, _) => None,
             };
-            let own = MeshSource::Gltf(GltfMeshRef { file: self.file_ref.clone(), mesh: mesh.index() as u32, primitive: j as u32 });
+            let own = MeshSource::Gltf(GltfMeshRef {
+                file: self.file_ref.clone(),
+                mesh: mesh.index() as u32,
+                primitive: j as u32,
+            });
             let source = match (&ex.source, prims.len()) {
                 (Some(src), 1) => self.extras_source(src, &el).unwrap_or(own),
                 _ => own,
             };
             let smooth = p.get(&Semantic::Normals).is_some();
-            self.objects.push(Object::Mesh(Mesh { name, material, transform: transform.clone(), source, smooth }));
+            self.objects.push(Object::Mesh(Mesh {
+                name,
+                material,
+                transform: transform.clone(),
+                source,
+                smooth,
+            }));
         }
         Ok(())
     }
 
     /// The exact object of a node's `extras.lumo` shape, if any.
-    fn shape_object(&mut self, ex: &NodeExtras, el: &str, name: Option<String>, transform: &Transform, prim: Option<&gltf::Primitive>) -> Option<Object> {
-        let count = [ex.sphere.is_some(), ex.plane.is_some(), ex.lathe.is_some(), ex.triangle.is_some()].iter().filter(|x| **x).count();
+    fn shape_object(
+        &mut self,
+        ex: &NodeExtras,
+        el: &str,
+        name: Option<String>,
+        transform: &Transform,
+        prim: Option<&gltf::Primitive>,
+    ) -> Option<Object> {
+        let count = [
+            ex.sphere.is_some(),
+            ex.plane.is_some(),
+            ex.lathe.is_some(),
+            ex.triangle.is_some(),
+        ]
+        .iter()
+        .filter(|x| **x)
+        .count();
         if count == 0 {
             return None;
         }
         if count > 1 {
-            self.warnings.push(format!("{el}.extras.{EXTRAS_KEY}: more than one shape given; using the node's mesh"));
+            self.warnings.push(format!(
+                "{el}.extras.{EXTRAS_KEY}: more than one shape given; using the node's mesh"
+            ));
             return None;
         }
         let material = self.material(prim?.material()).ok()?;
         let transform = transform.clone();
         Some(if let Some(s) = &ex.sphere {
-            Object::Sphere(Sphere { name, material, transform, center: s.center, radius: s.radius })
+            Object::Sphere(Sphere {
+                name,
+                material,
+                transform,
+                center: s.center,
+                radius: s.radius,
+            })
         } else if let Some(p) = &ex.plane {
-            Object::Plane(Plane { name, material, transform, normal: p.normal, offset: p.offset })
+            Object::Plane(Plane {
+                name,
+                material,
+                transform,
+                normal: p.normal,
+                offset: p.offset,
+            })
         } else if let Some(profile) = &ex.lathe {
-            Object::Lathe(Lathe { name, material, transform, profile: profile.clone() })
+            Object::Lathe(Lathe {
+                name,
+                material,
+                transform,
+                profile: profile.clone(),
+            })
         } else {
             let vertices = ex.triangle?;
-            Object::Triangle(Triangle { name, material, transform, vertices })
+            Object::Triangle(Triangle {
+                name,
+                material,
+                transform,
+                vertices,
+            })
         })
     }
 
@@ -367,27 +489,42 @@ impl Importer<'_> {
             if full.is_file() {
                 Some(relative(&full, &this.scene_dir))
             } else {
-                this.warnings.push(format!("{el}: the original mesh file `{file}` is gone; using the glTF file's copy"));
+                this.warnings.push(format!(
+                    "{el}: the original mesh file `{file}` is gone; using the glTF file's copy"
+                ));
                 None
             }
         };
         match src {
             MeshSource::Obj(f) => rebase(self, f).map(MeshSource::Obj),
-            MeshSource::Gltf(g) => rebase(self, &g.file).map(|file| MeshSource::Gltf(GltfMeshRef { file, ..g.clone() })),
+            MeshSource::Gltf(g) => rebase(self, &g.file)
+                .map(|file| MeshSource::Gltf(GltfMeshRef { file, ..g.clone() })),
             MeshSource::Inline(m) => Some(MeshSource::Inline(m.clone())),
         }
     }
 
     fn extend_bounds(&mut self, p: &gltf::Primitive, world: &Mat4) {
-        let Some(acc) = p.get(&Semantic::Positions) else { return };
+        let Some(acc) = p.get(&Semantic::Positions) else {
+            return;
+        };
         let get = |v: Option<serde_json::Value>| -> Option<[f64; 3]> {
             let a = v?;
             let a = a.as_array()?;
-            Some([a.first()?.as_f64()?, a.get(1)?.as_f64()?, a.get(2)?.as_f64()?])
+            Some([
+                a.first()?.as_f64()?,
+                a.get(1)?.as_f64()?,
+                a.get(2)?.as_f64()?,
+            ])
         };
-        let (Some(lo), Some(hi)) = (get(acc.min()), get(acc.max())) else { return };
+        let (Some(lo), Some(hi)) = (get(acc.min()), get(acc.max())) else {
+            return;
+        };
         for k in 0..8 {
-            let c = [if k & 1 == 0 { lo[0] } else { hi[0] }, if k & 2 == 0 { lo[1] } else { hi[1] }, if k & 4 == 0 { lo[2] } else { hi[2] }];
+            let c = [
+                if k & 1 == 0 { lo[0] } else { hi[0] },
+                if k & 2 == 0 { lo[1] } else { hi[1] },
+                if k & 4 == 0 { lo[2] } else { hi[2] },
+            ];
             let w = math::point(world, c);
             if w.iter().any(|x| !x.is_finite()) {
                 continue;
@@ -418,13 +555,25 @@ impl Importer<'_> {
         let pbr = self.read_pbr(&m, &el);
         let ex: Option<MaterialExtras> = self.extras(m.extras(), &el);
         let doc = &self.l.doc;
-        let index_of = |tex: &str| doc.textures().find(|t| t.name() == Some(tex)).map(|t| t.index());
+        let index_of = |tex: &str| {
+            doc.textures()
+                .find(|t| t.name() == Some(tex))
+                .map(|t| t.index())
+        };
         let material = match ex {
-            Some(ex) if pbr::pbr_of_material(&ex.material, &index_of) == pbr && self.textures_of_extras_ok(&ex.material, &index_of)? => ex.material,
+            Some(ex)
+                if pbr::pbr_of_material(&ex.material, &index_of) == pbr
+                    && self.textures_of_extras_ok(&ex.material, &index_of)? =>
+            {
+                ex.material
+            }
             _ => {
                 let names: Vec<(usize, bool, String)> = {
                     let mut uses = Vec::new();
-                    for t in [&pbr.base_color_texture, &pbr.emissive_texture].into_iter().flatten() {
+                    for t in [&pbr.base_color_texture, &pbr.emissive_texture]
+                        .into_iter()
+                        .flatten()
+                    {
                         uses.push((t.index, true));
                     }
                     if let Some(t) = &pbr.metallic_roughness_texture {
@@ -437,7 +586,12 @@ impl Importer<'_> {
                     }
                     out
                 };
-                pbr::material_from_pbr(&pbr, &mut |t: &TexInfo, srgb| names.iter().find(|(i, s, _)| *i == t.index && *s == srgb).map(|x| x.2.clone()))
+                pbr::material_from_pbr(&pbr, &mut |t: &TexInfo, srgb| {
+                    names
+                        .iter()
+                        .find(|(i, s, _)| *i == t.index && *s == srgb)
+                        .map(|x| x.2.clone())
+                })
             }
         };
         self.mat_names.insert(key, name.clone());
@@ -447,10 +601,20 @@ impl Importer<'_> {
 
     /// Imports the textures an exact (extras) material names, by name; false when one is
     /// missing so the glTF values are used instead.
-    fn textures_of_extras_ok(&mut self, m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -> Result<bool, GltfError> {
-        for (r, srgb) in [(&m.base_color_texture, true), (&m.emission_texture, true), (&m.roughness_specular_texture, false)] {
+    fn textures_of_extras_ok(
+        &mut self,
+        m: &Material,
+        index_of: &dyn Fn(&str) -> Option<usize>,
+    ) -> Result<bool, GltfError> {
+        for (r, srgb) in [
+            (&m.base_color_texture, true),
+            (&m.emission_texture, true),
+            (&m.roughness_specular_texture, false),
+        ] {
             let Some(r) = r else { continue };
-            let Some(i) = index_of(&r.texture) else { return Ok(false) };
+            let Some(i) = index_of(&r.texture) else {
+                return Ok(false);
+            };
             let name = self.texture(i, srgb)?;
             if name != r.texture {
                 return Ok(false);
@@ -463,8 +627,15 @@ impl Importer<'_> {
         let info = |i: Option<gltf::texture::Info>| {
             i.map(|i| {
                 let tt = i.texture_transform();
-                let transform = tt.as_ref().map(|t| (t.offset(), t.rotation(), t.scale())).filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0]));
-                TexInfo { index: i.texture().index(), tex_coord: tt.and_then(|t| t.tex_coord()).unwrap_or(i.tex_coord()), transform }
+                let transform = tt
+                    .as_ref()
+                    .map(|t| (t.offset(), t.rotation(), t.scale()))
+                    .filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0]));
+                TexInfo {
+                    index: i.texture().index(),
+                    tex_coord: tt.and_then(|t| t.tex_coord()).unwrap_or(i.tex_coord()),
+                    transform,
+                }
             })
         };
         let p = m.pbr_metallic_roughness();
@@ -475,9 +646,12 @@ impl Importer<'_> {
             self.ignored.insert("occlusion textures".into());
         }
         if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.ignored.insert(format!("alphaMode {:?} ({el})", m.alpha_mode()));
+            self.ignored
+                .insert(format!("alphaMode {:?} ({el})", m.alpha_mode()));
         }
-        if m.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
+        if m.transmission()
+            .is_some_and(|t| t.transmission_texture().is_some())
+        {
             self.ignored.insert("transmission textures".into());
         }
         let pbr = Pbr {
@@ -489,13 +663,26 @@ impl Importer<'_> {
             emissive: m.emissive_factor(),
             emissive_texture: info(m.emissive_texture()),
             emissive_strength: m.emissive_strength().unwrap_or(1.0),
-            transmission: m.transmission().map(|t| t.transmission_factor()).unwrap_or(0.0),
+            transmission: m
+                .transmission()
+                .map(|t| t.transmission_factor())
+                .unwrap_or(0.0),
             ior: m.ior().unwrap_or(1.5),
             double_sided: m.double_sided(),
         };
-        for t in [&pbr.base_color_texture, &pbr.metallic_roughness_texture, &pbr.emissive_texture].into_iter().flatten() {
+        for t in [
+            &pbr.base_color_texture,
+            &pbr.metallic_roughness_texture,
+            &pbr.emissive_texture,
+        ]
+        .into_iter()
+        .flatten()
+        {
             if t.tex_coord != 0 {
-                self.ignored.insert(format!("TEXCOORD_{} on some textures ({el}; meshes use one set)", t.tex_coord));
+                self.ignored.insert(format!(
+                    "TEXCOORD_{} on some textures ({el}; meshes use one set)",
+                    t.tex_coord
+                ));
             }
         }
         pbr
@@ -508,24 +695,40 @@ impl Importer<'_> {
         }
         let doc = &self.l.doc;
         let Some(t) = doc.textures().nth(i) else {
-            return Err(GltfError::invalid(self.file(), format!("textures[{i}]"), "does not exist"));
+            return Err(GltfError::invalid(
+                self.file(),
+                format!("textures[{i}]"),
+                "does not exist",
+            ));
         };
         let el = format!("textures[{i}]");
         let ex: Option<TextureExtras> = self.extras(t.extras(), &el);
         let img = t.source();
-        let base = t.name().or(img.name()).map(str::to_string).unwrap_or_else(|| format!("texture{i}"));
-        let color_space = if srgb { ColorSpace::Srgb } else { ColorSpace::Linear };
+        let base = t
+            .name()
+            .or(img.name())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("texture{i}"));
+        let color_space = if srgb {
+            ColorSpace::Srgb
+        } else {
+            ColorSpace::Linear
+        };
         let wrap = match t.sampler().wrap_s() {
             gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
             gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
             gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
         };
         if t.sampler().wrap_s() != t.sampler().wrap_t() {
-            self.ignored.insert(format!("different wrapS and wrapT ({el}; wrapS used)"));
+            self.ignored
+                .insert(format!("different wrapS and wrapT ({el}; wrapS used)"));
         }
         let exact = ex.and_then(|ex| {
             let full = self.l.dir().join(&ex.texture.file);
-            full.is_file().then(|| Texture { file: relative(&full, &self.scene_dir), ..ex.texture })
+            full.is_file().then(|| Texture {
+                file: relative(&full, &self.scene_dir),
+                ..ex.texture
+            })
         });
         let tex = match exact {
             Some(t) => t,
@@ -555,18 +758,36 @@ impl Importer<'_> {
                     }
                 };
                 match file {
-                    Some(file) => Texture { file, gltf_image: None, color_space, wrap },
-                    None => Texture { file: self.file_ref.clone(), gltf_image: Some(img.index() as u32), color_space, wrap },
+                    Some(file) => Texture {
+                        file,
+                        gltf_image: None,
+                        color_space,
+                        wrap,
+                    },
+                    None => Texture {
+                        file: self.file_ref.clone(),
+                        gltf_image: Some(img.index() as u32),
+                        color_space,
+                        wrap,
+                    },
                 }
             }
         };
         // One lumo texture per (image, colour space): the same image used as colour and as
         // data needs two decodings.
-        let existing = self.textures.iter().find(|(_, v)| **v == tex).map(|(k, _)| k.clone());
+        let existing = self
+            .textures
+            .iter()
+            .find(|(_, v)| **v == tex)
+            .map(|(k, _)| k.clone());
         let name = match existing {
             Some(n) => n,
             None => {
-                let base = if self.textures.contains_key(&base) && !srgb { format!("{base}_linear") } else { base };
+                let base = if self.textures.contains_key(&base) && !srgb {
+                    format!("{base}_linear")
+                } else {
+                    base
+                };
                 let name = unique(&base, &|n| self.textures.contains_key(n));
                 self.textures.insert(name.clone(), tex);
                 name
@@ -576,7 +797,12 @@ impl Importer<'_> {
         Ok(name)
     }
 
-    fn light(&mut self, light: &gltf::khr_lights_punctual::Light, world: &Mat4, wf: &[[f32; 4]; 4]) {
+    fn light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        world: &Mat4,
+        wf: &[[f32; 4]; 4],
+    ) {
         let el = format!("KHR_lights_punctual.lights[{}]", light.index());
         let values = LightValues {
             kind: match light.kind() {
@@ -587,12 +813,16 @@ impl Importer<'_> {
             color: light.color(),
             intensity: light.intensity(),
             cone: match light.kind() {
-                Kind::Spot { inner_cone_angle, outer_cone_angle } => Some((inner_cone_angle, outer_cone_angle)),
+                Kind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => Some((inner_cone_angle, outer_cone_angle)),
                 _ => None,
             },
         };
         if light.range().is_some() {
-            self.ignored.insert("light range (lumo lights fall off with the squared distance)".into());
+            self.ignored
+                .insert("light range (lumo lights fall off with the squared distance)".into());
         }
         let ex: Option<LightExtras> = self.extras(light.extras(), &el);
         if let Some(ex) = ex {
@@ -602,20 +832,38 @@ impl Importer<'_> {
             }
         }
         let pos = math::point(world, [0.0; 3]).map(|x| x as f32);
-        let dir = math::normalize(math::vector(world, [0.0, 0.0, -1.0])).unwrap_or([0.0, 0.0, -1.0]).map(|x| x as f32);
+        let dir = math::normalize(math::vector(world, [0.0, 0.0, -1.0]))
+            .unwrap_or([0.0, 0.0, -1.0])
+            .map(|x| x as f32);
         let rgb = pbr::radiometric(&values);
         self.lights.push(match values.cone {
-            None if values.kind == "point" => Light::Point(PointLight { position: pos, intensity: rgb }),
-            None => Light::Directional(DirectionalLight { direction: dir, irradiance: rgb }),
+            None if values.kind == "point" => Light::Point(PointLight {
+                position: pos,
+                intensity: rgb,
+            }),
+            None => Light::Directional(DirectionalLight {
+                direction: dir,
+                irradiance: rgb,
+            }),
             Some((inner, outer)) => {
                 let outer_deg = (f64::from(outer).to_degrees() as f32).clamp(1e-3, 90.0);
                 let inner_deg = (f64::from(inner).to_degrees() as f32).clamp(0.0, outer_deg);
-                Light::Spot(SpotLight { position: pos, direction: dir, intensity: rgb, inner_angle_deg: inner_deg, outer_angle_deg: outer_deg })
+                Light::Spot(SpotLight {
+                    position: pos,
+                    direction: dir,
+                    intensity: rgb,
+                    inner_angle_deg: inner_deg,
+                    outer_angle_deg: outer_deg,
+                })
             }
         });
     }
 
-    fn camera(&mut self, options: &ImportOptions, sx: &SceneExtras) -> Result<(Camera, Image), GltfError> {
+    fn camera(
+        &mut self,
+        options: &ImportOptions,
+        sx: &SceneExtras,
+    ) -> Result<(Camera, Image), GltfError> {
         let doc = &self.l.doc;
         let chosen = match &options.camera {
             Some(CameraChoice::Index(k)) => {
@@ -624,7 +872,10 @@ impl Importer<'_> {
                     return Err(GltfError::NotFound {
                         file: self.file().to_path_buf(),
                         element: format!("cameras[{k}]"),
-                        message: format!("the file has {} cameras (indices start at 0)", doc.cameras().len()),
+                        message: format!(
+                            "the file has {} cameras (indices start at 0)",
+                            doc.cameras().len()
+                        ),
                     });
                 }
                 match self.cameras.iter().find(|c| c.0 == k) {
@@ -640,7 +891,8 @@ impl Importer<'_> {
             }
             Some(CameraChoice::Name(name)) => {
                 let found = self.cameras.iter().find(|(c, n, _)| {
-                    doc.cameras().nth(*c).and_then(|c| c.name()) == Some(name.as_str()) || doc.nodes().nth(*n).and_then(|n| n.name()) == Some(name.as_str())
+                    doc.cameras().nth(*c).and_then(|c| c.name()) == Some(name.as_str())
+                        || doc.nodes().nth(*n).and_then(|n| n.name()) == Some(name.as_str())
                 });
                 match found {
                     Some(c) => Some(*c),
@@ -648,7 +900,14 @@ impl Importer<'_> {
                         let names: Vec<String> = self
                             .cameras
                             .iter()
-                            .map(|(c, n, _)| doc.cameras().nth(*c).and_then(|c| c.name()).or(doc.nodes().nth(*n).and_then(|n| n.name())).unwrap_or("(unnamed)").to_string())
+                            .map(|(c, n, _)| {
+                                doc.cameras()
+                                    .nth(*c)
+                                    .and_then(|c| c.name())
+                                    .or(doc.nodes().nth(*n).and_then(|n| n.name()))
+                                    .unwrap_or("(unnamed)")
+                                    .to_string()
+                            })
                             .collect();
                         return Err(GltfError::NotFound {
                             file: self.file().to_path_buf(),
@@ -659,8 +918,15 @@ impl Importer<'_> {
                 }
             }
             None => {
-                let first = self.cameras.iter().find(|(c, _, _)| is_perspective(doc, *c) == Some(true));
-                if self.cameras.iter().any(|(c, _, _)| is_perspective(doc, *c) == Some(false)) {
+                let first = self
+                    .cameras
+                    .iter()
+                    .find(|(c, _, _)| is_perspective(doc, *c) == Some(true));
+                if self
+                    .cameras
+                    .iter()
+                    .any(|(c, _, _)| is_perspective(doc, *c) == Some(false))
+                {
                     self.ignored.insert("orthographic cameras".into());
                 }
                 first.copied()
@@ -670,7 +936,11 @@ impl Importer<'_> {
             return Ok((self.frame(), sx.image.unwrap_or_default()));
         };
         let Some(cam) = doc.cameras().nth(ci) else {
-            return Err(GltfError::invalid(self.file(), format!("cameras[{ci}]"), "does not exist"));
+            return Err(GltfError::invalid(
+                self.file(),
+                format!("cameras[{ci}]"),
+                "does not exist",
+            ));
         };
         let Projection::Perspective(p) = cam.projection() else {
             return Err(GltfError::NotFound {
@@ -682,14 +952,20 @@ impl Importer<'_> {
         let image = sx.image.unwrap_or_else(|| match p.aspect_ratio() {
             Some(a) if a.is_finite() && a > 0.0 => {
                 let w = (512.0 * f64::from(a)).round().clamp(1.0, 16384.0) as u32;
-                Image { width: w, height: 512 }
+                Image {
+                    width: w,
+                    height: 512,
+                }
             }
             _ => Image::default(),
         });
         let ex: Option<CameraExtras> = self.extras(cam.extras(), &format!("cameras[{ci}]"));
         if let Some(ex) = ex {
             let (yfov, aspect) = camera_values(&ex.camera, &image);
-            if yfov == p.yfov() && Some(aspect) == p.aspect_ratio() && camera_node_matrix(&ex.camera) == wf {
+            if yfov == p.yfov()
+                && Some(aspect) == p.aspect_ratio()
+                && camera_node_matrix(&ex.camera) == wf
+            {
                 return Ok((ex.camera, image));
             }
         }
@@ -730,7 +1006,10 @@ impl Importer<'_> {
 
 /// glTF yfov (radians) and aspect ratio the exporter writes for a camera and image.
 pub fn camera_values(c: &Camera, image: &Image) -> (f32, f32) {
-    (f64::from(c.fov_y_deg).to_radians() as f32, image.width as f32 / image.height.max(1) as f32)
+    (
+        f64::from(c.fov_y_deg).to_radians() as f32,
+        image.width as f32 / image.height.max(1) as f32,
+    )
 }
 
 /// The camera node's TRS: translation = position; rotation maps −z to the view direction and
@@ -767,7 +1046,11 @@ pub fn light_node_trs(l: &Light) -> (Option<[f32; 3]>, Option<[f32; 4]>) {
     let rot = |d: [f32; 3]| {
         let f = math::normalize(math::f64x3(d)).unwrap_or([0.0, 0.0, -1.0]);
         // Any up not parallel to f.
-        let up = if f[1].abs() < 0.9 { [0.0, 1.0, 0.0] } else { [1.0, 0.0, 0.0] };
+        let up = if f[1].abs() < 0.9 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [1.0, 0.0, 0.0]
+        };
         look_rotation(f, up)
     };
     match l {
@@ -780,7 +1063,11 @@ pub fn light_node_trs(l: &Light) -> (Option<[f32; 3]>, Option<[f32; 4]>) {
 /// The f32 world matrix of the light node the exporter writes.
 pub fn light_node_matrix(l: &Light) -> [[f32; 4]; 4] {
     let (t, r) = light_node_trs(l);
-    math::to_f32(&math::trs(t.unwrap_or([0.0; 3]), r.unwrap_or([0.0, 0.0, 0.0, 1.0]), [1.0; 3]))
+    math::to_f32(&math::trs(
+        t.unwrap_or([0.0; 3]),
+        r.unwrap_or([0.0, 0.0, 0.0, 1.0]),
+        [1.0; 3],
+    ))
 }
 
 fn is_perspective(doc: &gltf::Document, camera: usize) -> Option<bool> {

@@ -45,7 +45,9 @@ pub struct GltfFile {
 impl GltfFile {
     /// Reads, parses and validates a .gltf or .glb file and loads its buffers.
     pub fn open(file: &Path) -> Result<GltfFile, GltfError> {
-        Ok(GltfFile { loaded: Loaded::open(file)? })
+        Ok(GltfFile {
+            loaded: Loaded::open(file)?,
+        })
     }
 
     /// See [`load_mesh_primitive`].
@@ -69,7 +71,13 @@ impl GltfFile {
 /// The TEXCOORD set a primitive's material samples (see [`MeshData::uvs`]).
 pub fn texcoord_set(material: &gltf::Material) -> u32 {
     let pbr = material.pbr_metallic_roughness();
-    let set = |info: Option<gltf::texture::Info>| info.map(|i| i.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(i.tex_coord()));
+    let set = |info: Option<gltf::texture::Info>| {
+        info.map(|i| {
+            i.texture_transform()
+                .and_then(|t| t.tex_coord())
+                .unwrap_or(i.tex_coord())
+        })
+    };
     set(pbr.base_color_texture())
         .or_else(|| set(material.emissive_texture()))
         .or_else(|| set(pbr.metallic_roughness_texture()))
@@ -77,10 +85,18 @@ pub fn texcoord_set(material: &gltf::Material) -> u32 {
 }
 
 /// Reads a primitive of a loaded document.
-pub fn read_primitive(loaded: &Loaded, mesh: usize, primitive: usize) -> Result<MeshData, GltfError> {
+pub fn read_primitive(
+    loaded: &Loaded,
+    mesh: usize,
+    primitive: usize,
+) -> Result<MeshData, GltfError> {
     let file = &loaded.file;
     let Some(m) = loaded.doc.meshes().nth(mesh) else {
-        return Err(GltfError::NotFound { file: file.clone(), element: format!("meshes[{mesh}]"), message: format!("the file has {} meshes", loaded.doc.meshes().len()) });
+        return Err(GltfError::NotFound {
+            file: file.clone(),
+            element: format!("meshes[{mesh}]"),
+            message: format!("the file has {} meshes", loaded.doc.meshes().len()),
+        });
     };
     let Some(p) = m.primitives().nth(primitive) else {
         return Err(GltfError::NotFound {
@@ -91,15 +107,33 @@ pub fn read_primitive(loaded: &Loaded, mesh: usize, primitive: usize) -> Result<
     };
     let el = format!("meshes[{mesh}].primitives[{primitive}]");
     if p.mode() != Mode::Triangles {
-        return Err(GltfError::invalid(file, format!("{el}.mode"), format!("mode {:?} is not supported; lumo renders TRIANGLES only", p.mode())));
+        return Err(GltfError::invalid(
+            file,
+            format!("{el}.mode"),
+            format!(
+                "mode {:?} is not supported; lumo renders TRIANGLES only",
+                p.mode()
+            ),
+        ));
     }
     let Some(pos_acc) = p.get(&Semantic::Positions) else {
-        return Err(GltfError::invalid(file, format!("{el}.attributes"), "has no POSITION attribute"));
+        return Err(GltfError::invalid(
+            file,
+            format!("{el}.attributes"),
+            "has no POSITION attribute",
+        ));
     };
     let pe = format!("{el}.attributes.POSITION");
     let positions = vec3s(loaded, &pos_acc, &pe)?;
-    if let Some(i) = positions.iter().position(|v| v.iter().any(|x| !x.is_finite())) {
-        return Err(GltfError::invalid(file, pe, format!("vertex {i} is {:?}: positions must be finite", positions[i])));
+    if let Some(i) = positions
+        .iter()
+        .position(|v| v.iter().any(|x| !x.is_finite()))
+    {
+        return Err(GltfError::invalid(
+            file,
+            pe,
+            format!("vertex {i} is {:?}: positions must be finite", positions[i]),
+        ));
     }
     let n = positions.len();
     let normals = match p.get(&Semantic::Normals) {
@@ -107,7 +141,11 @@ pub fn read_primitive(loaded: &Loaded, mesh: usize, primitive: usize) -> Result<
             let ne = format!("{el}.attributes.NORMAL");
             let mut v = vec3s(loaded, &acc, &ne)?;
             if v.len() != n {
-                return Err(GltfError::invalid(file, ne, format!("{} normals for {n} positions", v.len())));
+                return Err(GltfError::invalid(
+                    file,
+                    ne,
+                    format!("{} normals for {n} positions", v.len()),
+                ));
             }
             for x in v.iter_mut() {
                 let l = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
@@ -128,14 +166,29 @@ pub fn read_primitive(loaded: &Loaded, mesh: usize, primitive: usize) -> Result<
         Some(acc) => {
             let te = format!("{el}.attributes.TEXCOORD_{set}");
             if acc.dimensions() != gltf::accessor::Dimensions::Vec2 {
-                return Err(GltfError::invalid(file, te, format!("has type {:?}, texture coordinates must be VEC2", acc.dimensions())));
+                return Err(GltfError::invalid(
+                    file,
+                    te,
+                    format!(
+                        "has type {:?}, texture coordinates must be VEC2",
+                        acc.dimensions()
+                    ),
+                ));
             }
             let raw = loaded.read_accessor(&acc, &te)?;
             if raw.len() / 2 != n {
-                return Err(GltfError::invalid(file, te, format!("{} texture coordinates for {n} positions", raw.len() / 2)));
+                return Err(GltfError::invalid(
+                    file,
+                    te,
+                    format!("{} texture coordinates for {n} positions", raw.len() / 2),
+                ));
             }
             // glTF's (0, 0) is the image's top-left corner, lumo's the bottom-left: v' = 1 − v.
-            Some(raw.chunks_exact(2).map(|c| [c[0] as f32, 1.0 - c[1] as f32]).collect())
+            Some(
+                raw.chunks_exact(2)
+                    .map(|c| [c[0] as f32, 1.0 - c[1] as f32])
+                    .collect(),
+            )
         }
         None => None,
     };
@@ -163,16 +216,32 @@ pub fn read_primitive(loaded: &Loaded, mesh: usize, primitive: usize) -> Result<
         None => (0..n as u32).collect(),
     };
     if flat.len() % 3 != 0 {
-        return Err(GltfError::invalid(file, el, format!("{} indices is not a multiple of 3 (TRIANGLES)", flat.len())));
+        return Err(GltfError::invalid(
+            file,
+            el,
+            format!("{} indices is not a multiple of 3 (TRIANGLES)", flat.len()),
+        ));
     }
     let indices = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    Ok(MeshData { positions, normals, uvs, indices })
+    Ok(MeshData {
+        positions,
+        normals,
+        uvs,
+        indices,
+    })
 }
 
 fn vec3s(loaded: &Loaded, acc: &gltf::Accessor, element: &str) -> Result<Vec<[f32; 3]>, GltfError> {
     if acc.dimensions() != gltf::accessor::Dimensions::Vec3 {
-        return Err(GltfError::invalid(&loaded.file, element, format!("has type {:?}, expected VEC3", acc.dimensions())));
+        return Err(GltfError::invalid(
+            &loaded.file,
+            element,
+            format!("has type {:?}, expected VEC3", acc.dimensions()),
+        ));
     }
     let raw = loaded.read_accessor(acc, element)?;
-    Ok(raw.chunks_exact(3).map(|c| [c[0] as f32, c[1] as f32, c[2] as f32]).collect())
+    Ok(raw
+        .chunks_exact(3)
+        .map(|c| [c[0] as f32, c[1] as f32, c[2] as f32])
+        .collect())
 }

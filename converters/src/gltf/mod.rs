@@ -29,7 +29,11 @@ pub use pbr::LUMENS_PER_WATT;
 
 /// Imports glTF or GLB bytes held in memory, as if read from `file` (used to resolve relative
 /// URIs and in messages). External buffers and images are not read. For fuzzing and tests.
-pub fn import_bytes(file: &std::path::Path, bytes: &[u8], options: &ImportOptions) -> Result<Imported, GltfError> {
+pub fn import_bytes(
+    file: &std::path::Path,
+    bytes: &[u8],
+    options: &ImportOptions,
+) -> Result<Imported, GltfError> {
     let loaded = document::Loaded::from_bytes(file, bytes, false)?;
     import::import_loaded(&loaded, options)
 }

@@ -9,12 +9,18 @@ pub fn absolute(p: &Path) -> PathBuf {
     }
     // A path that does not exist yet: canonicalise its parent and append the name.
     if let (Some(parent), Some(name)) = (p.parent(), p.file_name()) {
-        let parent = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
+        let parent = if parent.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            parent
+        };
         if let Ok(c) = std::fs::canonicalize(parent) {
             return c.join(name);
         }
     }
-    std::env::current_dir().map(|d| d.join(p)).unwrap_or_else(|_| p.to_path_buf())
+    std::env::current_dir()
+        .map(|d| d.join(p))
+        .unwrap_or_else(|_| p.to_path_buf())
 }
 
 /// `target` relative to the folder `base` (both made absolute first), with `/` separators:

@@ -69,7 +69,9 @@ pub fn transform_to_gltf(r: &TextureRef) -> Option<([f32; 2], f32, [f32; 2])> {
 
 /// glTF → lumo texture transform: the inverse of [`transform_to_gltf`].
 pub fn transform_from_gltf(t: Option<([f32; 2], f32, [f32; 2])>) -> ([f32; 2], f32, [f32; 2]) {
-    let Some((o, rot, s)) = t else { return ([0.0, 0.0], 0.0, [1.0, 1.0]) };
+    let Some((o, rot, s)) = t else {
+        return ([0.0, 0.0], 0.0, [1.0, 1.0]);
+    };
     let r = f64::from(rot);
     let sy = f64::from(s[1]);
     let ox = f64::from(o[0]) + sy * r.sin();
@@ -87,11 +89,25 @@ pub fn transform_from_gltf(t: Option<([f32; 2], f32, [f32; 2])>) -> ([f32; 2], f
 /// emitters, true otherwise (lumo renders both faces of every surface).
 pub fn pbr_of_material(m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -> Pbr {
     let info = |r: &Option<TextureRef>| {
-        r.as_ref().and_then(|r| index_of(&r.texture).map(|index| TexInfo { index, tex_coord: 0, transform: transform_to_gltf(r) }))
+        r.as_ref().and_then(|r| {
+            index_of(&r.texture).map(|index| TexInfo {
+                index,
+                tex_coord: 0,
+                transform: transform_to_gltf(r),
+            })
+        })
     };
     let peak = m.emission.iter().copied().fold(0.0f32, f32::max);
-    let (emissive, strength) = if peak > 1.0 { (m.emission.map(|c| c / peak), peak) } else { (m.emission, 1.0) };
-    let transmission = if m.specular < 1.0 { (m.transmission / (1.0 - m.specular)).clamp(0.0, 1.0) } else { 0.0 };
+    let (emissive, strength) = if peak > 1.0 {
+        (m.emission.map(|c| c / peak), peak)
+    } else {
+        (m.emission, 1.0)
+    };
+    let transmission = if m.specular < 1.0 {
+        (m.transmission / (1.0 - m.specular)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let emitter = m.emission != [0.0; 3];
     Pbr {
         base_color: [m.base_color[0], m.base_color[1], m.base_color[2], 1.0],
@@ -117,12 +133,20 @@ pub fn pbr_of_material(m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -
 /// lumo lobe and is dropped. roughness = roughnessFactor; the metallicRoughness texture's green
 /// (roughness) and blue (metallic) channels scale roughness and specular. emission =
 /// emissiveFactor × emissive strength. doubleSided → two-sided emission for emitters.
-pub fn material_from_pbr(p: &Pbr, name_of: &mut dyn FnMut(&TexInfo, bool) -> Option<String>) -> Material {
+pub fn material_from_pbr(
+    p: &Pbr,
+    name_of: &mut dyn FnMut(&TexInfo, bool) -> Option<String>,
+) -> Material {
     let mut r = |t: &Option<TexInfo>, srgb: bool| {
         t.as_ref().and_then(|t| {
             let name = name_of(t, srgb)?;
             let (offset, rotation_deg, scale) = transform_from_gltf(t.transform);
-            Some(TextureRef { texture: name, offset, rotation_deg, scale })
+            Some(TextureRef {
+                texture: name,
+                offset,
+                rotation_deg,
+                scale,
+            })
         })
     };
     let t = p.transmission.clamp(0.0, 1.0);
@@ -145,7 +169,11 @@ pub fn material_from_pbr(p: &Pbr, name_of: &mut dyn FnMut(&TexInfo, bool) -> Opt
         transmission: transmission.clamp(0.0, 1.0 - metallic),
         roughness: p.roughness.clamp(0.0, 1.0),
         roughness_specular_texture: r(&p.metallic_roughness_texture, false),
-        ior: if p.ior > 0.0 && p.ior.is_finite() { p.ior } else { 1.5 },
+        ior: if p.ior > 0.0 && p.ior.is_finite() {
+            p.ior
+        } else {
+            1.5
+        },
         emission,
         emission_texture: r(&p.emissive_texture, true),
         two_sided_emission: p.double_sided && emission != [0.0; 3],
@@ -173,28 +201,49 @@ const HALF_PI_F32: f32 = f32::from_bits(std::f32::consts::FRAC_PI_2.to_bits() - 
 pub fn light_values(l: &Light) -> LightValues {
     let split = |rgb: [f32; 3]| {
         let peak = rgb.iter().copied().fold(0.0f32, f32::max);
-        if peak > 0.0 { (rgb.map(|c| c / peak), peak * LUMENS_PER_WATT) } else { ([1.0; 3], 0.0) }
+        if peak > 0.0 {
+            (rgb.map(|c| c / peak), peak * LUMENS_PER_WATT)
+        } else {
+            ([1.0; 3], 0.0)
+        }
     };
     match l {
         Light::Point(p) => {
             let (color, intensity) = split(p.intensity);
-            LightValues { kind: "point", color, intensity, cone: None }
+            LightValues {
+                kind: "point",
+                color,
+                intensity,
+                cone: None,
+            }
         }
         Light::Directional(d) => {
             let (color, intensity) = split(d.irradiance);
-            LightValues { kind: "directional", color, intensity, cone: None }
+            LightValues {
+                kind: "directional",
+                color,
+                intensity,
+                cone: None,
+            }
         }
         Light::Spot(s) => {
             let (color, intensity) = split(s.intensity);
             let outer = (f64::from(s.outer_angle_deg).to_radians() as f32).min(HALF_PI_F32);
             // glTF requires inner < outer.
-            let inner = (f64::from(s.inner_angle_deg).to_radians() as f32).min(outer * (1.0 - 1e-6));
-            LightValues { kind: "spot", color, intensity, cone: Some((inner, outer)) }
+            let inner =
+                (f64::from(s.inner_angle_deg).to_radians() as f32).min(outer * (1.0 - 1e-6));
+            LightValues {
+                kind: "spot",
+                color,
+                intensity,
+                cone: Some((inner, outer)),
+            }
         }
     }
 }
 
 /// Radiometric intensity (W·sr⁻¹ or W·m⁻²) of glTF colour × photometric intensity.
 pub fn radiometric(v: &LightValues) -> [f32; 3] {
-    v.color.map(|c| (c.max(0.0) * v.intensity.max(0.0)) / LUMENS_PER_WATT)
+    v.color
+        .map(|c| (c.max(0.0) * v.intensity.max(0.0)) / LUMENS_PER_WATT)
 }

@@ -28,9 +28,17 @@ pub fn sphere(center: [f32; 3], radius: f32, segments: u32, rings: u32) -> MeshD
             let phi = std::f64::consts::TAU * f64::from(j) / f64::from(segments);
             let (sp, cp) = phi.sin_cos();
             let d = [sa * cp, -ca, -sa * sp];
-            m.positions.push([(c[0] + r * d[0]) as f32, (c[1] + r * d[1]) as f32, (c[2] + r * d[2]) as f32]);
+            m.positions.push([
+                (c[0] + r * d[0]) as f32,
+                (c[1] + r * d[1]) as f32,
+                (c[2] + r * d[2]) as f32,
+            ]);
             push_normal(&mut m, d);
-            push_uv(&mut m, f64::from(j) / f64::from(segments), f64::from(i) / f64::from(rings));
+            push_uv(
+                &mut m,
+                f64::from(j) / f64::from(segments),
+                f64::from(i) / f64::from(rings),
+            );
         }
     }
     grid_triangles(&mut m, rings, segments, |i, j| i * (segments + 1) + j);
@@ -44,7 +52,11 @@ pub fn sphere(center: [f32; 3], radius: f32, segments: u32, rings: u32) -> MeshD
 pub fn plane(normal: [f32; 3], offset: f32, half_size: f32) -> MeshData {
     let n = normalize(normal.map(f64::from)).unwrap_or([0.0, 1.0, 0.0]);
     let (t, b) = onb(n);
-    let o = [n[0] * f64::from(offset), n[1] * f64::from(offset), n[2] * f64::from(offset)];
+    let o = [
+        n[0] * f64::from(offset),
+        n[1] * f64::from(offset),
+        n[2] * f64::from(offset),
+    ];
     let h = f64::from(half_size);
     let mut m = empty();
     for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
@@ -97,7 +109,8 @@ pub fn lathe(profile: &Profile, segments: u32, rings: u32) -> MeshData {
         let theta = std::f64::consts::TAU * f64::from(j) / f64::from(segments);
         let (st, ct) = theta.sin_cos();
         for &(p, pn, dn, s) in &samples {
-            m.positions.push([(p[0] * ct) as f32, p[1] as f32, (-p[0] * st) as f32]);
+            m.positions
+                .push([(p[0] * ct) as f32, p[1] as f32, (-p[0] * st) as f32]);
             // n = x · (y′ cos θ, −x′, −y′ sin θ), using the pole-safe sample for its direction.
             let n = [pn[0] * dn[1] * ct, -pn[0] * dn[0], -pn[0] * dn[1] * st];
             let n = normalize(n).unwrap_or([0.0, 1.0, 0.0]);
@@ -112,7 +125,12 @@ pub fn lathe(profile: &Profile, segments: u32, rings: u32) -> MeshData {
 }
 
 fn empty() -> MeshData {
-    MeshData { positions: Vec::new(), normals: Some(Vec::new()), uvs: Some(Vec::new()), indices: Vec::new() }
+    MeshData {
+        positions: Vec::new(),
+        normals: Some(Vec::new()),
+        uvs: Some(Vec::new()),
+        indices: Vec::new(),
+    }
 }
 
 fn push_normal(m: &mut MeshData, n: [f64; 3]) {
@@ -169,7 +187,10 @@ pub fn eval(profile: &Profile, t: f64) -> ([f64; 2], [f64; 2]) {
 /// De Casteljau's algorithm; the derivative is n times the difference of the last two
 /// intermediate points.
 fn bezier(points: &[Vec2], t: f64) -> ([f64; 2], [f64; 2]) {
-    let mut pts: Vec<[f64; 2]> = points.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect();
+    let mut pts: Vec<[f64; 2]> = points
+        .iter()
+        .map(|p| [f64::from(p[0]), f64::from(p[1])])
+        .collect();
     let n = pts.len().saturating_sub(1);
     if n == 0 {
         return (pts.first().copied().unwrap_or([0.0; 2]), [0.0; 2]);
@@ -182,7 +203,10 @@ fn bezier(points: &[Vec2], t: f64) -> ([f64; 2], [f64; 2]) {
             return (p, d);
         }
         for i in 0..(pts.len() - 1) {
-            pts[i] = [pts[i][0] + t * (pts[i + 1][0] - pts[i][0]), pts[i][1] + t * (pts[i + 1][1] - pts[i][1])];
+            pts[i] = [
+                pts[i][0] + t * (pts[i + 1][0] - pts[i][0]),
+                pts[i][1] + t * (pts[i + 1][1] - pts[i][1]),
+            ];
         }
         pts.pop();
     }
@@ -194,7 +218,11 @@ fn bezier(points: &[Vec2], t: f64) -> ([f64; 2], [f64; 2]) {
 /// (ibid. eq. 3.8).
 fn bspline(b: &BsplineProfile, t: f64) -> ([f64; 2], [f64; 2]) {
     let knots: Vec<f64> = b.knots_or_default().iter().map(|k| f64::from(*k)).collect();
-    let pts: Vec<[f64; 2]> = b.points.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect();
+    let pts: Vec<[f64; 2]> = b
+        .points
+        .iter()
+        .map(|p| [f64::from(p[0]), f64::from(p[1])])
+        .collect();
     let p = b.degree as usize;
     let pos = de_boor(&pts, &knots, p, t);
     let der = if p == 0 {
@@ -207,7 +235,10 @@ fn bspline(b: &BsplineProfile, t: f64) -> ([f64; 2], [f64; 2]) {
                     [0.0; 2]
                 } else {
                     let f = p as f64 / den;
-                    [f * (pts[i + 1][0] - pts[i][0]), f * (pts[i + 1][1] - pts[i][1])]
+                    [
+                        f * (pts[i + 1][0] - pts[i][0]),
+                        f * (pts[i + 1][1] - pts[i][1]),
+                    ]
                 }
             })
             .collect();
@@ -226,13 +257,22 @@ fn de_boor(pts: &[[f64; 2]], knots: &[f64], p: usize, t: f64) -> [f64; 2] {
     while k + 1 < n && knots[k + 1] <= t {
         k += 1;
     }
-    let mut d: Vec<[f64; 2]> = (0..=p).map(|j| pts[(j + k).saturating_sub(p).min(n - 1)]).collect();
+    let mut d: Vec<[f64; 2]> = (0..=p)
+        .map(|j| pts[(j + k).saturating_sub(p).min(n - 1)])
+        .collect();
     for r in 1..=p {
         for j in (r..=p).rev() {
             let i = j + k - p;
             let den = knots[i + p + 1 - r] - knots[i];
-            let a = if den == 0.0 { 0.0 } else { (t - knots[i]) / den };
-            d[j] = [(1.0 - a) * d[j - 1][0] + a * d[j][0], (1.0 - a) * d[j - 1][1] + a * d[j][1]];
+            let a = if den == 0.0 {
+                0.0
+            } else {
+                (t - knots[i]) / den
+            };
+            d[j] = [
+                (1.0 - a) * d[j - 1][0] + a * d[j][0],
+                (1.0 - a) * d[j - 1][1] + a * d[j][1],
+            ];
         }
     }
     d[p]
@@ -246,10 +286,20 @@ mod tests {
 
     #[test]
     fn bspline_degree_one_is_the_polyline() {
-        let b = BsplineProfile { degree: 1, points: vec![[1.0, 0.0], [2.0, 1.0], [2.0, 3.0]], knots: None };
+        let b = BsplineProfile {
+            degree: 1,
+            points: vec![[1.0, 0.0], [2.0, 1.0], [2.0, 3.0]],
+            knots: None,
+        };
         let (p, d) = bspline(&b, 0.25);
-        assert!((p[0] - 1.5).abs() < 1e-12 && (p[1] - 0.5).abs() < 1e-12, "{p:?}");
-        assert!((d[0] - 2.0).abs() < 1e-12 && (d[1] - 2.0).abs() < 1e-12, "{d:?}");
+        assert!(
+            (p[0] - 1.5).abs() < 1e-12 && (p[1] - 0.5).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!(
+            (d[0] - 2.0).abs() < 1e-12 && (d[1] - 2.0).abs() < 1e-12,
+            "{d:?}"
+        );
         let (p, _) = bspline(&b, 1.0);
         assert_eq!(p, [2.0, 3.0]);
     }
@@ -257,19 +307,28 @@ mod tests {
     #[test]
     fn clamped_cubic_bspline_with_four_points_is_the_bezier() {
         let pts = vec![[0.0, 0.0], [1.0, 2.0], [3.0, 2.0], [4.0, 0.0]];
-        let b = BsplineProfile { degree: 3, points: pts.clone(), knots: None };
+        let b = BsplineProfile {
+            degree: 3,
+            points: pts.clone(),
+            knots: None,
+        };
         for t in [0.0, 0.3, 0.7, 1.0] {
             let (p1, d1) = bspline(&b, t);
             let (p2, d2) = bezier(&pts, t);
             for k in 0..2 {
-                assert!((p1[k] - p2[k]).abs() < 1e-9 && (d1[k] - d2[k]).abs() < 1e-9, "t={t}: {p1:?} {p2:?} {d1:?} {d2:?}");
+                assert!(
+                    (p1[k] - p2[k]).abs() < 1e-9 && (d1[k] - d2[k]).abs() < 1e-9,
+                    "t={t}: {p1:?} {p2:?} {d1:?} {d2:?}"
+                );
             }
         }
     }
 
     #[test]
     fn lathe_of_an_upward_line_faces_away_from_the_axis() {
-        let prof = Profile::Bezier(BezierProfile { points: vec![[1.0, 0.0], [1.0, 1.0]] });
+        let prof = Profile::Bezier(BezierProfile {
+            points: vec![[1.0, 0.0], [1.0, 1.0]],
+        });
         let m = lathe(&prof, 8, 2);
         for (p, n) in m.positions.iter().zip(m.normals.as_ref().unwrap()) {
             let radial = p[0] * n[0] + p[2] * n[2];
@@ -278,7 +337,10 @@ mod tests {
         // Every triangle's winding agrees with its vertices' normals.
         for t in &m.indices {
             let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
-            let f = cross([b[0] - a[0], b[1] - a[1], b[2] - a[2]], [c[0] - a[0], c[1] - a[1], c[2] - a[2]]);
+            let f = cross(
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
             let n = m.normals.as_ref().unwrap()[t[0] as usize].map(f64::from);
             assert!(f[0] * n[0] + f[1] * n[1] + f[2] * n[2] > 0.0);
         }
@@ -289,8 +351,15 @@ mod tests {
         let m = sphere([0.0; 3], 2.0, 16, 8);
         for t in &m.indices {
             let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
-            let f = cross([b[0] - a[0], b[1] - a[1], b[2] - a[2]], [c[0] - a[0], c[1] - a[1], c[2] - a[2]]);
-            let centroid = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0];
+            let f = cross(
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
+            let centroid = [
+                (a[0] + b[0] + c[0]) / 3.0,
+                (a[1] + b[1] + c[1]) / 3.0,
+                (a[2] + b[2] + c[2]) / 3.0,
+            ];
             assert!(f[0] * centroid[0] + f[1] * centroid[1] + f[2] * centroid[2] > 0.0);
         }
         // v = 1 at the north pole (+y), u = 0.25 at azimuth 90° from +x towards −z.
@@ -299,7 +368,12 @@ mod tests {
         assert_eq!(uvs[top][1], 1.0);
         let (i, j) = (4u32, 4u32);
         let k = (i * 17 + j) as usize;
-        assert!(m.positions[k][2] < -1.9 && uvs[k][0] == 0.25, "{:?} {:?}", m.positions[k], uvs[k]);
+        assert!(
+            m.positions[k][2] < -1.9 && uvs[k][0] == 0.25,
+            "{:?} {:?}",
+            m.positions[k],
+            uvs[k]
+        );
     }
 
     #[test]
@@ -307,7 +381,10 @@ mod tests {
         let m = plane([0.0, 0.0, 2.0], 3.0, 10.0);
         for t in &m.indices {
             let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
-            let f = cross([b[0] - a[0], b[1] - a[1], b[2] - a[2]], [c[0] - a[0], c[1] - a[1], c[2] - a[2]]);
+            let f = cross(
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
             assert!(f[2] > 0.0);
             assert!(a[2] == 3.0 && b[2] == 3.0 && c[2] == 3.0);
         }

@@ -72,19 +72,31 @@ pub fn sample_files(shared: &Path) -> Vec<PathBuf> {
 /// Scene JSON files to round-trip through glTF: the workspace's `scenes/` folder (recursively)
 /// and this crate's `tests/scenes/`.
 pub fn scene_files() -> Vec<PathBuf> {
-    files_with_ext(vec![workspace_root().join("scenes"), Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes")], &["json"])
+    files_with_ext(
+        vec![
+            workspace_root().join("scenes"),
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes"),
+        ],
+        &["json"],
+    )
 }
 
 /// Files with one of `exts` under the folders, recursively, sorted.
 fn files_with_ext(mut stack: Vec<PathBuf>, exts: &[&str]) -> Vec<PathBuf> {
     let mut out = Vec::new();
     while let Some(d) = stack.pop() {
-        let Ok(rd) = std::fs::read_dir(&d) else { continue };
+        let Ok(rd) = std::fs::read_dir(&d) else {
+            continue;
+        };
         for e in rd.flatten() {
             let p = e.path();
             if p.is_dir() {
                 stack.push(p);
-            } else if p.extension().and_then(|e| e.to_str()).is_some_and(|e| exts.contains(&e)) {
+            } else if p
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| exts.contains(&e))
+            {
                 out.push(p);
             }
         }
