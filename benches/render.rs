@@ -16,12 +16,11 @@ fn load(name: &str, spp: u32) -> lumo::scene::Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
         .join(name);
-    let desc =
-        lumo_schema::load_scene_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let base = path.parent().expect("scene folder");
-    let (mut scene, _warnings) =
-        lumo::scene::build(&desc, base, &lumo::scene::build::NoExternalData)
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let loaded = lumo::load(&path, &lumo::LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let (mut scene, _warnings) = loaded
+        .build()
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     scene.settings.spp = spp;
     scene
 }

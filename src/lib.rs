@@ -7,10 +7,12 @@
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
-pub mod cli;
 pub mod geometry;
 pub mod integrator;
 pub mod lathe;
+pub mod load;
+
+pub use load::{load, LoadOptions, Loaded};
 pub mod light;
 pub mod material;
 pub mod math;

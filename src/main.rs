@@ -2,9 +2,11 @@
 
 use clap::Parser;
 
+mod cli;
+
 fn main() {
-    let cli = lumo::cli::Cli::parse();
-    if let Err(e) = lumo::cli::run(cli) {
+    let cli = cli::Cli::parse();
+    if let Err(e) = cli::run(cli) {
         eprintln!("error: {}", e.message);
         std::process::exit(e.code);
     }

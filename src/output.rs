@@ -20,6 +20,8 @@ pub enum ToneMap {
     Aces,
 }
 
+lumo_schema::keyword_enum!(ToneMap, "clamp" => ToneMap::Clamp, "aces" => ToneMap::Aces);
+
 /// Why an image could not be written or read.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageIoError {

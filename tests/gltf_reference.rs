@@ -4,9 +4,8 @@
 
 mod common;
 
-use lumo::cli::gltf::GltfData;
-use lumo::cli::input::{load_with, LoadOptions};
 use lumo::render::Image;
+use lumo::LoadOptions;
 
 const SIZE: u32 = 64;
 const SPP: u32 = 64;
@@ -20,13 +19,15 @@ const MODELS: [&str; 3] = [
 ];
 
 fn render(path: &std::path::Path, spp: u32, seed: u64) -> Image {
-    let mut inp =
-        load_with(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.message));
-    inp.scene.image.width = SIZE;
-    inp.scene.image.height = SIZE;
-    inp.scene.render.spp = spp;
-    inp.scene.render.seed = seed;
-    let (scene, _) = lumo::scene::build(&inp.scene, &inp.base_dir, &GltfData::default()).unwrap();
+    let mut inp = lumo::load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    inp.edit(|s| {
+        s.image.width = SIZE;
+        s.image.height = SIZE;
+        s.render.spp = spp;
+        s.render.seed = seed;
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let (scene, _) = inp.build().unwrap_or_else(|e| panic!("{e}"));
     common::render(&scene)
 }
 

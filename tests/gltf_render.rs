@@ -5,8 +5,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use lumo::cli::gltf::GltfData;
-use lumo::cli::input::{load_with, LoadOptions};
+use lumo::LoadOptions;
 
 fn samples(shared: &std::path::Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
@@ -25,6 +24,14 @@ fn samples(shared: &std::path::Path) -> Vec<PathBuf> {
     out
 }
 
+/// Sample files that require (`extensionsRequired`) a material extension lumo does not
+/// implement yet: they must be refused with a message naming that extension, not rendered
+/// wrongly. The glTF-materials issue implements both and empties this list.
+const REFUSED: [(&str, &str); 2] = [
+    ("ClearCoatCarPaint.glb", "KHR_materials_clearcoat"),
+    ("UnlitTest.glb", "KHR_materials_unlit"),
+];
+
 #[test]
 fn every_sample_model_renders_without_error_or_nan() {
     let Some(shared) = common::shared() else {
@@ -32,14 +39,31 @@ fn every_sample_model_renders_without_error_or_nan() {
     };
     let files = samples(&shared);
     assert!(files.len() >= 20, "only {} sample files", files.len());
-    let external = GltfData::default();
     for f in &files {
-        let mut inp = load_with(f, &LoadOptions::default())
-            .unwrap_or_else(|e| panic!("{}: {}", f.display(), e.message));
-        inp.scene.image.width = 48;
-        inp.scene.image.height = 48;
-        inp.scene.render.spp = 4;
-        let (scene, _warnings) = lumo::scene::build(&inp.scene, &inp.base_dir, &external)
+        let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if let Some((_, extension)) = REFUSED.iter().find(|(file, _)| *file == name) {
+            let err = lumo::load(f, &LoadOptions::default())
+                .err()
+                .unwrap_or_else(|| panic!("{}: loaded, update REFUSED", f.display()));
+            assert_eq!(err.exit_code(), 2, "{err}");
+            assert!(
+                err.to_string().contains(&format!(
+                    "requires the extension `{extension}`, which lumo does not support"
+                )),
+                "{err}"
+            );
+            continue;
+        }
+        let mut inp = lumo::load(f, &LoadOptions::default())
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        inp.edit(|s| {
+            s.image.width = 48;
+            s.image.height = 48;
+            s.render.spp = 4;
+        })
+        .unwrap();
+        let (scene, _warnings) = inp
+            .build()
             .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         let (image, stats) = lumo::render::render(&scene, &lumo::render::RenderOptions::default());
         assert_eq!(stats.nan_samples, 0, "{}: NaN samples", f.display());
@@ -49,7 +73,7 @@ fn every_sample_model_renders_without_error_or_nan() {
             f.display()
         );
         // Something is visible: not every pixel is the background.
-        let bg = inp.scene.background.color;
+        let bg = inp.description.scene.background.color;
         let differs = image
             .pixels
             .iter()
@@ -76,14 +100,16 @@ fn convert_writes_gltf_that_renders_like_the_scene() {
         .assert()
         .success();
     let json = common::root().join("scenes/cornell.json");
-    let external = GltfData::default();
     let mut imgs = Vec::new();
     for f in [&json, &glb] {
-        let mut inp = load_with(f, &LoadOptions::default()).unwrap();
-        inp.scene.image.width = 24;
-        inp.scene.image.height = 24;
-        inp.scene.render.spp = 2;
-        let (scene, _) = lumo::scene::build(&inp.scene, &inp.base_dir, &external).unwrap();
+        let mut inp = lumo::load(f, &LoadOptions::default()).unwrap();
+        inp.edit(|s| {
+            s.image.width = 24;
+            s.image.height = 24;
+            s.render.spp = 2;
+        })
+        .unwrap();
+        let (scene, _) = inp.build().unwrap();
         imgs.push(lumo::render::render(&scene, &lumo::render::RenderOptions::default()).0);
     }
     assert_eq!(imgs[0].pixels, imgs[1].pixels);

@@ -7,8 +7,8 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use lumo::cli::input::{load_with, LoadOptions};
 use lumo::render::{render, Image, RenderOptions};
+use lumo::LoadOptions;
 use lumo_schema::Integrator;
 
 fn legacy_scenes() -> Vec<PathBuf> {
@@ -33,21 +33,19 @@ fn txt_files(dir: &Path) -> Vec<PathBuf> {
 
 /// Loads a legacy scene like `lumo render` does, overrides size and samples, builds and renders.
 fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, spp: u32) -> Image {
-    let mut input =
-        load_with(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.message));
-    let s = &mut input.scene;
-    s.image.width = w;
-    s.image.height = h;
-    s.render.spp = spp;
-    s.render.max_depth = 6;
-    if let Some(i) = integrator {
-        s.render.integrator = i;
-    }
-    let built = match lumo::scene::build(
-        &input.scene,
-        &input.base_dir,
-        &lumo::scene::build::NoExternalData,
-    ) {
+    let mut input = lumo::load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    input
+        .edit(|s| {
+            s.image.width = w;
+            s.image.height = h;
+            s.render.spp = spp;
+            s.render.max_depth = 6;
+            if let Some(i) = integrator {
+                s.render.integrator = i;
+            }
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+    let built = match input.build() {
         Ok((scene, _)) => scene,
         Err(e) => panic!("{}: {e}", path.display()),
     };

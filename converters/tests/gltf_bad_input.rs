@@ -232,6 +232,34 @@ fn required_extension_we_cannot_honour() {
     let msg = import_err(&f);
     assert_names(&msg, &f, "extensionsRequired[0]");
     assert!(msg.contains("KHR_draco_mesh_compression"), "{msg}");
+
+    // After a required extension lumo implements, the message names the one it does not
+    // (ClearCoatCarPaint.glb requires KHR_texture_transform, then KHR_materials_clearcoat).
+    edit_json(&f, |v| {
+        let both = serde_json::json!(["KHR_texture_transform", "KHR_draco_mesh_compression"]);
+        v["extensionsUsed"] = both.clone();
+        v["extensionsRequired"] = both;
+    });
+    let msg = import_err(&f);
+    assert_names(&msg, &f, "extensionsRequired[1]");
+    assert!(msg.contains("`KHR_draco_mesh_compression`"), "{msg}");
+}
+
+/// The shared samples that require an unimplemented extension are refused, naming it.
+#[test]
+fn samples_requiring_unimplemented_extensions_are_refused_by_name() {
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
+    let refused = common::refused_sample_files(&shared);
+    assert_eq!(refused.len(), common::REFUSED_SAMPLES.len(), "{refused:?}");
+    for (f, extension) in refused {
+        let msg = import_err(&f);
+        assert!(
+            msg.contains(&format!("the file requires the extension `{extension}`")),
+            "{msg}"
+        );
+    }
 }
 
 /// Mutated GLB bytes never panic the importer (cargo-fuzz needs nightly; this runs everywhere).

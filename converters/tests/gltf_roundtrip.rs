@@ -40,7 +40,9 @@ fn scene_to_gltf_to_scene_is_exact_for_every_scene_file() {
     );
     let out_dir = exported_dir();
     for f in &files {
-        let scene = load_scene_file(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        let scene = load_scene_file(f)
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()))
+            .into_inner();
         let dir = f.parent().unwrap();
         let stem = f.file_stem().unwrap().to_string_lossy();
         for ext in ["gltf", "glb"] {
@@ -98,8 +100,9 @@ fn textures_round_trip_through_embedded_images() {
         dir.path().join("duck.glb"),
     )
     .unwrap();
-    let scene =
-        lumo_schema::load_scene_str(text, &dir.path().join("t.json"), Some(dir.path())).unwrap();
+    let scene = lumo_schema::load_scene_str(text, &dir.path().join("t.json"), Some(dir.path()))
+        .unwrap()
+        .into_inner();
     for ext in ["gltf", "glb"] {
         let out = exported_dir().join(format!("textures.{ext}"));
         let back = roundtrip_scene(&scene, dir.path(), &out);
@@ -166,7 +169,7 @@ fn strip_extras(out: &Path, scene_dir: &Path) -> Scene {
 #[test]
 fn without_extras_the_gltf_values_approximate_the_scene() {
     let f = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/gltf_shapes.json");
-    let scene = load_scene_file(&f).unwrap();
+    let scene = load_scene_file(&f).unwrap().into_inner();
     let out = exported_dir().join("approx.glb");
     export(&scene, f.parent().unwrap(), &out).unwrap();
     let s = strip_extras(&out, f.parent().unwrap());
@@ -237,7 +240,7 @@ fn exports_pass_the_khronos_validator() {
     std::fs::create_dir_all(&dir).unwrap();
     let mut files = Vec::new();
     for f in common::scene_files() {
-        let scene = load_scene_file(&f).unwrap();
+        let scene = load_scene_file(&f).unwrap().into_inner();
         for ext in ["gltf", "glb"] {
             let out = dir.join(format!(
                 "{}.{ext}",

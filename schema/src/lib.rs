@@ -7,15 +7,19 @@
 
 mod diagnostic;
 pub mod gltf_extras;
+mod keyword;
 mod load;
 pub mod locate;
 mod scene;
 mod validate;
+mod validated;
 
 pub use diagnostic::{did_you_mean, edit_distance, Diagnostic, LoadError, Report};
+pub use keyword::{Keyword, UnknownKeyword};
 pub use load::{base_dir_of, load_scene_file, load_scene_str, parse_scene, MAX_SCENE_BYTES};
 pub use scene::*;
 pub use validate::{validate, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
+pub use validated::Validated;
 
 /// The JSON Schema (draft 2020-12) of a scene file, pretty-printed with a trailing newline.
 /// `schema/scene.schema.json` in the repository is exactly this text.

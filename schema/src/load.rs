@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use crate::diagnostic::{did_you_mean, Diagnostic, LoadError};
 use crate::locate::{line_col, locate, JsonPath};
 use crate::scene::Scene;
-use crate::validate::validate;
+use crate::validated::Validated;
 
 /// Largest scene file accepted, in bytes (1 GiB); larger inputs are refused before parsing.
 pub const MAX_SCENE_BYTES: u64 = 1 << 30;
@@ -44,16 +44,16 @@ pub fn load_scene_str(
     text: &str,
     file: &Path,
     base_dir: Option<&Path>,
-) -> Result<Scene, LoadError> {
+) -> Result<Validated<Scene>, LoadError> {
     let invalid = |diagnostics| LoadError::Invalid {
         file: file.to_path_buf(),
         diagnostics,
     };
     let scene = parse_scene(text).map_err(|d| invalid(vec![d]))?;
-    let mut diagnostics = validate(&scene, base_dir);
-    if diagnostics.is_empty() {
-        return Ok(scene);
-    }
+    let mut diagnostics = match Validated::new(scene, base_dir) {
+        Ok(valid) => return Ok(valid),
+        Err(diagnostics) => diagnostics,
+    };
     for d in &mut diagnostics {
         d.location = locate(text, &d.path);
     }
@@ -62,7 +62,7 @@ pub fn load_scene_str(
 }
 
 /// Reads, parses and validates a scene file; relative paths inside resolve against its folder.
-pub fn load_scene_file(path: &Path) -> Result<Scene, LoadError> {
+pub fn load_scene_file(path: &Path) -> Result<Validated<Scene>, LoadError> {
     let io = |source| LoadError::Io {
         path: path.to_path_buf(),
         source,

@@ -59,7 +59,9 @@ fn example_scenes_are_valid_and_round_trip() {
             "{} violates the JSON Schema: {errors:#?}",
             file.display()
         );
-        let scene = load_scene_file(&file).unwrap_or_else(|e| panic!("{e}"));
+        let scene = load_scene_file(&file)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .into_inner();
         let again = parse_scene(&to_json(&scene)).unwrap();
         assert_eq!(
             scene,

@@ -6,11 +6,11 @@ use std::time::Instant;
 
 use plotters::prelude::*;
 
-use super::{input, CliError};
-use crate::output::{read_image, write_image, ToneMap};
-use crate::render::{render_with_error, RenderOptions};
-use crate::scene::build::{build, ExternalData};
-use crate::scene::Scene;
+use super::CliError;
+use lumo::load::LoadOptions;
+use lumo::output::{read_image, write_image, ToneMap};
+use lumo::render::{render_with_error, RenderOptions};
+use lumo::scene::Scene;
 
 /// The bundled font for plot labels (DejaVu Sans, Bitstream Vera licence: `assets/fonts/`).
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
@@ -48,8 +48,8 @@ pub struct ConvergeArgs {
     #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
     pub spp: Vec<u32>,
     /// Sample sequence.
-    #[arg(long, value_enum)]
-    pub sampler: Option<super::SamplerArg>,
+    #[arg(long, value_parser = super::keyword::<lumo_schema::SamplerKind>())]
+    pub sampler: Option<lumo_schema::SamplerKind>,
     /// Distribute samples adaptively by per-pixel error.
     #[arg(long)]
     pub adaptive: bool,
@@ -147,23 +147,25 @@ pub fn read_series(path: &Path, skip_label: &str) -> Result<Vec<Series>, CliErro
 }
 
 /// Runs the ladder and writes the CSV and plots.
-pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>, CliError> {
+pub fn run(args: &ConvergeArgs) -> Result<Vec<Rung>, CliError> {
     let mut others = Vec::new();
     for path in &args.compare {
         others.extend(read_series(path, &args.label)?);
     }
-    let mut inp = input::load(&args.scene)?;
+    let mut loaded = lumo::load(&args.scene, &LoadOptions::default())?;
     if let Some(k) = args.sampler {
-        inp.scene.render.sampler = k.into();
+        loaded.edit(|s| s.render.sampler = k)?;
     }
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|e| CliError::failure(format!("{}: {e}", args.out_dir.display())))?;
     let scene_at = |spp: u32, seed: u64| -> Result<Scene, CliError> {
-        let mut desc = inp.scene.clone();
-        desc.render.spp = spp;
-        desc.render.seed = seed;
-        desc.render.time_budget_s = None;
-        build(&desc, &inp.base_dir, external)
+        let mut rung = loaded.clone();
+        rung.edit(|s| {
+            s.render.spp = spp;
+            s.render.seed = seed;
+            s.render.time_budget_s = None;
+        })?;
+        rung.build()
             .map(|(s, _)| s)
             .map_err(|e| CliError::invalid(e.to_string()))
     };
@@ -184,10 +186,18 @@ pub fn run(args: &ConvergeArgs, external: &dyn ExternalData) -> Result<Vec<Rung>
             r.image
         }
     };
-    if (reference.width, reference.height) != (inp.scene.image.width, inp.scene.image.height) {
+    if (reference.width, reference.height)
+        != (
+            loaded.description.scene.image.width,
+            loaded.description.scene.image.height,
+        )
+    {
         return Err(CliError::invalid(format!(
             "reference is {}×{} but the scene renders {}×{}",
-            reference.width, reference.height, inp.scene.image.width, inp.scene.image.height
+            reference.width,
+            reference.height,
+            loaded.description.scene.image.width,
+            loaded.description.scene.image.height
         )));
     }
     let options = RenderOptions {

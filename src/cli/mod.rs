@@ -1,19 +1,20 @@
 //! The command-line interface: argument parsing and the subcommands.
 
 pub mod converge;
-pub mod gltf;
-pub mod input;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::builder::TypedValueParser as _;
+use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use lumo_converters::legacy::LightsPolicy;
 use lumo_schema as schema;
+use lumo_schema::Keyword;
 
-use crate::output::{write_image, ToneMap};
-use crate::render::{render_with_error, RenderOptions};
-use crate::scene::build::{build, ExternalData};
+use lumo::load::{LoadError, LoadOptions};
+use lumo::output::{write_image, ToneMap};
+use lumo::render::{render_with_error, RenderOptions};
 
 /// Exit code for invalid input.
 pub const EXIT_INVALID: i32 = 2;
@@ -45,14 +46,13 @@ impl CliError {
             message: message.into(),
         }
     }
+}
 
-    /// Maps a scene loading error to its exit code.
-    pub fn from_load(e: schema::LoadError) -> Self {
-        match e {
-            schema::LoadError::Io { .. } => CliError::failure(e.to_string()),
-            schema::LoadError::Invalid { .. } => {
-                CliError::invalid(e.to_string().trim_end().to_string())
-            }
+impl From<LoadError> for CliError {
+    fn from(e: LoadError) -> Self {
+        CliError {
+            code: e.exit_code(),
+            message: e.to_string(),
         }
     }
 }
@@ -66,61 +66,10 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// Integrator choice on the command line.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum IntegratorArg {
-    /// Path tracing (NEE + MIS).
-    Path,
-    /// Fast ray-casting preview.
-    Raycast,
-}
-
-/// Sampler choice on the command line.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum SamplerArg {
-    /// Owen-scrambled Sobol.
-    Sobol,
-    /// Independent random numbers.
-    Independent,
-}
-
-/// What to do with a legacy scene's `Lights` block.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum LightsArg {
-    /// Keep the punctual lights.
-    Keep,
-    /// Drop them: light the scene by emissive materials only.
-    Drop,
-    /// Keep them only when no object emits light (the original ray caster); drop them otherwise.
-    Auto,
-}
-
-impl From<LightsArg> for lumo_converters::legacy::LightsPolicy {
-    fn from(a: LightsArg) -> Self {
-        match a {
-            LightsArg::Keep => Self::Keep,
-            LightsArg::Drop => Self::Drop,
-            LightsArg::Auto => Self::Auto,
-        }
-    }
-}
-
-impl From<SamplerArg> for schema::SamplerKind {
-    fn from(a: SamplerArg) -> Self {
-        match a {
-            SamplerArg::Sobol => schema::SamplerKind::Sobol,
-            SamplerArg::Independent => schema::SamplerKind::Independent,
-        }
-    }
-}
-
-/// Tone mapping choice on the command line.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum ToneMapArg {
-    /// Clamp to [0, 1].
-    Clamp,
-    /// ACES filmic curve.
-    Aces,
+/// A value parser for a keyword enum of the scene (or the converters, or the output): `--help`
+/// lists its keywords and the value parses into the enum itself, so the CLI keeps no copy.
+fn keyword<T: Keyword + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
+    clap::builder::PossibleValuesParser::new(T::keywords()).try_map(|s| T::from_keyword(&s))
 }
 
 /// Subcommands.
@@ -156,8 +105,8 @@ pub enum Command {
         #[arg(long, value_name = "NAME|INDEX")]
         camera: Option<String>,
         /// Legacy input: keep or drop the `Lights` block, or decide per scene (see docs/legacy.md).
-        #[arg(long, value_enum, default_value = "auto")]
-        lights: LightsArg,
+        #[arg(long, value_parser = keyword::<LightsPolicy>(), default_value = "auto")]
+        lights: LightsPolicy,
     },
     /// Print the JSON Schema of scene files (draft 2020-12).
     #[command(after_help = "Example:\n  lumo schema -o schema/scene.schema.json")]
@@ -195,18 +144,18 @@ pub struct RenderArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub threads: Option<u32>,
     /// Light-transport algorithm (overrides the scene).
-    #[arg(long, value_enum)]
-    pub integrator: Option<IntegratorArg>,
+    #[arg(long, value_parser = keyword::<schema::Integrator>())]
+    pub integrator: Option<schema::Integrator>,
     /// Sample sequence (overrides the scene).
-    #[arg(long, value_enum)]
-    pub sampler: Option<SamplerArg>,
+    #[arg(long, value_parser = keyword::<schema::SamplerKind>())]
+    pub sampler: Option<schema::SamplerKind>,
     /// Tone mapping for 8-bit outputs (PNG, BMP); EXR and HDR stay linear.
-    #[arg(long, value_enum, default_value = "clamp")]
-    pub tonemap: ToneMapArg,
+    #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
+    pub tonemap: ToneMap,
     /// Legacy `.txt` scenes: keep, drop, or decide per scene (keep when nothing emits) whether
     /// to use the file's Lights block.
-    #[arg(long, value_enum, default_value = "auto")]
-    pub lights: LightsArg,
+    #[arg(long, value_parser = keyword::<LightsPolicy>(), default_value = "auto")]
+    pub lights: LightsPolicy,
     /// Render progressive passes for this long (e.g. `30s`, `2m`, `500ms`); `--spp`, when
     /// given, still caps the samples.
     #[arg(long, value_parser = parse_duration)]
@@ -258,7 +207,7 @@ fn parse_duration(text: &str) -> Result<f32, String> {
 /// Runs the CLI; returns the process exit code.
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
-        Command::Render(args) => render_cmd(&args, &gltf::GltfData::default()),
+        Command::Render(args) => render_cmd(&args),
         Command::Convert {
             input,
             output,
@@ -267,7 +216,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         } => convert_cmd(&input, &output, camera.as_deref(), lights),
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
-        Command::Converge(args) => converge::run(&args, &gltf::GltfData::default()).map(|_| ()),
+        Command::Converge(args) => converge::run(&args).map(|_| ()),
     }
 }
 
@@ -282,7 +231,7 @@ fn convert_cmd(
     input_path: &Path,
     output: &Path,
     camera: Option<&str>,
-    lights: LightsArg,
+    lights: LightsPolicy,
 ) -> Result<(), CliError> {
     let ext = output
         .extension()
@@ -303,36 +252,39 @@ fn convert_cmd(
         "json" => (true, false),
         "txt" => (false, true),
         "gltf" | "glb" => (false, false),
-        _ => return Err(CliError::invalid(format!(
+        _ => {
+            return Err(CliError::invalid(format!(
             "{}: cannot tell the output format from `{ext}` (expected .json, .txt, .gltf or .glb)",
             output.display()
-        ))),
+        )))
+        }
     };
     // A converted scene's paths are written relative to the output's folder.
-    let options = input::LoadOptions {
-        lights: lights.into(),
+    let options = LoadOptions {
+        lights,
         camera: camera.map(camera_choice),
         scene_dir: json_out.then(|| out_dir.clone()),
     };
-    let mut inp = input::load_with(input_path, &options)?;
+    let inp = lumo::load::read_scene(input_path, &options)?;
+    let base_dir = inp.base_dir;
+    let mut scene = inp.scene.into_inner();
     for w in &inp.warnings {
         eprintln!("warning: {}: {w}", input_path.display());
     }
     if json_out {
-        rebase_paths(&mut inp.scene, &inp.base_dir, &out_dir);
-        write_text_atomically(output, &schema::to_json(&inp.scene))?;
+        rebase_paths(&mut scene, &base_dir, &out_dir);
+        write_text_atomically(output, &schema::to_json(&scene))?;
     } else if legacy_out {
-        rebase_paths(&mut inp.scene, &inp.base_dir, &out_dir);
-        let text = lumo_converters::legacy::export(&inp.scene)
+        rebase_paths(&mut scene, &base_dir, &out_dir);
+        let text = lumo_converters::legacy::export(&scene)
             .map_err(|e| CliError::invalid(format!("{}: {e}", output.display())))?;
         write_text_atomically(output, &text)?;
     } else {
-        let warnings = lumo_converters::gltf::export(&inp.scene, &inp.base_dir, output).map_err(
-            |e| match e {
+        let warnings =
+            lumo_converters::gltf::export(&scene, &base_dir, output).map_err(|e| match e {
                 lumo_converters::gltf::GltfError::Io { .. } => CliError::failure(e.to_string()),
                 _ => CliError::invalid(e.to_string()),
-            },
-        )?;
+            })?;
         for w in warnings {
             eprintln!("warning: {}: {w}", output.display());
         }
@@ -389,7 +341,7 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
     let mut worst = 0;
     let mut report = String::new();
     for f in files {
-        match input::load(f) {
+        match lumo::load::read_scene(f, &LoadOptions::default()) {
             Ok(inp) => {
                 for w in &inp.warnings {
                     eprintln!("warning: {}: {w}", f.display());
@@ -398,8 +350,8 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
             }
             Err(e) => {
                 // 2 (invalid) outranks 1 (I/O) when files fail in different ways.
-                worst = worst.max(e.code);
-                report.push_str(&e.message);
+                worst = worst.max(e.exit_code());
+                report.push_str(e.message());
                 report.push('\n');
             }
         }
@@ -414,50 +366,47 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
     }
 }
 
-fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliError> {
-    crate::output::format_of(&args.output).map_err(|e| CliError::invalid(e.to_string()))?;
-    let options = input::LoadOptions {
-        lights: args.lights.into(),
+fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
+    lumo::output::format_of(&args.output).map_err(|e| CliError::invalid(e.to_string()))?;
+    let options = LoadOptions {
+        lights: args.lights,
         camera: args.camera.as_deref().map(camera_choice),
         scene_dir: None,
     };
-    let mut inp = input::load_with(&args.scene, &options)?;
-    let s = &mut inp.scene;
-    if let Some(v) = args.spp {
-        s.render.spp = v;
-    }
-    if let Some(v) = args.width {
-        s.image.width = v;
-    }
-    if let Some(v) = args.height {
-        s.image.height = v;
-    }
-    if let Some(v) = args.seed {
-        s.render.seed = v;
-    }
-    if let Some(v) = args.max_depth {
-        s.render.max_depth = v;
-    }
-    if let Some(i) = args.integrator {
-        s.render.integrator = match i {
-            IntegratorArg::Path => schema::Integrator::Path,
-            IntegratorArg::Raycast => schema::Integrator::Raycast,
-        };
-    }
-    if let Some(k) = args.sampler {
-        s.render.sampler = k.into();
-    }
-    if let Some(t) = args.time {
-        s.render.time_budget_s = Some(t);
-    }
-    if (args.time.is_some() || args.target_error.is_some()) && args.spp.is_none() {
-        // Asked for a time or an error, not a sample count: let the budget decide.
-        s.render.spp = schema::MAX_SPP;
-    }
-    let reference = match &args.reference {
-        Some(p) => {
-            Some(crate::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?)
+    let mut loaded = lumo::load(&args.scene, &options)?;
+    loaded.edit(|s| {
+        if let Some(v) = args.spp {
+            s.render.spp = v;
         }
+        if let Some(v) = args.width {
+            s.image.width = v;
+        }
+        if let Some(v) = args.height {
+            s.image.height = v;
+        }
+        if let Some(v) = args.seed {
+            s.render.seed = v;
+        }
+        if let Some(v) = args.max_depth {
+            s.render.max_depth = v;
+        }
+        if let Some(i) = args.integrator {
+            s.render.integrator = i;
+        }
+        if let Some(k) = args.sampler {
+            s.render.sampler = k;
+        }
+        if let Some(t) = args.time {
+            s.render.time_budget_s = Some(t);
+        }
+        if (args.time.is_some() || args.target_error.is_some()) && args.spp.is_none() {
+            // Asked for a time or an error, not a sample count: let the budget decide.
+            s.render.spp = schema::MAX_SPP;
+        }
+    })?;
+    let s = &*loaded.description.scene;
+    let reference = match &args.reference {
+        Some(p) => Some(lumo::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
         None => None,
     };
     if let Some(r) = &reference {
@@ -474,19 +423,11 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
             )));
         }
     }
-    let pixels = u64::from(s.image.width) * u64::from(s.image.height);
-    if pixels > schema::MAX_PIXELS {
-        return Err(CliError::invalid(format!(
-            "{}×{} is above the limit of {} pixels",
-            s.image.width,
-            s.image.height,
-            schema::MAX_PIXELS
-        )));
-    }
-    for w in &inp.warnings {
+    for w in &loaded.description.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    let (scene, warnings) = build(&inp.scene, &inp.base_dir, external)
+    let (scene, warnings) = loaded
+        .build()
         .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
     for w in warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
@@ -520,11 +461,7 @@ fn render_cmd(args: &RenderArgs, external: &dyn ExternalData) -> Result<(), CliE
     let rendered = pool.install(|| render_with_error(&scene, &options));
     let (image, stats) = (&rendered.image, rendered.stats);
     bar.finish_and_clear();
-    let tone = match args.tonemap {
-        ToneMapArg::Clamp => ToneMap::Clamp,
-        ToneMapArg::Aces => ToneMap::Aces,
-    };
-    write_image(image, &args.output, tone).map_err(|e| CliError::failure(e.to_string()))?;
+    write_image(image, &args.output, args.tonemap).map_err(|e| CliError::failure(e.to_string()))?;
     if let Some(path) = &args.error_image {
         write_image(&rendered.std_error, path, ToneMap::Clamp)
             .map_err(|e| CliError::failure(e.to_string()))?;

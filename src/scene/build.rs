@@ -1,18 +1,18 @@
-//! Turning a validated scene description into a scene graph: resolve names to indices, compose
-//! transforms, load meshes and textures, collect lights.
+//! Turning a validated scene description and its assets into a scene graph: resolve names to
+//! indices, compose transforms, make meshes and textures, collect lights. No I/O happens here.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::{Affine2, Mat4};
 use lumo_schema as schema;
+use lumo_schema::Validated;
 
-use super::obj::{load_obj, MeshData};
 use super::{IntegratorKind, Scene, Settings};
 use crate::camera::Camera;
 use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
 use crate::light::{Light, LightSampler};
+use crate::load::{Assets, MeshData};
 use crate::material::Material;
 use crate::math::{srgb_to_linear, Affine3A, Vec2, Vec3};
 use crate::texture::{Texture, TextureRef, Wrap};
@@ -20,43 +20,40 @@ use crate::texture::{Texture, TextureRef, Wrap};
 /// Most triangles a scene may hold (about 6 GiB with BVHs); larger scenes are refused.
 pub const MAX_TRIANGLES: usize = 64 << 20;
 
-/// Why a scene graph could not be built (files that fail to load, limits exceeded).
+/// Why a scene graph could not be built from a validated scene and its assets.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
-    /// A referenced file could not be loaded.
-    #[error("{}: {message} (referenced at {json_path})", file.display())]
-    File {
-        /// The file.
-        file: PathBuf,
+    /// The scene references a mesh or image that is not among the assets (the scene was
+    /// changed after its assets were read).
+    #[error("{json_path}: `{file}` was not read with the scene's assets")]
+    MissingAsset {
         /// JSON path of the reference in the scene.
         json_path: String,
-        /// What went wrong.
+        /// The file as the scene names it.
+        file: String,
+    },
+    /// An object names a material the scene does not define.
+    #[error("{json_path}.material: unknown material `{name}`")]
+    UnknownMaterial {
+        /// JSON path of the object.
+        json_path: String,
+        /// The name.
+        name: String,
+    },
+    /// The scene holds more triangles than [`MAX_TRIANGLES`].
+    #[error("{json_path}: the scene exceeds the limit of {MAX_TRIANGLES} triangles (about 6 GiB of memory)")]
+    TooManyTriangles {
+        /// JSON path of the object that crossed the limit.
+        json_path: String,
+    },
+    /// A lathe's profile cannot be turned into the renderer's curve.
+    #[error("{json_path}.profile: {message}")]
+    Profile {
+        /// JSON path of the lathe.
+        json_path: String,
+        /// What is wrong with it.
         message: String,
     },
-    /// A limit was exceeded.
-    #[error("{0}")]
-    Limit(String),
-}
-
-/// A source of glTF data for meshes and textures referenced by index (provided by the CLI,
-/// which wires in the glTF importer; the renderer itself reads no glTF).
-pub trait ExternalData {
-    /// Mesh primitive `primitive` of mesh `mesh` in the glTF file `file`.
-    fn gltf_mesh(&self, file: &Path, mesh: u32, primitive: u32) -> Result<MeshData, String>;
-    /// Encoded bytes of image `image` in the glTF file `file`.
-    fn gltf_image(&self, file: &Path, image: u32) -> Result<Vec<u8>, String>;
-}
-
-/// Used when no glTF support is wired in: every glTF reference is an error saying so.
-pub struct NoExternalData;
-
-impl ExternalData for NoExternalData {
-    fn gltf_mesh(&self, _: &Path, _: u32, _: u32) -> Result<MeshData, String> {
-        Err("glTF meshes need the glTF importer, which this build does not provide".into())
-    }
-    fn gltf_image(&self, _: &Path, _: u32) -> Result<Vec<u8>, String> {
-        Err("glTF images need the glTF importer, which this build does not provide".into())
-    }
 }
 
 /// The object → world map of a list of transform steps (the first step acts first).
@@ -82,54 +79,27 @@ fn step(op: &schema::TransformOp) -> Affine3A {
     }
 }
 
-/// Builds the scene graph. `base_dir` is where relative paths resolve (the scene file's folder).
+/// Builds the scene graph from a validated scene and the assets read for it (see
+/// [`crate::load`]); reads no file. Returns the scene and warnings about what was dropped.
 pub fn build(
-    desc: &schema::Scene,
-    base_dir: &Path,
-    external: &dyn ExternalData,
+    desc: &Validated<schema::Scene>,
+    assets: &Assets,
 ) -> Result<(Scene, Vec<String>), BuildError> {
     let mut warnings = Vec::new();
-    let file_err = |file: PathBuf, json_path: String, message: String| BuildError::File {
-        file,
-        json_path,
-        message,
-    };
 
     // Textures, by name → index.
     let mut texture_index = HashMap::new();
     let mut textures = Vec::new();
     for (name, t) in &desc.textures {
-        let path = base_dir.join(&t.file);
-        let json_path = format!("textures.{name}");
-        let bytes = match t.gltf_image {
-            Some(i) => external
-                .gltf_image(&path, i)
-                .map_err(|m| file_err(path.clone(), json_path.clone(), m))?,
-            None => std::fs::read(&path).map_err(|e| {
-                file_err(
-                    path.clone(),
-                    json_path.clone(),
-                    format!("cannot read texture: {e}"),
-                )
-            })?,
-        };
-        let img = image::load_from_memory(&bytes).map_err(|e| {
-            file_err(
-                path.clone(),
-                json_path.clone(),
-                format!("cannot decode image: {e}"),
-            )
+        let image = assets.texture(t).ok_or_else(|| BuildError::MissingAsset {
+            json_path: format!("textures.{name}"),
+            file: t.file.clone(),
         })?;
-        let rgb = img.to_rgb32f();
-        let srgb = t.color_space == schema::ColorSpace::Srgb
-            && !matches!(
-                img,
-                image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
-            );
-        let texels = rgb
-            .pixels()
-            .map(|p| {
-                let c = Vec3::new(p[0], p[1], p[2]);
+        let srgb = t.color_space == schema::ColorSpace::Srgb && !image.is_float;
+        let texels = image
+            .texels
+            .iter()
+            .map(|&c| {
                 if srgb {
                     Vec3::new(
                         srgb_to_linear(c.x),
@@ -148,8 +118,8 @@ pub fn build(
         };
         texture_index.insert(name.as_str(), textures.len() as u32);
         textures.push(Texture {
-            width: rgb.width(),
-            height: rgb.height(),
+            width: image.width,
+            height: image.height,
             texels,
             wrap,
         });
@@ -194,10 +164,10 @@ pub fn build(
     for (i, obj) in desc.objects.iter().enumerate() {
         let json_path = format!("objects[{i}].{}", obj.kind());
         let Some(&material) = material_index.get(obj.material()) else {
-            return Err(BuildError::Limit(format!(
-                "{json_path}.material: unknown material `{}`",
-                obj.material()
-            )));
+            return Err(BuildError::UnknownMaterial {
+                json_path,
+                name: obj.material().to_string(),
+            });
         };
         let to_world = compose_transform(obj.transform());
         let shape = match obj {
@@ -229,12 +199,10 @@ pub fn build(
                 let mesh = match mesh_cache.get(&key) {
                     Some(mesh) => mesh.clone(),
                     None => {
-                        let data = load_mesh(&m.source, base_dir, external, &json_path)?;
+                        let data = mesh_data(&m.source, assets, &json_path)?;
                         total_triangles += data.triangles.len();
                         if total_triangles > MAX_TRIANGLES {
-                            return Err(BuildError::Limit(format!(
-                                "{json_path}: the scene exceeds the limit of {MAX_TRIANGLES} triangles (about 6 GiB of memory)"
-                            )));
+                            return Err(BuildError::TooManyTriangles { json_path });
                         }
                         let normals = if m.smooth {
                             Some(data.normals.clone().unwrap_or_else(|| {
@@ -419,37 +387,20 @@ fn build_lathe(
             Profile::bspline(b.degree as usize, &pts(&b.points), Some(&knots))
         }
     };
-    built
-        .map(Lathe::new)
-        .map_err(|e| BuildError::Limit(format!("{json_path}.profile: {e}")))
+    built.map(Lathe::new).map_err(|e| BuildError::Profile {
+        json_path: json_path.to_string(),
+        message: e.to_string(),
+    })
 }
 
-fn load_mesh(
+/// The mesh arrays of a source: inline data from the scene, files from the assets.
+fn mesh_data(
     source: &schema::MeshSource,
-    base_dir: &Path,
-    external: &dyn ExternalData,
+    assets: &Assets,
     json_path: &str,
 ) -> Result<MeshData, BuildError> {
-    match source {
-        schema::MeshSource::Obj(file) => {
-            let path = base_dir.join(file);
-            load_obj(&path).map_err(|message| BuildError::File {
-                file: path,
-                json_path: format!("{json_path}.source.obj"),
-                message,
-            })
-        }
-        schema::MeshSource::Gltf(g) => {
-            let path = base_dir.join(&g.file);
-            external
-                .gltf_mesh(&path, g.mesh, g.primitive)
-                .map_err(|message| BuildError::File {
-                    file: path,
-                    json_path: format!("{json_path}.source.gltf"),
-                    message,
-                })
-        }
-        schema::MeshSource::Inline(m) => Ok(MeshData {
+    if let schema::MeshSource::Inline(m) = source {
+        return Ok(MeshData {
             positions: m.positions.iter().map(|p| Vec3::from(*p)).collect(),
             triangles: m.indices.clone(),
             normals: m.normals.as_ref().map(|n| {
@@ -461,6 +412,17 @@ fn load_mesh(
                 .uvs
                 .as_ref()
                 .map(|t| t.iter().map(|v| Vec2::from(*v)).collect()),
+        });
+    }
+    match assets.mesh(source) {
+        Some(data) => Ok(MeshData::clone(data)),
+        None => Err(BuildError::MissingAsset {
+            json_path: format!("{json_path}.source"),
+            file: match source {
+                schema::MeshSource::Obj(f) => f.clone(),
+                schema::MeshSource::Gltf(g) => g.file.clone(),
+                schema::MeshSource::Inline(_) => String::new(),
+            },
         }),
     }
 }

@@ -2,7 +2,6 @@
 //! validated scene description by [`build`]; the renderer never sees the file formats.
 
 pub mod build;
-mod obj;
 
 use crate::camera::Camera;
 use crate::geometry::{Accel, Geometry, SurfaceHit};
@@ -12,7 +11,6 @@ use crate::math::{Ray, Rgb};
 use crate::texture::Texture;
 
 pub use build::{build, BuildError};
-pub use obj::MeshData;
 
 /// The light-transport algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

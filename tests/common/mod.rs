@@ -29,12 +29,18 @@ pub fn shared() -> Option<PathBuf> {
 
 /// Loads and builds a scene file from the workspace, with settings overridden for a small test.
 pub fn load_scene(path: &Path) -> lumo_schema::Scene {
-    lumo_schema::load_scene_file(path).unwrap_or_else(|e| panic!("{e}"))
+    lumo_schema::load_scene_file(path)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .into_inner()
 }
 
-/// Builds a scene description into a renderable scene.
+/// Validates a scene description, reads its assets (relative to `base`) and builds it into a
+/// renderable scene.
 pub fn build(desc: &lumo_schema::Scene, base: &Path) -> lumo::scene::Scene {
-    lumo::scene::build(desc, base, &lumo::scene::build::NoExternalData)
+    let valid = lumo_schema::Validated::new(desc.clone(), Some(base))
+        .unwrap_or_else(|d| panic!("invalid scene: {}", d[0]));
+    let assets = lumo::load::Assets::read(&valid, base).unwrap_or_else(|e| panic!("{e}"));
+    lumo::scene::build(&valid, &assets)
         .unwrap_or_else(|e| panic!("{e}"))
         .0
 }

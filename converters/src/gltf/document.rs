@@ -20,6 +20,8 @@ pub struct Loaded {
     /// Buffer contents by index (`None` for a buffer we could not need yet: never happens
     /// after [`Loaded::open`], kept as a Vec of bytes).
     pub buffers: Vec<Vec<u8>>,
+    /// The external buffer files that were read (not the glTF file itself).
+    pub buffer_files: Vec<PathBuf>,
 }
 
 /// Reads a file with a size limit.
@@ -122,10 +124,12 @@ fn parse_error(file: &Path, e: gltf::Error) -> GltfError {
                 if matches!(err, gltf::json::validation::Error::Unsupported)
                     && p.starts_with("extensionsRequired[")
                 {
+                    // The path reads `extensionsRequired[1] = "NAME"`: the index is up to `]`.
                     let index = p
                         .trim_start_matches("extensionsRequired[")
-                        .trim_end_matches(']')
-                        .parse()
+                        .split(']')
+                        .next()
+                        .and_then(|i| i.parse().ok())
                         .unwrap_or(0);
                     return GltfError::UnsupportedExtension {
                         file: file.to_path_buf(),
@@ -192,6 +196,7 @@ impl Loaded {
         let gltf::Gltf { document, blob } = gltf;
         let dir = file.parent().unwrap_or(Path::new(""));
         let mut buffers = Vec::new();
+        let mut buffer_files = Vec::new();
         for buffer in document.buffers() {
             let element = format!("buffers[{}]", buffer.index());
             let data = match buffer.source() {
@@ -223,7 +228,9 @@ impl Loaded {
                                 format!("buffer file `{uri}` not found (looked for {}); copy it next to the glTF file", path.display()),
                             ));
                         }
-                        read_file(&path)?
+                        let data = read_file(&path)?;
+                        buffer_files.push(path);
+                        data
                     }
                 },
             };
@@ -244,6 +251,7 @@ impl Loaded {
             file: file.to_path_buf(),
             doc: document,
             buffers,
+            buffer_files,
         })
     }
 
@@ -401,6 +409,17 @@ impl Loaded {
                     }
                 }
             }
+        }
+    }
+
+    /// The file an image is read from when its URI names an external file (not a data URI,
+    /// not a buffer view).
+    pub fn image_file(&self, image: &gltf::Image) -> Option<PathBuf> {
+        match image.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+                Some(self.dir().join(percent_decode(uri)))
+            }
+            _ => None,
         }
     }
 

@@ -986,15 +986,20 @@ impl Importer<'_> {
     }
 
     /// A camera on the +z side of the scene's bounding box looking at its centre, with a 45°
-    /// vertical field of view and the bounding sphere just inside the view.
+    /// vertical field of view and the bounding sphere just inside the view. A model that is
+    /// flat in y or x (a ground plane, a wall) would be seen edge-on from +z, so the camera
+    /// then moves up (or right) by atan(1/2) ≈ 26.6° to see its face.
     fn frame(&self) -> Camera {
         let (lo, hi) = self.bounds.unwrap_or(([-1.0; 3], [1.0; 3]));
         let c = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
         let r = (0.5 * math::len(math::sub(hi, lo))).max(1e-3);
+        let flat = |k: usize| hi[k] - lo[k] <= 1e-3 * r;
+        let tilt = |k: usize| if flat(k) && !flat(2) { 0.5 } else { 0.0 };
+        let dir = math::normalize([tilt(0), tilt(1), 1.0]).unwrap_or([0.0, 0.0, 1.0]);
         let fov: f64 = 45.0;
         let d = 1.1 * r / (fov.to_radians() / 2.0).sin();
         Camera {
-            position: [c[0] as f32, c[1] as f32, (c[2] + d) as f32],
+            position: [0, 1, 2].map(|k| (c[k] + d * dir[k]) as f32),
             look_at: c.map(|x| x as f32),
             up: [0.0, 1.0, 0.0],
             fov_y_deg: fov as f32,

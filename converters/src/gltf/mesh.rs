@@ -55,6 +55,20 @@ impl GltfFile {
         read_primitive(&self.loaded, mesh as usize, primitive as usize)
     }
 
+    /// Every file read to open this one: the glTF file, then its external buffer files.
+    pub fn files(&self) -> Vec<std::path::PathBuf> {
+        let mut files = vec![self.loaded.file.clone()];
+        files.extend(self.loaded.buffer_files.iter().cloned());
+        files
+    }
+
+    /// The external file image `image` is read from, if it is one (not a data URI or a
+    /// buffer view).
+    pub fn image_file(&self, image: u32) -> Option<std::path::PathBuf> {
+        let img = self.loaded.doc.images().nth(image as usize)?;
+        self.loaded.image_file(&img)
+    }
+
     /// See [`load_image`].
     pub fn image(&self, image: u32) -> Result<(Vec<u8>, Option<String>), GltfError> {
         let Some(img) = self.loaded.doc.images().nth(image as usize) else {

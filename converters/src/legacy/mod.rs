@@ -40,6 +40,8 @@ pub enum LightsPolicy {
     Auto,
 }
 
+lumo_schema::keyword_enum!(LightsPolicy, "keep" => LightsPolicy::Keep, "drop" => LightsPolicy::Drop, "auto" => LightsPolicy::Auto);
+
 /// How to import.
 #[derive(Debug, Clone, Default)]
 pub struct ImportOptions {

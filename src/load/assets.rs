@@ -1,0 +1,180 @@
+//! Reading what a scene references (OBJ and glTF meshes, texture images) into plain arrays,
+//! so that building the scene graph does no I/O.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use lumo_schema as schema;
+use lumo_schema::Validated;
+
+use super::gltf::GltfCache;
+pub use super::obj::MeshData;
+use crate::math::Vec3;
+
+/// A decoded texture image: RGB texels as stored in the file (not yet linearised).
+#[derive(Debug, Clone)]
+pub struct TextureImage {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Texels, row-major, top row first, as the file stores them.
+    pub texels: Vec<Vec3>,
+    /// Whether the file holds linear floating-point values (EXR, HDR), which are never
+    /// sRGB-decoded.
+    pub is_float: bool,
+}
+
+/// A file the scene references could not be read or decoded.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{}: {message} (referenced at {json_path})", file.display())]
+pub struct AssetError {
+    /// The file.
+    pub file: PathBuf,
+    /// JSON path of the reference in the scene.
+    pub json_path: String,
+    /// What went wrong.
+    pub message: String,
+}
+
+/// Where a mesh comes from, as the scene writes it (inline meshes are not assets).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+enum MeshKey {
+    Obj(String),
+    Gltf(String, u32, u32),
+}
+
+impl MeshKey {
+    fn of(source: &schema::MeshSource) -> Option<MeshKey> {
+        match source {
+            schema::MeshSource::Obj(f) => Some(MeshKey::Obj(f.clone())),
+            schema::MeshSource::Gltf(g) => Some(MeshKey::Gltf(g.file.clone(), g.mesh, g.primitive)),
+            schema::MeshSource::Inline(_) => None,
+        }
+    }
+}
+
+/// Every mesh and image a scene references, read once each, keyed by how the scene refers to
+/// them.
+#[derive(Debug, Clone, Default)]
+pub struct Assets {
+    meshes: HashMap<MeshKey, Arc<MeshData>>,
+    textures: HashMap<(String, Option<u32>), Arc<TextureImage>>,
+    files: Vec<PathBuf>,
+}
+
+impl Assets {
+    /// Reads every texture and mesh file `scene` references; relative paths resolve against
+    /// `base_dir`. The first file that fails is the error.
+    pub fn read(scene: &Validated<schema::Scene>, base_dir: &Path) -> Result<Assets, AssetError> {
+        let mut assets = Assets::default();
+        let mut gltf = GltfCache::default();
+        for (name, t) in &scene.textures {
+            let key = (t.file.clone(), t.gltf_image);
+            if assets.textures.contains_key(&key) {
+                continue;
+            }
+            let path = base_dir.join(&t.file);
+            let fail = |message: String| AssetError {
+                file: path.clone(),
+                json_path: format!("textures.{name}"),
+                message,
+            };
+            let bytes = match t.gltf_image {
+                Some(i) => {
+                    let file = gltf.open(&path, &mut assets.files).map_err(fail)?;
+                    let bytes = file.image(i).map_err(|e| fail(e.to_string()))?.0;
+                    if let Some(image_file) = file.image_file(i) {
+                        assets.note_file(image_file);
+                    }
+                    bytes
+                }
+                None => {
+                    let bytes = std::fs::read(&path)
+                        .map_err(|e| fail(format!("cannot read texture: {e}")))?;
+                    assets.note_file(path.clone());
+                    bytes
+                }
+            };
+            let image = decode_image(&bytes).map_err(fail)?;
+            assets.textures.insert(key, Arc::new(image));
+        }
+        for (i, obj) in scene.objects.iter().enumerate() {
+            let schema::Object::Mesh(m) = obj else {
+                continue;
+            };
+            let Some(key) = MeshKey::of(&m.source) else {
+                continue;
+            };
+            if assets.meshes.contains_key(&key) {
+                continue;
+            }
+            let json_path = format!("objects[{i}].{}", obj.kind());
+            let data = match &m.source {
+                schema::MeshSource::Obj(file) => {
+                    let path = base_dir.join(file);
+                    let data = super::obj::load_obj(&path).map_err(|message| AssetError {
+                        file: path.clone(),
+                        json_path: format!("{json_path}.source.obj"),
+                        message,
+                    })?;
+                    assets.note_file(path);
+                    data
+                }
+                schema::MeshSource::Gltf(g) => {
+                    let path = base_dir.join(&g.file);
+                    let fail = |message: String| AssetError {
+                        file: path.clone(),
+                        json_path: format!("{json_path}.source.gltf"),
+                        message,
+                    };
+                    let file = gltf.open(&path, &mut assets.files).map_err(fail)?;
+                    super::gltf::mesh_data(&file, g.mesh, g.primitive).map_err(fail)?
+                }
+                schema::MeshSource::Inline(_) => continue,
+            };
+            assets.meshes.insert(key, Arc::new(data));
+        }
+        Ok(assets)
+    }
+
+    /// The mesh read for `source`, or `None` for inline meshes and sources that were not
+    /// read (the scene was changed after its assets were read).
+    pub fn mesh(&self, source: &schema::MeshSource) -> Option<&Arc<MeshData>> {
+        self.meshes.get(&MeshKey::of(source)?)
+    }
+
+    /// The image read for `texture`.
+    pub fn texture(&self, texture: &schema::Texture) -> Option<&Arc<TextureImage>> {
+        self.textures
+            .get(&(texture.file.clone(), texture.gltf_image))
+    }
+
+    /// Every file read, each once, in the order first read.
+    pub fn files(&self) -> &[PathBuf] {
+        &self.files
+    }
+
+    fn note_file(&mut self, file: PathBuf) {
+        if !self.files.contains(&file) {
+            self.files.push(file);
+        }
+    }
+}
+
+/// Decodes an encoded image (PNG, JPEG, BMP, HDR, EXR) into RGB texels.
+fn decode_image(bytes: &[u8]) -> Result<TextureImage, String> {
+    let img = image::load_from_memory(bytes).map_err(|e| format!("cannot decode image: {e}"))?;
+    let is_float = matches!(
+        img,
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+    );
+    let rgb = img.to_rgb32f();
+    Ok(TextureImage {
+        width: rgb.width(),
+        height: rgb.height(),
+        texels: rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
+        is_float,
+    })
+}

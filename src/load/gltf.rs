@@ -1,0 +1,52 @@
+//! glTF files opened for the loader: mesh primitives and images referenced by index from a
+//! scene are read through `lumo_converters::gltf`, each file parsed once.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use lumo_converters::gltf::GltfFile;
+
+use super::obj::MeshData;
+use crate::math::{Vec2, Vec3};
+
+/// The glTF files opened so far, by path.
+#[derive(Default)]
+pub(super) struct GltfCache {
+    files: HashMap<PathBuf, Arc<GltfFile>>,
+}
+
+impl GltfCache {
+    /// Opens `file` (once), noting it and its buffer files in `read`.
+    pub(super) fn open(
+        &mut self,
+        file: &Path,
+        read: &mut Vec<PathBuf>,
+    ) -> Result<Arc<GltfFile>, String> {
+        if let Some(f) = self.files.get(file) {
+            return Ok(f.clone());
+        }
+        let f = Arc::new(GltfFile::open(file).map_err(|e| e.to_string())?);
+        for path in f.files() {
+            if !read.contains(&path) {
+                read.push(path);
+            }
+        }
+        self.files.insert(file.to_path_buf(), f.clone());
+        Ok(f)
+    }
+}
+
+/// One primitive of one mesh as the renderer's mesh arrays.
+pub(super) fn mesh_data(file: &GltfFile, mesh: u32, primitive: u32) -> Result<MeshData, String> {
+    let d = file
+        .mesh_primitive(mesh, primitive)
+        .map_err(|e| e.to_string())?;
+    Ok(MeshData {
+        positions: d.positions.into_iter().map(Vec3::from).collect(),
+        triangles: d.indices,
+        normals: d.normals.map(|n| n.into_iter().map(Vec3::from).collect()),
+        // Already in lumo's bottom-left convention.
+        uvs: d.uvs.map(|t| t.into_iter().map(Vec2::from).collect()),
+    })
+}

@@ -1,0 +1,267 @@
+//! Loading any supported input into a validated scene and the data it references.
+//!
+//! [`load`] is the one way in: it reads a lumo scene (`.json`), a legacy text scene (`.txt`) or
+//! a glTF file (`.gltf`/`.glb`), validates it, and reads every asset it references (OBJ and
+//! glTF meshes, texture images) into plain arrays ([`Assets`]), recording each file it read.
+//! [`Loaded::build`] then turns it into the renderer's scene graph without touching a file.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let loaded = lumo::load("scenes/cornell.json", &lumo::LoadOptions::default())?;
+//! let (scene, _warnings) = loaded.build()?;
+//! let (image, _stats) = lumo::render::render(&scene, &Default::default());
+//! lumo::output::write_image(&image, "cornell.png".as_ref(), lumo::output::ToneMap::Clamp)?;
+//! # Ok(())
+//! # }
+//! ```
+
+mod assets;
+mod gltf;
+mod obj;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use lumo_converters::gltf::{CameraChoice, ImportOptions};
+use lumo_converters::legacy;
+use lumo_schema as schema;
+use lumo_schema::Validated;
+
+pub use assets::{AssetError, Assets, MeshData, TextureImage};
+
+/// The kinds of input lumo reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputKind {
+    /// lumo scene JSON.
+    Json,
+    /// The course's legacy text scene format (`.txt`), converted on the fly.
+    Legacy,
+    /// glTF 2.0 (.gltf or .glb).
+    Gltf,
+}
+
+/// Options for inputs that need them.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// Legacy scenes: keep, drop, or decide per scene whether to use the `Lights` block.
+    pub lights: legacy::LightsPolicy,
+    /// glTF: which camera to use (`--camera NAME|INDEX`).
+    pub camera: Option<CameraChoice>,
+    /// glTF: the folder the scene's relative paths should be relative to (where a converted
+    /// scene file will be written). Default: the glTF file's folder.
+    pub scene_dir: Option<PathBuf>,
+}
+
+/// Why an input could not be loaded. Every message names the file.
+#[derive(Debug)]
+pub enum LoadError {
+    /// A file could not be read (missing, unreadable): not the input's fault.
+    Io(String),
+    /// The input is invalid: the message says where and how to fix it.
+    Invalid(String),
+}
+
+impl LoadError {
+    /// The process exit code this error maps to: 2 for invalid input, 1 for I/O.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            LoadError::Io(_) => 1,
+            LoadError::Invalid(_) => 2,
+        }
+    }
+
+    /// The message for the user.
+    pub fn message(&self) -> &str {
+        match self {
+            LoadError::Io(m) | LoadError::Invalid(m) => m,
+        }
+    }
+}
+
+impl fmt::Display for LoadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.message())
+    }
+}
+
+impl std::error::Error for LoadError {}
+
+impl From<AssetError> for LoadError {
+    fn from(e: AssetError) -> Self {
+        LoadError::Invalid(e.to_string())
+    }
+}
+
+/// A scene description read from any supported input, validated, before its assets are read.
+#[derive(Debug, Clone)]
+pub struct SceneFile {
+    /// The validated scene description.
+    pub scene: Validated<schema::Scene>,
+    /// Folder relative paths in `scene` resolve against.
+    pub base_dir: PathBuf,
+    /// Non-fatal problems found while reading, without the file name.
+    pub warnings: Vec<String>,
+    /// The input file itself (its assets are listed by [`Assets::files`]).
+    pub file: PathBuf,
+    /// What kind of input it was.
+    pub kind: InputKind,
+}
+
+impl SceneFile {
+    /// Applies command-line style overrides (sample count, image size, …) to the scene and
+    /// validates the result; an override that makes the scene invalid is an error naming the
+    /// file.
+    pub fn edit(&mut self, change: impl FnOnce(&mut schema::Scene)) -> Result<(), LoadError> {
+        let file = self.file.clone();
+        self.scene
+            .edit(Some(&self.base_dir), change)
+            .map_err(|d| invalid_report(&file, d))
+    }
+}
+
+/// A scene read and validated, with every asset it references in memory.
+#[derive(Debug, Clone)]
+pub struct Loaded {
+    /// The scene description and where it came from.
+    pub description: SceneFile,
+    /// The meshes and images the scene references.
+    pub assets: Assets,
+}
+
+impl Loaded {
+    /// Builds the renderer's scene graph (no file is read here). Returns the scene and
+    /// warnings about what was dropped or approximated.
+    pub fn build(&self) -> Result<(crate::scene::Scene, Vec<String>), crate::scene::BuildError> {
+        crate::scene::build(&self.description.scene, &self.assets)
+    }
+
+    /// Every file read to load this scene: the input, then its meshes, glTF buffers and
+    /// images, each once, in the order first read.
+    pub fn files(&self) -> Vec<PathBuf> {
+        let mut files = vec![self.description.file.clone()];
+        for f in self.assets.files() {
+            if !files.contains(f) {
+                files.push(f.clone());
+            }
+        }
+        files
+    }
+
+    /// See [`SceneFile::edit`]. Overrides must not change what the scene references: the
+    /// assets were read for the scene as loaded (a build then reports the missing asset).
+    pub fn edit(&mut self, change: impl FnOnce(&mut schema::Scene)) -> Result<(), LoadError> {
+        self.description.edit(change)
+    }
+}
+
+/// The input kind of a path, by extension.
+pub fn kind_of(path: &Path) -> Result<InputKind, LoadError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "json" => Ok(InputKind::Json),
+        "txt" => Ok(InputKind::Legacy),
+        "gltf" | "glb" => Ok(InputKind::Gltf),
+        _ => Err(LoadError::Invalid(format!(
+            "{}: cannot tell the input kind from the extension `{ext}` (expected .json, .txt, .gltf or .glb)",
+            path.display()
+        ))),
+    }
+}
+
+/// Reads and validates the scene at `path` and reads every asset it references.
+pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, LoadError> {
+    let description = read_scene(path.as_ref(), options)?;
+    let assets = Assets::read(&description.scene, &description.base_dir)?;
+    Ok(Loaded {
+        description,
+        assets,
+    })
+}
+
+/// Reads and validates the scene description at `path` without reading its assets (for
+/// converting and validating).
+pub fn read_scene(path: &Path, options: &LoadOptions) -> Result<SceneFile, LoadError> {
+    let kind = kind_of(path)?;
+    let (scene, base_dir, warnings) = match kind {
+        InputKind::Gltf => {
+            use lumo_converters::gltf as g;
+            let opts = ImportOptions {
+                camera: options.camera.clone(),
+                scene_dir: options.scene_dir.clone(),
+            };
+            let imported = g::import(path, &opts).map_err(|e| match e {
+                g::GltfError::Io { .. } => LoadError::Io(e.to_string()),
+                _ => LoadError::Invalid(e.to_string()),
+            })?;
+            let base_dir = match &options.scene_dir {
+                Some(d) => d.clone(),
+                None => schema::base_dir_of(path),
+            };
+            let scene = Validated::new(imported.scene, Some(&base_dir)).map_err(|d| {
+                LoadError::Invalid(format!(
+                    "{}: the imported scene is not valid: {}",
+                    path.display(),
+                    d[0]
+                ))
+            })?;
+            (scene, base_dir, imported.warnings)
+        }
+        InputKind::Json => {
+            let scene = schema::load_scene_file(path).map_err(|e| match e {
+                schema::LoadError::Io { .. } => LoadError::Io(e.to_string()),
+                schema::LoadError::Invalid { .. } => {
+                    LoadError::Invalid(e.to_string().trim_end().to_string())
+                }
+            })?;
+            (scene, schema::base_dir_of(path), Vec::new())
+        }
+        InputKind::Legacy => {
+            // Paths in the converted scene stay relative to the legacy file's folder.
+            let opts = legacy::ImportOptions {
+                lights: options.lights,
+                output_dir: None,
+            };
+            let imported = legacy::import(path, &opts).map_err(|e| match e {
+                legacy::LegacyError::Io { .. } => LoadError::Io(e.to_string()),
+                legacy::LegacyError::Invalid { .. } => LoadError::Invalid(e.to_string()),
+            })?;
+            // The importer's warnings read `file:line:col: warning: …`; keep only
+            // `line:col: …` (callers name the file themselves).
+            let prefix = format!("{}:", path.display());
+            let warnings = imported
+                .warnings
+                .iter()
+                .map(|w| {
+                    w.strip_prefix(&prefix)
+                        .unwrap_or(w)
+                        .replacen(" warning: ", " ", 1)
+                        .trim_start()
+                        .to_string()
+                })
+                .collect();
+            let base_dir = schema::base_dir_of(path);
+            let scene = Validated::new(imported.scene, Some(&base_dir))
+                .map_err(|d| invalid_report(path, d))?;
+            (scene, base_dir, warnings)
+        }
+    };
+    Ok(SceneFile {
+        scene,
+        base_dir,
+        warnings,
+        file: path.to_path_buf(),
+        kind,
+    })
+}
+
+fn invalid_report(file: &Path, diagnostics: Vec<schema::Diagnostic>) -> LoadError {
+    let e = schema::LoadError::Invalid {
+        file: file.to_path_buf(),
+        diagnostics,
+    };
+    LoadError::Invalid(e.to_string().trim_end().to_string())
+}
