@@ -9,6 +9,7 @@ pub mod bvh;
 pub mod camera;
 pub mod cli;
 pub mod geometry;
+pub mod image;
 pub mod integrator;
 pub mod lathe;
 pub mod light;
