@@ -18,5 +18,6 @@ pub mod math;
 pub mod output;
 pub mod render;
 pub mod sampler;
+pub mod sampling;
 pub mod scene;
 pub mod texture;
