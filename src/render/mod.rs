@@ -1,6 +1,11 @@
-//! The render loop: tiles spread over threads with rayon, each pixel sample drawn from its own
-//! random stream so the image is identical whatever the thread count; progressive passes for
-//! time budgets, error targets and adaptive sampling; per-pixel error estimates.
+//! The render loop: each pixel sample drawn from its own random stream so the image is
+//! identical whatever the thread count; progressive passes for time budgets, error targets and
+//! adaptive sampling; per-pixel error estimates.
+//!
+//! One concern per file: per-pixel accumulation in `film.rs`, pass sizing and stopping in
+//! `schedule.rs`, adaptive allocation of a pass's samples in `adaptive.rs`, rendering one pass
+//! over tiles in parallel in `pass.rs`, and one pixel's camera samples in `pixel.rs`. This file
+//! holds the public entry points and wires those together.
 
 mod adaptive;
 mod film;
@@ -11,15 +16,14 @@ mod schedule;
 mod tests;
 
 use std::ops::Range;
-use std::sync::atomic::AtomicU64;
 use std::time::{Duration, Instant};
 
-use adaptive::{allocate_adaptive, ErrorSource, Scratch};
-use film::{estimate, finish, PixelSum};
-use pass::render_pass;
+use adaptive::{AdaptiveAllocator, ErrorSource};
+use film::{Film, PixelSum};
+use pass::PassContext;
 pub use pass::TILE;
 use pixel::render_samples;
-use schedule::Plan;
+use schedule::{NextPass, Plan, Schedule};
 
 pub use crate::image::Image;
 use crate::integrator::TraceStats;
@@ -90,7 +94,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> (Image, Stats) {
 ///
 /// Adaptive rendering spends the first quarter of the budget (at most 64 spp, at least 2) on
 /// uniform passes, then gives each pass to the pixels whose *neighbours* show the largest
-/// relative error; see [`allocate_adaptive`] for why the pixel's own samples are left out.
+/// relative error; the allocator (`src/render/adaptive.rs`) explains why the pixel's own
+/// samples are left out.
 pub fn render_with_error(scene: &Scene, options: &RenderOptions) -> Rendered {
     let start = Instant::now();
     let s = &scene.settings;
@@ -101,158 +106,69 @@ pub fn render_with_error(scene: &Scene, options: &RenderOptions) -> Rendered {
         budget: s.time_budget_s.map(|t| Duration::from_secs_f32(t.max(0.0))),
         seed: s.seed,
     };
-    let (sums, rays) = run_passes(
+    let (film, rays) = run_passes(
         &plan,
         options,
         ErrorSource::Neighbours,
-        |x, y, range, stats| render_samples(scene, x, y, range, stats),
+        |x, y, indices, stats| render_samples(scene, x, y, indices, stats),
     );
-    finish(&plan, &sums, rays, start.elapsed())
+    finish(&film, rays, start.elapsed())
 }
 
 /// Takes all samples of a render, pass by pass; `sample(x, y, indices, stats)` returns the sums
-/// of pixel (x, y)'s samples with the given indices. Returns the per-pixel sums and rays cast.
+/// of pixel (x, y)'s samples with the given indices. Returns the film and the rays cast.
 fn run_passes<F>(
     plan: &Plan,
     options: &RenderOptions,
     source: ErrorSource,
     sample: F,
-) -> (Vec<PixelSum>, u64)
+) -> (Film, u64)
 where
     F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
 {
-    let start = Instant::now();
-    let n_pixels = (plan.width * plan.height) as usize;
-    let n = n_pixels as u64;
-    let mut sums = vec![PixelSum::default(); n_pixels];
-    let mut counts = vec![0u32; n_pixels];
-    let mut scratch = Scratch::default();
-    let rays = AtomicU64::new(0);
-    let done = AtomicU64::new(0);
-    let total_budget = u64::from(plan.spp) * n;
-    let progressive =
-        plan.budget.is_some() || options.target_rel_error.is_some() || options.adaptive;
-    if !progressive || n == 0 {
-        counts.fill(plan.spp);
-        render_pass(
-            plan, &mut sums, &counts, &rays, &done, options, false, &sample,
-        );
-        return (sums, rays.into_inner());
+    let mut schedule = Schedule::new(plan, options);
+    let mut film = Film::new(plan.width, plan.height);
+    let mut allocator = AdaptiveAllocator::new(plan.seed, plan.budget.is_some(), source);
+    // Per-pixel timing feeds only the cost model of time-budgeted adaptive passes.
+    let timed = options.adaptive && plan.budget.is_some();
+    let context = PassContext::new(sample, options.progress, timed);
+    let mut counts = vec![0u32; film.pixels().len()];
+    while let Some(next) = schedule.next_pass() {
+        let samples = match next {
+            NextPass::Uniform(spp) => {
+                counts.fill(spp);
+                u64::from(spp) * counts.len() as u64
+            }
+            NextPass::Adaptive(pass) => match allocator.allocate(&film, &pass, &mut counts) {
+                0 => break,
+                samples => samples,
+            },
+        };
+        let pass_start = Instant::now();
+        film.merge(&context.render(&film, &counts));
+        schedule.record_pass(samples, pass_start.elapsed(), &film);
     }
-    // Uniform pilot of adaptive renders: a quarter of the samples, at most 64 spp (the
-    // allocation is refined after every pass anyway), at least 2 so that variances exist.
-    let pilot_spp = (plan.spp / 4).clamp(2, 64);
-    let mut adaptive_phase = false;
-    let mut taken_total = 0u64;
-    let mut pass_spp = plan.spp.min(2);
-    // Samples per second of the last pass, to size the next one to the time left.
-    let mut rate: Option<f64> = None;
-    // Whether that rate was measured on an adaptive pass (adaptive samples gather where paths
-    // are long, so a uniform pass's rate overestimates theirs, by 2–3× on the glass lathe).
-    let mut rate_adaptive = false;
-    let mut pass_index = 0u64;
-    while taken_total < total_budget {
-        let elapsed = start.elapsed();
-        // Even a spent budget gets a first pass of two samples per pixel: an image, and an error
-        // estimate for every pixel.
-        if plan.budget.is_some_and(|b| elapsed >= b) && taken_total >= (2 * n).min(total_budget) {
-            break;
-        }
-        let mean_taken = taken_total / n;
-        if options.adaptive
-            && !adaptive_phase
-            && mean_taken >= 2
-            && (mean_taken >= u64::from(pilot_spp) || plan.budget.is_some_and(|b| elapsed * 4 >= b))
-        {
-            adaptive_phase = true;
-        }
-        let mut pass_samples = (u64::from(pass_spp) * n).min(total_budget - taken_total);
-        let mut time_bound = false;
-        if let (Some(b), Some(r)) = (plan.budget, rate) {
-            // The pilot of an adaptive render ends at a quarter of the budget.
-            let deadline = if options.adaptive && !adaptive_phase {
-                b / 4
-            } else {
-                b
-            };
-            let mut fit = (r * deadline.saturating_sub(elapsed).as_secs_f64()) as u64;
-            if adaptive_phase && !rate_adaptive {
-                // First adaptive pass: plan a third of the time left, then measure.
-                fit /= 3;
-            }
-            time_bound = fit < pass_samples;
-            pass_samples = pass_samples.min(fit);
-        }
-        if adaptive_phase {
-            // When time runs out, a pass of fewer than 1/16 spp is not worth its per-pass cost.
-            if pass_samples == 0 || (time_bound && pass_samples < n / 16) {
-                break;
-            }
-            allocate_adaptive(
-                &sums,
-                plan,
-                source,
-                pass_samples,
-                pass_index,
-                &mut scratch,
-                &mut counts,
-            );
-        } else {
-            let mut k = pass_samples / n;
-            if k == 0 {
-                if mean_taken < 2 {
-                    k = 1; // an image needs samples, an error estimate two per pixel
-                } else if options.adaptive {
-                    adaptive_phase = true; // the pilot's time is up
-                    continue;
-                } else {
-                    break;
-                }
-            }
-            counts.fill(k as u32);
-        }
-        let mut this_pass: u64 = counts.iter().map(|&c| u64::from(c)).sum();
-        // Stochastic rounding may overshoot the samples left by a few: take them back.
-        let mut excess = this_pass.saturating_sub(total_budget - taken_total);
-        for c in counts.iter_mut().rev() {
-            if excess == 0 {
-                break;
-            }
-            let d = u64::from(*c).min(excess) as u32;
-            *c -= d;
-            excess -= u64::from(d);
-            this_pass -= u64::from(d);
-        }
-        // ... or undershoot it in the last pass of a sample budget: top up from the last pixels
-        // (a decision about a handful of samples that depends on all pixels, not on any one).
-        if adaptive_phase && !time_bound && pass_samples == total_budget - taken_total {
-            let (mut deficit, mut i) = (pass_samples.saturating_sub(this_pass), counts.len());
-            while deficit > 0 {
-                i = if i == 0 { counts.len() - 1 } else { i - 1 };
-                counts[i] += 1;
-                deficit -= 1;
-                this_pass += 1;
-            }
-        }
-        if this_pass == 0 {
-            break;
-        }
-        let t0 = Instant::now();
-        // Per-pixel timing feeds only the cost model of time-budgeted adaptive passes.
-        let timed = options.adaptive && plan.budget.is_some();
-        render_pass(
-            plan, &mut sums, &counts, &rays, &done, options, timed, &sample,
-        );
-        rate = Some(this_pass as f64 / t0.elapsed().as_secs_f64().max(1e-6));
-        rate_adaptive = adaptive_phase;
-        taken_total += this_pass;
-        pass_index += 1;
-        if let Some(target) = options.target_rel_error {
-            if estimate(&sums).1 <= target {
-                break;
-            }
-        }
-        pass_spp = pass_spp.saturating_mul(2).min(plan.spp.max(1));
+    let rays = context.rays();
+    (film, rays)
+}
+
+/// Image, error image and counters from the film.
+fn finish(film: &Film, rays: u64, elapsed: Duration) -> Rendered {
+    let estimate = film.estimate();
+    let samples = film.samples_taken();
+    let stats = Stats {
+        spp: (samples as f64 / film.pixels().len().max(1) as f64).round() as u32,
+        samples,
+        rays,
+        nan_samples: film.dropped_samples(),
+        elapsed,
+        estimated_rmse: estimate.rmse,
+        estimated_rel_error: estimate.rel_error,
+    };
+    Rendered {
+        image: film.image(),
+        std_error: film.std_error(),
+        counts: film.counts(),
+        stats,
     }
-    (sums, rays.into_inner())
 }

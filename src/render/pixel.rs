@@ -8,17 +8,19 @@ use crate::math::Vec2;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 
+/// The sums of pixel (x, y)'s samples with indices `indices`: for each, a camera ray through a
+/// jittered point of the pixel, traced by the scene's integrator.
 pub(super) fn render_samples(
     scene: &Scene,
     x: u32,
     y: u32,
-    range: Range<u32>,
+    indices: Range<u32>,
     stats: &mut TraceStats,
 ) -> PixelSum {
     let s = &scene.settings;
     let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
-    let mut acc = PixelSum::default();
-    for i in range {
+    let mut sums = PixelSum::default();
+    for i in indices {
         let mut sampler = Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(i));
         let jitter = sampler.get_2d();
         let film = Vec2::new(
@@ -26,15 +28,7 @@ pub(super) fn render_samples(
             (y as f32 + jitter.y) / s.height as f32,
         );
         let ray = scene.camera.ray(film, sampler.get_2d());
-        let l = radiance(scene, ray, &mut sampler, stats);
-        if l.is_finite() {
-            let l = l.as_dvec3();
-            acc.sum += l;
-            acc.sum_sq += l * l;
-            acc.good += 1;
-        } else {
-            acc.bad += 1;
-        }
+        sums.add_sample(radiance(scene, ray, &mut sampler, stats).as_dvec3());
     }
-    acc
+    sums
 }

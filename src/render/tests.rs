@@ -33,10 +33,7 @@ fn synthetic(
             } else {
                 SMALL
             };
-            let v = DVec3::splat(v);
-            acc.sum += v;
-            acc.sum_sq += v * v;
-            acc.good += 1;
+            acc.add_sample(DVec3::splat(v));
         }
         acc
     }
@@ -55,7 +52,7 @@ fn truth(width: u32, x: u32) -> (f64, f64) {
 /// (image mean − true mean) / its standard deviation, given the sample counts (which, when
 /// they do not depend on the pixel's own samples, make the per-pixel means independent and
 /// unbiased with variance σ²/n).
-fn z_score(source: ErrorSource, seed: u64) -> (f64, Vec<PixelSum>) {
+fn z_score(source: ErrorSource, seed: u64) -> (f64, Film) {
     let (w, h) = (64, 64);
     let plan = Plan {
         width: w,
@@ -68,15 +65,16 @@ fn z_score(source: ErrorSource, seed: u64) -> (f64, Vec<PixelSum>) {
         adaptive: true,
         ..Default::default()
     };
-    let (sums, _) = run_passes(&plan, &options, source, synthetic(w, seed));
+    let (film, _) = run_passes(&plan, &options, source, synthetic(w, seed));
+    let sums = film.pixels();
     let n = sums.len() as f64;
     let (mut err, mut var) = (0.0, 0.0);
     for (i, p) in sums.iter().enumerate() {
         let (m, v) = truth(w, i as u32 % w);
         err += (p.mean().x - m) / n;
-        var += v / f64::from(p.good) / (n * n);
+        var += v / f64::from(p.finite_samples()) / (n * n);
     }
-    (err / var.sqrt(), sums)
+    (err / var.sqrt(), film)
 }
 
 #[test]
@@ -86,7 +84,8 @@ fn own_sample_decisions_bias_the_mean_and_neighbour_decisions_do_not() {
     let seeds = [1, 2, 3, 4];
     for seed in seeds {
         let (z_own, _) = z_score(ErrorSource::Own, seed);
-        let (z_nb, sums) = z_score(ErrorSource::Neighbours, seed);
+        let (z_nb, film) = z_score(ErrorSource::Neighbours, seed);
+        let sums = film.pixels();
         eprintln!("seed {seed}: z own {z_own:+.2}, z neighbours {z_nb:+.2}");
         own += z_own;
         neighbours += z_nb;
@@ -143,9 +142,9 @@ fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
         ErrorSource::Neighbours,
         synthetic(20, 5),
     );
-    for (a, b) in one.iter().zip(&passes) {
-        assert_eq!(a.good, 24);
-        assert_eq!(b.good, 24);
-        assert!((a.sum - b.sum).abs().max_element() < 1e-9);
+    for (a, b) in one.pixels().iter().zip(passes.pixels()) {
+        assert_eq!(a.finite_samples(), 24);
+        assert_eq!(b.finite_samples(), 24);
+        assert!((a.sum() - b.sum()).abs().max_element() < 1e-9);
     }
 }
