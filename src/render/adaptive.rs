@@ -93,27 +93,28 @@ impl AdaptiveAllocator {
     /// difference between its share of all samples after this pass and what it has, at most 8× the
     /// pass mean, and the wishes are scaled to the pass budget.
     ///
-    /// **Why not the pixel's own variance.** The image is the per-pixel sample mean, so the number of
-    /// samples must not depend on the samples it averages: with a heavy-tailed pixel (a caustic, a
-    /// glass edge) the samples that missed the rare bright paths have both a low mean and a low
-    /// variance, so a pixel that by chance drew low values stops early and keeps its low mean, while
-    /// one that drew a firefly gets more samples that dilute it — a downward bias (about 1% of the
-    /// image mean on the Cornell box). Estimating aᵢ from the 3×3 neighbourhood *without* pixel i
-    /// removes the pixel's own samples from the decision (each pixel has its own random streams), in
-    /// the spirit of the spatially filtered error of Rousselle, Knaus and Zwicker, "Adaptive sampling
-    /// and reconstruction using greedy error minimization", SIGGRAPH Asia 2011; neighbouring pixels
-    /// see nearly the same light paths, so their spread predicts the pixel's. What remains coupled is
-    /// second order (pixel i's samples change a neighbour's count, which changes only the precision,
-    /// not the expectation, of that neighbour's variance estimate) plus the 1/n share of one pixel in
-    /// the global scale factor; `tests/adaptive.rs` measures the mean to be unbiased within noise.
-    /// Fractional counts are rounded stochastically with a hash of (seed, pass, pixel), so rounding
-    /// does not couple pixels either (error diffusion would carry a neighbour's wish into the count).
-    /// A floor of a tenth of the mean weight keeps every pixel converging.
+    /// **Why not the pixel's own variance.** The image is the per-pixel sample mean, so the number
+    /// of samples must not depend on the samples it averages: with a heavy-tailed pixel (a caustic,
+    /// a glass edge) the samples that missed the rare bright paths have both a low mean and a low
+    /// variance, so a pixel that by chance drew low values stops early and keeps its low mean,
+    /// while one that drew a firefly gets more samples that dilute it — a downward bias (about 1%
+    /// of the image mean on the Cornell box). Estimating aᵢ from the 3×3 neighbourhood *without*
+    /// pixel i removes the pixel's own samples from the decision (each pixel has its own random
+    /// streams), in the spirit of the spatially filtered error of Rousselle, Knaus and Zwicker,
+    /// "Adaptive sampling and reconstruction using greedy error minimization", SIGGRAPH Asia 2011;
+    /// neighbouring pixels see nearly the same light paths, so their spread predicts the pixel's.
+    /// What remains coupled is second order (pixel i's samples change a neighbour's count, which
+    /// changes only the precision, not the expectation, of that neighbour's variance estimate) plus
+    /// the 1/n share of one pixel in the global scale factor; `tests/adaptive.rs` measures the mean
+    /// to be unbiased within noise. Fractional counts are rounded stochastically with a hash of
+    /// (seed, pass, pixel), so rounding does not couple pixels either (error diffusion would carry
+    /// a neighbour's wish into the count). A floor of a tenth of the mean weight keeps every pixel
+    /// converging.
     ///
     /// **Time budgets.** When the budget is time, not samples, the sum to minimise is the same but
-    /// the constraint is Σ cᵢnᵢ = T with cᵢ the cost of a sample of pixel i, so nᵢ ∝ √(aᵢ/cᵢ):
-    /// a sample through a glass lathe casts more (and costlier) rays than one that sees the floor.
-    /// cᵢ is the neighbourhood's measured time per sample (the pixel's own is left out for the same
+    /// the constraint is Σ cᵢnᵢ = T with cᵢ the cost of a sample of pixel i, so nᵢ ∝ √(aᵢ/cᵢ): a
+    /// sample through a glass lathe casts more (and costlier) rays than one that sees the floor. cᵢ
+    /// is the neighbourhood's measured time per sample (the pixel's own is left out for the same
     /// reason as its variance: path length correlates with radiance). Timing makes the allocation
     /// depend on the machine, which a render against the clock does anyway; sample budgets
     /// (`--spp`) keep nᵢ ∝ √aᵢ and stay reproducible.
