@@ -8,6 +8,7 @@
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use crate::math::{Frame, Rgb, Vec2, Vec3};
+use crate::sampling::{concentric_disk, cosine_hemisphere};
 
 /// The lobe weights and parameters of one surface point (textures already applied).
 #[derive(Debug, Clone, Copy)]
@@ -128,42 +129,6 @@ fn ggx_sample_visible(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
 fn ggx_reflect_pdf(wo: Vec3, wm: Vec3, alpha: f32) -> f32 {
     let d_wo = ggx_g1(wo, alpha) * wo.dot(wm).max(0.0) * ggx_d(wm, alpha) / wo.z.abs();
     d_wo / (4.0 * wo.dot(wm).abs())
-}
-
-/// Shirley–Chiu concentric map of the unit square to the unit disk (area-preserving).
-pub fn concentric_disk(u: Vec2) -> Vec2 {
-    let o = u * 2.0 - Vec2::ONE;
-    if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
-    } else {
-        (
-            o.y,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
-        )
-    };
-    Vec2::new(r * theta.cos(), r * theta.sin())
-}
-
-/// Cosine-weighted hemisphere direction (Malley's method); pdf = cos θ / π.
-pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = concentric_disk(u);
-    Vec3::new(d.x, d.y, (1.0 - d.length_squared()).max(0.0).sqrt())
-}
-
-/// Power heuristic with β = 2 (Veach 1997).
-#[inline]
-pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
-    let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
-    if a == 0.0 {
-        0.0
-    } else if a.is_infinite() {
-        1.0
-    } else {
-        a / (a + b)
-    }
 }
 
 impl Bsdf {

@@ -1,7 +1,7 @@
 //! Perspective cameras: a pinhole, or a thin lens with depth of field.
 
-use crate::bsdf::concentric_disk;
 use crate::math::{Ray, Vec2, Vec3};
+use crate::sampling::concentric_disk;
 
 /// A perspective camera.
 #[derive(Debug, Clone, Copy)]

@@ -7,8 +7,8 @@ use std::path::Path;
 
 use image::{ImageFormat, Rgb32FImage, RgbImage};
 
+use crate::image::Image;
 use crate::math::linear_to_srgb;
-use crate::render::Image;
 
 /// How linear radiance becomes 8-bit colour for PNG and BMP.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -84,12 +84,13 @@ pub struct Sampler {
 }
 
 impl Sampler {
-    /// The stream for sample `sample` of pixel `pixel` under `seed`.
-    pub fn new(seed: u64, pixel: u64, sample: u64) -> Sampler {
+    /// The independent-random-numbers stream for sample `sample` of pixel `pixel` under `seed`
+    /// (renders default to Sobol points: see [`Sampler::with_kind`]).
+    pub fn independent(seed: u64, pixel: u64, sample: u64) -> Sampler {
         Sampler::with_kind(SamplerKind::Independent, seed, pixel, sample)
     }
 
-    /// The stream of the given kind.
+    /// The stream of the given kind for sample `sample` of pixel `pixel` under `seed`.
     pub fn with_kind(kind: SamplerKind, seed: u64, pixel: u64, sample: u64) -> Sampler {
         let key = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)));
         Sampler {
@@ -277,15 +278,15 @@ mod tests {
     fn streams_are_reproducible_and_distinct() {
         let a: Vec<f32> = (0..4)
             .map(|_| 0.0)
-            .scan(Sampler::new(1, 2, 3), |s, _| Some(s.get_1d()))
+            .scan(Sampler::independent(1, 2, 3), |s, _| Some(s.get_1d()))
             .collect();
         let b: Vec<f32> = (0..4)
             .map(|_| 0.0)
-            .scan(Sampler::new(1, 2, 3), |s, _| Some(s.get_1d()))
+            .scan(Sampler::independent(1, 2, 3), |s, _| Some(s.get_1d()))
             .collect();
         let c: Vec<f32> = (0..4)
             .map(|_| 0.0)
-            .scan(Sampler::new(1, 2, 4), |s, _| Some(s.get_1d()))
+            .scan(Sampler::independent(1, 2, 4), |s, _| Some(s.get_1d()))
             .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);

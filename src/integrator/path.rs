@@ -4,11 +4,11 @@
 //! Depth is counted as in Mitsuba 3: the camera ray's hit is vertex 1, emission seen there is a
 //! path of depth 1, light sampled from it a path of depth 2, and so on up to `max_depth`.
 
-use crate::bsdf::power_heuristic;
 use crate::integrator::{spawn, unoccluded_towards, visible, TraceStats};
 use crate::light::Light;
 use crate::math::{Ray, Rgb, Vec3};
 use crate::sampler::Sampler;
+use crate::sampling::power_heuristic;
 use crate::scene::Scene;
 
 /// Depth from which Russian roulette may end paths (as in Mitsuba 3).

@@ -1,0 +1,138 @@
+//! One pass of a render: given how many more samples each pixel takes, the image is cut into
+//! square tiles that rayon spreads over threads; the pass's samples come back as a film of their
+//! own, to be merged into the total.
+
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::film::{Film, PixelSum};
+use crate::integrator::TraceStats;
+
+/// Side of the square tiles work is split into.
+pub const TILE: u32 = 16;
+
+/// What every pass of a render shares: how to sample a pixel, whom to tell about progress, and
+/// the counters summed over all passes.
+pub(super) struct PassContext<'a, F> {
+    /// `sample(x, y, indices, stats)`: the sums of pixel (x, y)'s samples with those indices.
+    sample: F,
+    /// Called with the number of samples finished so far.
+    progress: Option<&'a (dyn Fn(u64) + Sync)>,
+    /// Whether to record the wall time each pixel's samples take.
+    timed: bool,
+    /// Rays cast so far.
+    rays: AtomicU64,
+    /// Samples finished so far.
+    samples_done: AtomicU64,
+}
+
+/// A tile's pixels: x in `x0..x1`, y in `y0..y1`.
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+impl Tile {
+    /// Tile number `index` of a `width` × `height` image with `tiles_x` tiles per row.
+    fn new(index: u32, tiles_x: u32, width: u32, height: u32) -> Tile {
+        let (x0, y0) = ((index % tiles_x) * TILE, (index / tiles_x) * TILE);
+        Tile {
+            x0,
+            y0,
+            x1: (x0 + TILE).min(width),
+            y1: (y0 + TILE).min(height),
+        }
+    }
+
+    /// The tile's pixels, row by row.
+    fn pixels(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| (x, y)))
+    }
+
+    fn pixel_count(&self) -> usize {
+        ((self.x1 - self.x0) * (self.y1 - self.y0)) as usize
+    }
+}
+
+impl<'a, F> PassContext<'a, F>
+where
+    F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
+{
+    /// A context whose passes sample pixels with `sample`, report to `progress`, and with
+    /// `timed` record the wall time of each pixel's samples.
+    pub(super) fn new(
+        sample: F,
+        progress: Option<&'a (dyn Fn(u64) + Sync)>,
+        timed: bool,
+    ) -> PassContext<'a, F> {
+        PassContext {
+            sample,
+            progress,
+            timed,
+            rays: AtomicU64::new(0),
+            samples_done: AtomicU64::new(0),
+        }
+    }
+
+    /// Rays cast by all passes so far.
+    pub(super) fn rays(&self) -> u64 {
+        self.rays.load(Ordering::Relaxed)
+    }
+
+    /// Takes `counts[i]` more samples of pixel i, tile by tile in parallel, continuing each
+    /// pixel's sample indices after those already in `film`; returns the new samples as a film.
+    pub(super) fn render(&self, film: &Film, counts: &[u32]) -> Film {
+        let (w, h) = (film.width(), film.height());
+        let tiles_x = w.div_ceil(TILE);
+        let tiles_y = h.div_ceil(TILE);
+        let results: Vec<(Tile, Vec<PixelSum>)> = (0..tiles_x * tiles_y)
+            .into_par_iter()
+            .with_max_len(1)
+            .map(|index| {
+                let tile = Tile::new(index, tiles_x, w, h);
+                let sums = self.render_tile(film, counts, &tile);
+                (tile, sums)
+            })
+            .collect();
+        let mut pass = Film::new(w, h);
+        for (tile, sums) in results {
+            for ((x, y), sums) in tile.pixels().zip(sums) {
+                *pass.pixel_mut(x, y) = sums;
+            }
+        }
+        pass
+    }
+
+    /// The new samples of one tile's pixels, row by row.
+    fn render_tile(&self, film: &Film, counts: &[u32], tile: &Tile) -> Vec<PixelSum> {
+        let mut stats = TraceStats::default();
+        let mut sums = Vec::with_capacity(tile.pixel_count());
+        let mut samples = 0u64;
+        for (x, y) in tile.pixels() {
+            let count = counts[(y * film.width() + x) as usize];
+            let first = film.pixel(x, y).taken();
+            sums.push(if count == 0 {
+                PixelSum::default()
+            } else if self.timed {
+                let start = Instant::now();
+                let mut sums = (self.sample)(x, y, first..first + count, &mut stats);
+                sums.set_time(start.elapsed());
+                sums
+            } else {
+                (self.sample)(x, y, first..first + count, &mut stats)
+            });
+            samples += u64::from(count);
+        }
+        self.rays.fetch_add(stats.rays, Ordering::Relaxed);
+        let total = self.samples_done.fetch_add(samples, Ordering::Relaxed) + samples;
+        if let Some(progress) = self.progress {
+            progress(total);
+        }
+        sums
+    }
+}

@@ -1,0 +1,150 @@
+//! Tests of the pass loop on synthetic films with known means and variances.
+
+use glam::DVec3;
+
+use super::*;
+use crate::sampler::mix64;
+
+/// A synthetic film whose true pixel means and variances are known in closed form: the left
+/// half is smooth (uniform values on [0.4, 0.6]), the right half heavy-tailed like a caustic
+/// (value `BIG` with probability `P`, else `SMALL`). Every (pixel, sample index) has its own
+/// hash-derived random number, as the renderer's samplers do.
+const P: f64 = 0.05;
+const BIG: f64 = 20.0;
+const SMALL: f64 = 0.2;
+
+fn uniform01(seed: u64, x: u32, y: u32, i: u32) -> f64 {
+    (mix64(seed ^ mix64((u64::from(y) << 40) ^ (u64::from(x) << 20) ^ u64::from(i))) >> 11) as f64
+        / (1u64 << 53) as f64
+}
+
+fn synthetic(
+    width: u32,
+    seed: u64,
+) -> impl Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync {
+    move |x, y, range, _| {
+        let mut acc = PixelSum::default();
+        for i in range {
+            let u = uniform01(seed, x, y, i);
+            let v = if x < width / 2 {
+                0.4 + 0.2 * u
+            } else if u < P {
+                BIG
+            } else {
+                SMALL
+            };
+            acc.add_sample(DVec3::splat(v));
+        }
+        acc
+    }
+}
+
+/// (true mean, per-sample variance) of pixel column x.
+fn truth(width: u32, x: u32) -> (f64, f64) {
+    if x < width / 2 {
+        (0.5, 0.04 / 12.0)
+    } else {
+        let m = P * BIG + (1.0 - P) * SMALL;
+        (m, P * BIG * BIG + (1.0 - P) * SMALL * SMALL - m * m)
+    }
+}
+
+/// (image mean − true mean) / its standard deviation, given the sample counts (which, when
+/// they do not depend on the pixel's own samples, make the per-pixel means independent and
+/// unbiased with variance σ²/n).
+fn z_score(source: ErrorSource, seed: u64) -> (f64, Film) {
+    let (w, h) = (64, 64);
+    let plan = Plan {
+        width: w,
+        height: h,
+        spp: 32,
+        budget: None,
+        seed,
+    };
+    let options = RenderOptions {
+        adaptive: true,
+        ..Default::default()
+    };
+    let (film, _) = run_passes(&plan, &options, source, synthetic(w, seed));
+    let sums = film.pixels();
+    let n = sums.len() as f64;
+    let (mut err, mut var) = (0.0, 0.0);
+    for (i, p) in sums.iter().enumerate() {
+        let (m, v) = truth(w, i as u32 % w);
+        err += (p.mean().x - m) / n;
+        var += v / f64::from(p.finite_samples()) / (n * n);
+    }
+    (err / var.sqrt(), film)
+}
+
+#[test]
+fn own_sample_decisions_bias_the_mean_and_neighbour_decisions_do_not() {
+    // Several seeds so that a chance pass of the biased rule cannot hide the effect.
+    let (mut own, mut neighbours) = (0.0, 0.0);
+    let seeds = [1, 2, 3, 4];
+    for seed in seeds {
+        let (z_own, _) = z_score(ErrorSource::Own, seed);
+        let (z_nb, film) = z_score(ErrorSource::Neighbours, seed);
+        let sums = film.pixels();
+        eprintln!("seed {seed}: z own {z_own:+.2}, z neighbours {z_nb:+.2}");
+        own += z_own;
+        neighbours += z_nb;
+        // Same budget, and the heavy-tailed half got more of it.
+        let taken: u64 = sums.iter().map(|p| u64::from(p.taken())).sum();
+        assert_eq!(taken, 64 * 64 * 32);
+        let half = |right: bool| {
+            sums.iter()
+                .enumerate()
+                .filter(|(i, _)| (i % 64 >= 32) == right)
+                .map(|(_, p)| u64::from(p.taken()))
+                .sum::<u64>()
+        };
+        assert!(
+            half(true) > 2 * half(false),
+            "right {} vs left {}",
+            half(true),
+            half(false)
+        );
+    }
+    // Sums of independent unit normals over 4 seeds: divide by √4 for one unit normal.
+    let (own, neighbours) = (own / 2.0, neighbours / 2.0);
+    assert!(
+        own < -5.0,
+        "the own-sample rule should show its downward bias: z = {own:.2}"
+    );
+    assert!(
+        neighbours.abs() < 3.0,
+        "neighbour rule biased: z = {neighbours:.2}"
+    );
+}
+
+#[test]
+fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
+    let plan = Plan {
+        width: 20,
+        height: 12,
+        spp: 24,
+        budget: None,
+        seed: 5,
+    };
+    let (one, _) = run_passes(
+        &plan,
+        &RenderOptions::default(),
+        ErrorSource::Neighbours,
+        synthetic(20, 5),
+    );
+    let (passes, _) = run_passes(
+        &plan,
+        &RenderOptions {
+            target_rel_error: Some(0.0),
+            ..Default::default()
+        },
+        ErrorSource::Neighbours,
+        synthetic(20, 5),
+    );
+    for (a, b) in one.pixels().iter().zip(passes.pixels()) {
+        assert_eq!(a.finite_samples(), 24);
+        assert_eq!(b.finite_samples(), 24);
+        assert!((a.sum() - b.sum()).abs().max_element() < 1e-9);
+    }
+}
