@@ -18,7 +18,7 @@ use lumo_schema::did_you_mean;
 
 use super::ast::*;
 use super::error::Problem;
-use super::lexer::{Lexer, Token};
+use super::lexer::{Lexer, Span, Token};
 
 /// Deepest nesting of groups, transforms and curves accepted (the original has no limit; a
 /// limit keeps hostile input from overflowing the stack).
@@ -102,58 +102,43 @@ impl Parser<'_> {
     fn document(&mut self) -> Result<(), Problem> {
         while let Some(t) = self.lx.peek() {
             match t.text {
-                "PerspectiveCamera" | "DepthCamera" | "LensCamera" => {
-                    if self.doc.camera.is_some() {
-                        self.warn(
-                            t.span,
-                            "a second camera block replaces the first (later blocks win)",
-                        );
-                    }
-                    let cam = self.camera()?;
-                    self.doc.camera = Some(cam);
-                }
-                "Background" => {
-                    if self.doc.background.is_some() {
-                        self.warn(
-                            t.span,
-                            "a second Background block replaces the first (later blocks win)",
-                        );
-                    }
-                    let bg = self.background()?;
-                    self.doc.background = Some(bg);
-                }
-                "Lights" => {
-                    if self.doc.lights.is_some() {
-                        self.warn(
-                            t.span,
-                            "a second Lights block replaces the first (later blocks win)",
-                        );
-                    }
-                    let l = self.lights()?;
-                    self.doc.lights = Some(l);
-                }
+                "PerspectiveCamera" | "DepthCamera" | "LensCamera" => self.replace_block(
+                    t.span,
+                    "a second camera block replaces the first (later blocks win)",
+                    |doc| &mut doc.camera,
+                    Self::camera,
+                )?,
+                "Background" => self.replace_block(
+                    t.span,
+                    "a second Background block replaces the first (later blocks win)",
+                    |doc| &mut doc.background,
+                    Self::background,
+                )?,
+                "Lights" => self.replace_block(
+                    t.span,
+                    "a second Lights block replaces the first (later blocks win)",
+                    |doc| &mut doc.lights,
+                    Self::lights,
+                )?,
                 "Materials" => {
                     if self.material_index_used {
                         return Err(Problem::at(t.span, "a Materials block after a MaterialIndex is not supported")
                             .help("the original keeps pointers into the replaced block; define all materials once, before the first Group"));
                     }
-                    if self.doc.materials.is_some() {
-                        self.warn(
-                            t.span,
-                            "a second Materials block replaces the first (later blocks win)",
-                        );
-                    }
-                    let m = self.materials()?;
-                    self.num_materials = Some(m.materials.len());
-                    self.doc.materials = Some(m);
+                    self.replace_block(
+                        t.span,
+                        "a second Materials block replaces the first (later blocks win)",
+                        |doc| &mut doc.materials,
+                        Self::materials,
+                    )?;
+                    self.num_materials = self.doc.materials.as_ref().map(|m| m.materials.len());
                 }
-                "Group" => {
-                    if self.doc.root.is_some() {
-                        self.warn(t.span, "a second top-level Group replaces the first as the scene root (later blocks win)");
-                    }
-                    let g = self.object()?;
-                    self.doc.root = Some(g);
-                }
+                "Group" => self.replace_block(
+                    t.span,
+                    "a second top-level Group replaces the first as the scene root (later blocks win)",
+                    |doc| &mut doc.root,
+                    Self::object,
+                )?,
                 word => {
                     let mut p = Problem::at(t.span, format!("expected a top-level block (a camera, Background, Lights, Materials or Group), found `{}`", shorten(word)));
                     if let Some(s) = suggestion(word, TOP_BLOCKS) {
@@ -167,6 +152,23 @@ impl Parser<'_> {
                 }
             }
         }
+        Ok(())
+    }
+    /// Parses a top-level block that the file may give more than once: a later block replaces
+    /// the earlier one (the original's behaviour), and `warning` is given at the keyword `span`
+    /// of every block after the first. `slot` is where the block lives in the document.
+    fn replace_block<T>(
+        &mut self,
+        span: Span,
+        warning: &str,
+        slot: fn(&mut Document) -> &mut Option<T>,
+        parse: fn(&mut Self) -> Result<T, Problem>,
+    ) -> Result<(), Problem> {
+        if slot(&mut self.doc).is_some() {
+            self.warn(span, warning);
+        }
+        let block = parse(self)?;
+        *slot(&mut self.doc) = Some(block);
         Ok(())
     }
 }
