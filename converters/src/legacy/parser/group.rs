@@ -3,7 +3,7 @@
 
 use super::super::ast::*;
 use super::super::error::Problem;
-use super::{plural, Parser};
+use super::{check_count, plural, Parser};
 
 impl Parser<'_> {
     /// After `Group`: `{ numObjects N (MaterialIndex k | object)* }`.
@@ -48,21 +48,14 @@ impl Parser<'_> {
                 _ => items.push(self.object()?),
             }
         }
-        if items.len() as i64 != n.value {
-            return Err(Problem::at(
-                n.span,
-                format!(
-                    "numObjects is {} but the group has {} object{}",
-                    n.value,
-                    items.len(),
-                    plural(items.len())
-                ),
-            )
-            .help(format!(
-                "write `numObjects {}` (MaterialIndex lines are not counted)",
-                items.len()
-            )));
-        }
+        check_count(
+            n,
+            items.len(),
+            "numObjects",
+            "group",
+            "object",
+            " (MaterialIndex lines are not counted)",
+        )?;
         self.close("Group")?;
         Ok(items)
     }

@@ -2,7 +2,7 @@
 
 use super::super::ast::*;
 use super::super::error::Problem;
-use super::{plural, shorten, suggestion, unsupported, Parser, MAX_COUNT};
+use super::{check_count, shorten, suggestion, unsupported, Parser, MAX_COUNT};
 
 const LIGHT_KINDS: &[&str] = &["DirectionalLight", "PointLight"];
 
@@ -64,18 +64,7 @@ impl Parser<'_> {
                 return Err(Problem::at(span, format!("more than {MAX_COUNT} lights")));
             }
         }
-        if lights.len() as i64 != n.value {
-            return Err(Problem::at(
-                n.span,
-                format!(
-                    "numLights is {} but the block has {} light{}",
-                    n.value,
-                    lights.len(),
-                    plural(lights.len())
-                ),
-            )
-            .help(format!("write `numLights {}`", lights.len())));
-        }
+        check_count(n, lights.len(), "numLights", "block", "light", "")?;
         self.close("Lights")?;
         Ok(LightsDef { span: kw, lights })
     }

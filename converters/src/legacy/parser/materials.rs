@@ -2,7 +2,7 @@
 
 use super::super::ast::*;
 use super::super::error::Problem;
-use super::{plural, shorten, suggestion, unsupported, Parser, MAX_COUNT};
+use super::{check_count, shorten, suggestion, unsupported, Parser, MAX_COUNT};
 
 const MATERIAL_KINDS: &[&str] = &["Material", "PhongMaterial"];
 const MATERIAL_FIELDS: &[&str] = &[
@@ -63,18 +63,7 @@ impl Parser<'_> {
                 ));
             }
         }
-        if materials.len() as i64 != n.value {
-            return Err(Problem::at(
-                n.span,
-                format!(
-                    "numMaterials is {} but the block has {} material{}",
-                    n.value,
-                    materials.len(),
-                    plural(materials.len())
-                ),
-            )
-            .help(format!("write `numMaterials {}`", materials.len())));
-        }
+        check_count(n, materials.len(), "numMaterials", "block", "material", "")?;
         self.close("Materials")?;
         Ok(MaterialsDef {
             span: kw,

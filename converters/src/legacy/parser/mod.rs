@@ -173,6 +173,30 @@ impl Parser<'_> {
     }
 }
 
+/// Checks a declared count (`numLights 2`, the `Located` number after `field`) against the `found`
+/// items of kind `item` the `holder` ("block", "group") has; `note` ends the suggested fix.
+fn check_count(
+    declared: Located<i64>,
+    found: usize,
+    field: &str,
+    holder: &str,
+    item: &str,
+    note: &str,
+) -> Result<(), Problem> {
+    if found as i64 == declared.value {
+        return Ok(());
+    }
+    Err(Problem::at(
+        declared.span,
+        format!(
+            "{field} is {} but the {holder} has {found} {item}{}",
+            declared.value,
+            plural(found)
+        ),
+    )
+    .help(format!("write `{field} {found}`{note}")))
+}
+
 fn plural(n: usize) -> &'static str {
     if n == 1 {
         ""
