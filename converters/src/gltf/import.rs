@@ -8,9 +8,6 @@ use gltf::camera::Projection;
 use gltf::khr_lights_punctual::Kind;
 use gltf::mesh::Mode;
 use gltf::Semantic;
-use lumo_schema::gltf_extras::{
-    CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
-};
 use lumo_schema::{
     Background, Camera, ColorSpace, DirectionalLight, GltfMeshRef, Image, Lathe, Light, Material,
     Mesh, MeshSource, Object, Plane, PointLight, RenderSettings, Scene, Sphere, SpotLight, Texture,
@@ -20,6 +17,9 @@ use serde::de::DeserializeOwned;
 
 use super::document::{decode_data_uri, percent_decode, Loaded};
 use super::error::GltfError;
+use super::extras::{
+    CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
+};
 use super::math::{self, Mat4};
 use super::mesh::read_primitive;
 use super::paths::relative;

@@ -35,7 +35,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::scene::{
+use lumo_schema::{
     Background, Camera, Image, Light, Material, MeshSource, Profile, RenderSettings, Texture,
     Transform, Vec3,
 };
