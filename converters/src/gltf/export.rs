@@ -13,9 +13,9 @@ use super::extras::{
     CameraExtras, LightExtras, LumoExtras, MaterialExtras, NodeExtras, PlaneShape, SceneExtras,
     SphereShape, Tessellation, TextureExtras,
 };
-use super::import::{camera_node_trs, camera_values, light_node_trs};
 use super::math::{self, Mat4};
 use super::mesh::{load_image, load_mesh_primitive, MeshData};
+use super::nodes::{camera_node_trs, camera_values, light_node_trs};
 use super::paths::relative;
 use super::pbr::{light_values, pbr_of_material, Pbr, TexInfo};
 use super::tessellate;

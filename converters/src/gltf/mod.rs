@@ -17,6 +17,7 @@ pub mod extras;
 mod import;
 mod math;
 mod mesh;
+mod nodes;
 mod paths;
 mod pbr;
 mod tessellate;
