@@ -34,6 +34,42 @@ pub(super) fn material(
         out.two_sided_emission = !is_zero(e.value);
     }
 
+    let lobes = lobe_weights(m, out.base_color, ctx)?;
+    let (Lobes { d, s, t, .. }, roughness) = specular_roughness(m, lobes, ctx)?;
+    out.roughness = roughness;
+    out.specular = s;
+    out.transmission = t;
+    out.diffuse = if s == 0.0 && t == 0.0 && d == 1.0 {
+        None
+    } else {
+        Some(d)
+    };
+    if let Some(ior) = ior(m, t, ctx)? {
+        out.ior = ior;
+    }
+    if let Some(tex) = &m.texture {
+        out.base_color_texture = Some(texture(tex, ctx, textures)?);
+    }
+    Ok(out)
+}
+
+/// The diffuse, specular and refraction weights of a material, and whether they come from the
+/// original Phong model (`specularColor`).
+#[derive(Debug, Clone, Copy)]
+struct Lobes {
+    d: f32,
+    s: f32,
+    t: f32,
+    phong: bool,
+}
+
+/// The lobe weights from whichever one way the material gives them (`type`, `reflection`,
+/// `reflective`/`transmissive`, or a Phong `specularColor`); diffuse only when none.
+fn lobe_weights(
+    m: &MaterialDef,
+    base_color: [f32; 3],
+    ctx: &mut Context<'_>,
+) -> Result<Lobes, Problem> {
     // Lobe weights: at most one way of giving them.
     let weight_sources: Vec<(Span, &str)> = [
         m.lobe_weights.map(|w| (w.span, "type")),
@@ -119,10 +155,10 @@ pub(super) fn material(
         let ks = sc.value.iter().fold(0.0f32, |a, b| a.max(*b));
         (d, s) = (1.0 / (1.0 + ks), ks / (1.0 + ks));
         phong = true;
-        if sc.value != out.base_color {
+        if sc.value != base_color {
             ctx.warn(sc.span, format!(
                 "lumo tints the specular lobe with the base colour {}: the highlight colour {} is not kept",
-                fmt3(out.base_color),
+                fmt3(base_color),
                 fmt3(sc.value)
             ));
         }
@@ -132,7 +168,22 @@ pub(super) fn material(
             ctx.warn(sc.span, "specularColor is ignored: the lobe weights come from `type`/`reflective`, and lumo tints the specular lobe with the base colour");
         }
     }
+    Ok(Lobes { d, s, t, phong })
+}
 
+/// Checks `shininess`, applies `glossy` (which may move diffuse weight to the specular lobe) and
+/// returns the final weights with the specular lobe's roughness.
+fn specular_roughness(
+    m: &MaterialDef,
+    lobes: Lobes,
+    ctx: &mut Context<'_>,
+) -> Result<(Lobes, f32), Problem> {
+    let Lobes {
+        mut d,
+        mut s,
+        t,
+        phong,
+    } = lobes;
     let mut roughness = 0.0f32;
     if let Some(sh) = &m.shininess {
         if sh.value.is_nan() || sh.value < 0.0 {
@@ -165,16 +216,12 @@ pub(super) fn material(
             roughness = math::shininess_to_roughness(0.0);
         }
     }
-    out.roughness = roughness;
-    out.specular = s;
-    out.transmission = t;
-    out.diffuse = if s == 0.0 && t == 0.0 && d == 1.0 {
-        None
-    } else {
-        Some(d)
-    };
+    Ok((Lobes { d, s, t, phong }, roughness))
+}
 
-    // Index of refraction. The dialects default to 1 (no bending) when `refr` is missing.
+/// The index of refraction, when the material gives one or refracts (`t` > 0). The dialects
+/// default to 1 (no bending) when `refr` is missing.
+fn ior(m: &MaterialDef, t: f32, ctx: &mut Context<'_>) -> Result<Option<f32>, Problem> {
     let ior = m.refr.or(m.transmissive.map(|t| t.1));
     if let Some(ior) = ior {
         if ior.value.is_nan() || ior.value <= 0.0 {
@@ -184,36 +231,43 @@ pub(super) fn material(
             )
             .help("glass is about 1.5, water 1.33"));
         }
-        out.ior = ior.value;
+        Ok(Some(ior.value))
     } else if t > 0.0 {
-        out.ior = 1.0;
         ctx.warn(m.span, "refracting material without `refr`: using the dialects' default index 1, which does not bend light (glass is `refr 1.5`)");
+        Ok(Some(1.0))
+    } else {
+        Ok(None)
     }
+}
 
-    if let Some(tex) = &m.texture {
-        let (_, file) = ctx_file(ctx, tex, "texture image")?;
-        let name = match textures.iter().find(|(_, t)| t.file == file) {
-            Some((name, _)) => name.clone(),
-            None => {
-                let name = format!("texture{}", textures.len());
-                textures.insert(
-                    name.clone(),
-                    Texture {
-                        file,
-                        gltf_image: None,
-                        color_space: schema::ColorSpace::Srgb,
-                        wrap: schema::Wrap::Repeat,
-                    },
-                );
-                name
-            }
-        };
-        out.base_color_texture = Some(TextureRef {
-            texture: name,
-            offset: [0.0; 2],
-            rotation_deg: 0.0,
-            scale: [1.0; 2],
-        });
-    }
-    Ok(out)
+/// The base colour texture reference for the image file `tex`; the texture is added to
+/// `textures` unless one with the same file is there already.
+fn texture(
+    tex: &Located<String>,
+    ctx: &mut Context<'_>,
+    textures: &mut BTreeMap<String, Texture>,
+) -> Result<TextureRef, Problem> {
+    let (_, file) = ctx_file(ctx, tex, "texture image")?;
+    let name = match textures.iter().find(|(_, t)| t.file == file) {
+        Some((name, _)) => name.clone(),
+        None => {
+            let name = format!("texture{}", textures.len());
+            textures.insert(
+                name.clone(),
+                Texture {
+                    file,
+                    gltf_image: None,
+                    color_space: schema::ColorSpace::Srgb,
+                    wrap: schema::Wrap::Repeat,
+                },
+            );
+            name
+        }
+    };
+    Ok(TextureRef {
+        texture: name,
+        offset: [0.0; 2],
+        rotation_deg: 0.0,
+        scale: [1.0; 2],
+    })
 }
