@@ -66,58 +66,55 @@ impl Parser<'_> {
     }
 
     pub(super) fn float(&mut self, what: &str) -> Result<Located<f32>, Problem> {
-        match self.lx.peek() {
-            Some(t) => match parse_float(t.text) {
-                Some(v) => {
-                    self.lx.next();
-                    Ok(Located {
-                        value: v,
-                        span: t.span,
-                    })
-                }
-                None => {
-                    let mut p = Problem::at(
-                        t.span,
-                        format!("expected a number ({what}), found `{}`", shorten(t.text)),
-                    );
-                    if t.text.contains(',') {
-                        p = p.help("numbers are separated by spaces, not commas");
-                    } else if matches!(
-                        t.text.to_ascii_lowercase().as_str(),
-                        "inf" | "nan" | "infinity" | "-inf"
-                    ) {
-                        p = p.help("write a finite number");
-                    }
-                    Err(p)
-                }
-            },
-            None => Err(self.unexpected(&format!("a number ({what})"))),
-        }
+        self.number(what, "a number", parse_float, |text| {
+            if text.contains(',') {
+                Some("numbers are separated by spaces, not commas")
+            } else if matches!(
+                text.to_ascii_lowercase().as_str(),
+                "inf" | "nan" | "infinity" | "-inf"
+            ) {
+                Some("write a finite number")
+            } else {
+                None
+            }
+        })
     }
 
     pub(super) fn int(&mut self, what: &str) -> Result<Located<i64>, Problem> {
-        match self.lx.peek() {
-            Some(t) => match parse_int(t.text) {
-                Some(v) => {
-                    self.lx.next();
-                    Ok(Located {
-                        value: v,
-                        span: t.span,
-                    })
-                }
-                None => {
-                    let mut p = Problem::at(
-                        t.span,
-                        format!("expected an integer ({what}), found `{}`", shorten(t.text)),
-                    );
-                    if parse_float(t.text).is_some() {
-                        p = p.help("write a whole number without a decimal point");
-                    }
-                    Err(p)
-                }
-            },
-            None => Err(self.unexpected(&format!("an integer ({what})"))),
-        }
+        self.number(what, "an integer", parse_int, |text| {
+            parse_float(text)
+                .is_some()
+                .then_some("write a whole number without a decimal point")
+        })
+    }
+
+    /// Consumes a number read by `parse`; `kind` ("a number", "an integer") and `what` name it in
+    /// the error, and `help` gives the fix for a token that does not parse, when it knows one.
+    fn number<T>(
+        &mut self,
+        what: &str,
+        kind: &str,
+        parse: fn(&str) -> Option<T>,
+        help: fn(&str) -> Option<&'static str>,
+    ) -> Result<Located<T>, Problem> {
+        let Some(t) = self.lx.peek() else {
+            return Err(self.unexpected(&format!("{kind} ({what})")));
+        };
+        let Some(value) = parse(t.text) else {
+            let p = Problem::at(
+                t.span,
+                format!("expected {kind} ({what}), found `{}`", shorten(t.text)),
+            );
+            return Err(match help(t.text) {
+                Some(h) => p.help(h),
+                None => p,
+            });
+        };
+        self.lx.next();
+        Ok(Located {
+            value,
+            span: t.span,
+        })
     }
 
     pub(super) fn count(&mut self, what: &str) -> Result<Located<i64>, Problem> {
