@@ -26,51 +26,11 @@ impl Parser<'_> {
                 return Err(self.unexpected("a transform step or an object"));
             };
             let span = t.span;
-            let op = match t.text {
-                "Scale" => {
-                    self.lx.next();
-                    Op::Scale(self.vec3("Scale")?.value)
-                }
-                "UniformScale" => {
-                    self.lx.next();
-                    Op::UniformScale(self.float("UniformScale")?.value)
-                }
-                "Translate" => {
-                    self.lx.next();
-                    Op::Translate(self.vec3("Translate")?.value)
-                }
-                "XRotate" => {
-                    self.lx.next();
-                    Op::XRotate(self.float("XRotate degrees")?.value)
-                }
-                "YRotate" => {
-                    self.lx.next();
-                    Op::YRotate(self.float("YRotate degrees")?.value)
-                }
-                "ZRotate" => {
-                    self.lx.next();
-                    Op::ZRotate(self.float("ZRotate degrees")?.value)
-                }
-                "Rotate" => {
-                    self.lx.next();
-                    self.open("Rotate")?;
-                    let axis = self.vec3("rotation axis")?;
-                    let deg = self.float("rotation angle in degrees")?;
-                    self.close("Rotate")?;
-                    Op::Rotate(axis.value, deg.value)
-                }
-                "Matrix4f" => {
-                    self.lx.next();
-                    self.open("Matrix4f")?;
-                    let mut m = [0.0f32; 16];
-                    for (i, v) in m.iter_mut().enumerate() {
-                        *v = self.float(&format!("matrix entry {} of 16", i + 1))?.value;
-                    }
-                    self.close("Matrix4f")?;
-                    Op::Matrix4f(m)
-                }
-                word if OBJECT_KINDS.contains(&word) => break,
-                word => {
+            let op = match self.transform_op(t.text)? {
+                Some(op) => op,
+                None if OBJECT_KINDS.contains(&t.text) => break,
+                None => {
+                    let word = t.text;
                     let mut p = Problem::at(
                         span,
                         format!(
@@ -107,5 +67,37 @@ impl Parser<'_> {
         }
         self.close("Transform")?;
         Ok(ObjectKind::Transform(ops, Box::new(child)))
+    }
+
+    /// The transform step starting with `keyword`, read with its arguments (the keyword
+    /// consumed); `None`, with nothing consumed, when `keyword` starts no step.
+    fn transform_op(&mut self, keyword: &str) -> Result<Option<Op>, Problem> {
+        let read: fn(&mut Self) -> Result<Op, Problem> = match keyword {
+            "Scale" => |p| Ok(Op::Scale(p.vec3("Scale")?.value)),
+            "UniformScale" => |p| Ok(Op::UniformScale(p.float("UniformScale")?.value)),
+            "Translate" => |p| Ok(Op::Translate(p.vec3("Translate")?.value)),
+            "XRotate" => |p| Ok(Op::XRotate(p.float("XRotate degrees")?.value)),
+            "YRotate" => |p| Ok(Op::YRotate(p.float("YRotate degrees")?.value)),
+            "ZRotate" => |p| Ok(Op::ZRotate(p.float("ZRotate degrees")?.value)),
+            "Rotate" => |p| {
+                p.open("Rotate")?;
+                let axis = p.vec3("rotation axis")?;
+                let deg = p.float("rotation angle in degrees")?;
+                p.close("Rotate")?;
+                Ok(Op::Rotate(axis.value, deg.value))
+            },
+            "Matrix4f" => |p| {
+                p.open("Matrix4f")?;
+                let mut m = [0.0f32; 16];
+                for (i, v) in m.iter_mut().enumerate() {
+                    *v = p.float(&format!("matrix entry {} of 16", i + 1))?.value;
+                }
+                p.close("Matrix4f")?;
+                Ok(Op::Matrix4f(m))
+            },
+            _ => return Ok(None),
+        };
+        self.lx.next();
+        read(self).map(Some)
     }
 }
