@@ -8,9 +8,7 @@ use super::{check_count, plural, Parser};
 impl Parser<'_> {
     /// After `Group`: `{ numObjects N (MaterialIndex k | object)* }`.
     pub(super) fn group_body(&mut self) -> Result<Vec<ObjectNode>, Problem> {
-        self.open("Group")?;
-        self.expect("numObjects", "as the first field of Group")?;
-        let n = self.count("numObjects")?;
+        let n = self.open_counted("Group", "numObjects")?;
         let mut items = Vec::new();
         loop {
             let Some(t) = self.lx.peek() else {

@@ -9,9 +9,7 @@ const LIGHT_KINDS: &[&str] = &["DirectionalLight", "PointLight"];
 impl Parser<'_> {
     pub(super) fn lights(&mut self) -> Result<LightsDef, Problem> {
         let kw = self.expect("Lights", "")?;
-        self.open("Lights")?;
-        self.expect("numLights", "as the first field of Lights")?;
-        let n = self.count("numLights")?;
+        let n = self.open_counted("Lights", "numLights")?;
         let mut lights = Vec::new();
         loop {
             let Some(t) = self.lx.peek() else {

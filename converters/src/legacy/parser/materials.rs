@@ -28,9 +28,7 @@ const MATERIAL_FIELDS: &[&str] = &[
 impl Parser<'_> {
     pub(super) fn materials(&mut self) -> Result<MaterialsDef, Problem> {
         let kw = self.expect("Materials", "")?;
-        self.open("Materials")?;
-        self.expect("numMaterials", "as the first field of Materials")?;
-        let n = self.count("numMaterials")?;
+        let n = self.open_counted("Materials", "numMaterials")?;
         let mut materials = Vec::new();
         loop {
             let Some(t) = self.lx.peek() else {

@@ -61,6 +61,18 @@ impl Parser<'_> {
         self.expect("{", &format!("to open the {block} block"))
     }
 
+    /// Opens a `block` whose first field is its item count `field` (`numLights`, …) and reads
+    /// the count.
+    pub(super) fn open_counted(
+        &mut self,
+        block: &str,
+        field: &str,
+    ) -> Result<Located<i64>, Problem> {
+        self.open(block)?;
+        self.expect(field, &format!("as the first field of {block}"))?;
+        self.count(field)
+    }
+
     pub(super) fn close(&mut self, block: &str) -> Result<Span, Problem> {
         self.expect("}", &format!("to close the {block} block"))
     }
