@@ -6,7 +6,6 @@
 //! ([`load_scene_file`]), and checks everything serde cannot ([`validate()`]).
 
 mod diagnostic;
-pub mod gltf_extras;
 mod keyword;
 mod load;
 pub mod locate;

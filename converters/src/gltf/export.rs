@@ -4,18 +4,18 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use lumo_schema::gltf_extras::{
-    CameraExtras, LightExtras, LumoExtras, MaterialExtras, NodeExtras, PlaneShape, SceneExtras,
-    SphereShape, Tessellation, TextureExtras,
-};
 use lumo_schema::{GltfMeshRef, MeshSource, Object, Scene, Texture, Wrap};
 use serde_json::{json, Value};
 
 use super::document::{mime_of_bytes, percent_encode, read_file};
 use super::error::GltfError;
-use super::import::{camera_node_trs, camera_values, light_node_trs};
+use super::extras::{
+    CameraExtras, LightExtras, LumoExtras, MaterialExtras, NodeExtras, PlaneShape, SceneExtras,
+    SphereShape, Tessellation, TextureExtras,
+};
 use super::math::{self, Mat4};
 use super::mesh::{load_image, load_mesh_primitive, MeshData};
+use super::nodes::{camera_node_trs, camera_values, light_node_trs};
 use super::paths::relative;
 use super::pbr::{light_values, pbr_of_material, Pbr, TexInfo};
 use super::tessellate;

@@ -8,9 +8,6 @@ use gltf::camera::Projection;
 use gltf::khr_lights_punctual::Kind;
 use gltf::mesh::Mode;
 use gltf::Semantic;
-use lumo_schema::gltf_extras::{
-    CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
-};
 use lumo_schema::{
     Background, Camera, ColorSpace, DirectionalLight, GltfMeshRef, Image, Lathe, Light, Material,
     Mesh, MeshSource, Object, Plane, PointLight, RenderSettings, Scene, Sphere, SpotLight, Texture,
@@ -20,8 +17,12 @@ use serde::de::DeserializeOwned;
 
 use super::document::{decode_data_uri, percent_decode, Loaded};
 use super::error::GltfError;
+use super::extras::{
+    CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
+};
 use super::math::{self, Mat4};
 use super::mesh::read_primitive;
+use super::nodes::{camera_node_matrix, camera_values, light_node_matrix};
 use super::paths::relative;
 use super::pbr::{self, LightValues, Pbr, TexInfo};
 
@@ -1007,72 +1008,6 @@ impl Importer<'_> {
             focus_distance: None,
         }
     }
-}
-
-/// glTF yfov (radians) and aspect ratio the exporter writes for a camera and image.
-pub fn camera_values(c: &Camera, image: &Image) -> (f32, f32) {
-    (
-        f64::from(c.fov_y_deg).to_radians() as f32,
-        image.width as f32 / image.height.max(1) as f32,
-    )
-}
-
-/// The camera node's TRS: translation = position; rotation maps −z to the view direction and
-/// +y to the up vector made orthogonal to it.
-pub fn camera_node_trs(c: &Camera) -> ([f32; 3], [f32; 4]) {
-    let p = math::f64x3(c.position);
-    let f = math::normalize(math::sub(math::f64x3(c.look_at), p)).unwrap_or([0.0, 0.0, -1.0]);
-    (c.position, look_rotation(f, math::f64x3(c.up)))
-}
-
-/// The rotation quaternion (x, y, z, w) mapping −z to the unit direction `f` and +y to `up` made
-/// orthogonal to it (glTF's camera and light convention).
-fn look_rotation(f: [f64; 3], up: [f64; 3]) -> [f32; 4] {
-    let r = math::normalize(math::cross(f, up)).unwrap_or([1.0, 0.0, 0.0]);
-    let u = math::cross(r, f);
-    let mut m = math::IDENTITY;
-    for i in 0..3 {
-        m[i][0] = r[i];
-        m[i][1] = u[i];
-        m[i][2] = -f[i];
-    }
-    math::quat_from_rotation(&m).map(|x| x as f32)
-}
-
-/// The f32 world matrix of the camera node the exporter writes.
-pub fn camera_node_matrix(c: &Camera) -> [[f32; 4]; 4] {
-    let (t, q) = camera_node_trs(c);
-    math::to_f32(&math::trs(t, q, [1.0; 3]))
-}
-
-/// A light node's TRS: translation = position (point, spot); rotation maps −z to the direction
-/// (spot, directional).
-pub fn light_node_trs(l: &Light) -> (Option<[f32; 3]>, Option<[f32; 4]>) {
-    let rot = |d: [f32; 3]| {
-        let f = math::normalize(math::f64x3(d)).unwrap_or([0.0, 0.0, -1.0]);
-        // Any up not parallel to f.
-        let up = if f[1].abs() < 0.9 {
-            [0.0, 1.0, 0.0]
-        } else {
-            [1.0, 0.0, 0.0]
-        };
-        look_rotation(f, up)
-    };
-    match l {
-        Light::Point(p) => (Some(p.position), None),
-        Light::Directional(d) => (None, Some(rot(d.direction))),
-        Light::Spot(s) => (Some(s.position), Some(rot(s.direction))),
-    }
-}
-
-/// The f32 world matrix of the light node the exporter writes.
-pub fn light_node_matrix(l: &Light) -> [[f32; 4]; 4] {
-    let (t, r) = light_node_trs(l);
-    math::to_f32(&math::trs(
-        t.unwrap_or([0.0; 3]),
-        r.unwrap_or([0.0, 0.0, 0.0, 1.0]),
-        [1.0; 3],
-    ))
 }
 
 fn is_perspective(doc: &gltf::Document, camera: usize) -> Option<bool> {

@@ -3,7 +3,7 @@
 //!
 //! - [`import`]: glTF → [`lumo_schema::Scene`]. Meshes are referenced by index
 //!   ([`lumo_schema::MeshSource::Gltf`]), not inlined. Nodes whose `extras.lumo` describe an
-//!   exact shape (see [`lumo_schema::gltf_extras`]) import as that shape.
+//!   exact shape (see [`extras`]) import as that shape.
 //! - [`export`]: [`lumo_schema::Scene`] → glTF, with lumo's exact description in `extras`, so
 //!   scene → glTF → scene is exact.
 //! - [`load_mesh_primitive`], [`load_image`]: what the renderer's loader needs.
@@ -13,9 +13,11 @@
 mod document;
 mod error;
 mod export;
+pub mod extras;
 mod import;
 mod math;
 mod mesh;
+mod nodes;
 mod paths;
 mod pbr;
 mod tessellate;

@@ -207,38 +207,23 @@ pub fn light_values(l: &Light) -> LightValues {
             ([1.0; 3], 0.0)
         }
     };
-    match l {
-        Light::Point(p) => {
-            let (color, intensity) = split(p.intensity);
-            LightValues {
-                kind: "point",
-                color,
-                intensity,
-                cone: None,
-            }
-        }
-        Light::Directional(d) => {
-            let (color, intensity) = split(d.irradiance);
-            LightValues {
-                kind: "directional",
-                color,
-                intensity,
-                cone: None,
-            }
-        }
+    let (kind, rgb, cone) = match l {
+        Light::Point(p) => ("point", p.intensity, None),
+        Light::Directional(d) => ("directional", d.irradiance, None),
         Light::Spot(s) => {
-            let (color, intensity) = split(s.intensity);
             let outer = (f64::from(s.outer_angle_deg).to_radians() as f32).min(HALF_PI_F32);
             // glTF requires inner < outer.
             let inner =
                 (f64::from(s.inner_angle_deg).to_radians() as f32).min(outer * (1.0 - 1e-6));
-            LightValues {
-                kind: "spot",
-                color,
-                intensity,
-                cone: Some((inner, outer)),
-            }
+            ("spot", s.intensity, Some((inner, outer)))
         }
+    };
+    let (color, intensity) = split(rgb);
+    LightValues {
+        kind,
+        color,
+        intensity,
+        cone,
     }
 }
 

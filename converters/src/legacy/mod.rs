@@ -13,6 +13,7 @@ mod error;
 mod export;
 mod import;
 pub mod lexer;
+mod material;
 pub mod math;
 mod parser;
 
@@ -20,7 +21,8 @@ use std::path::{Path, PathBuf};
 
 pub use error::{ExportError, LegacyError, Problem};
 pub use export::export;
-pub use import::{material_name, relative_to, uniform_knots, DEFAULT_BACKGROUND, GLOSSY_ALPHA};
+pub use import::{material_name, relative_to, uniform_knots, DEFAULT_BACKGROUND};
+pub use material::GLOSSY_ALPHA;
 pub use parser::{MAX_CONTROL_POINTS, MAX_COUNT, MAX_DEPTH};
 
 /// Largest legacy scene file accepted, in bytes (64 MiB): real ones are a few kilobytes, and

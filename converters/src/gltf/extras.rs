@@ -32,10 +32,9 @@
 //! File paths inside extras (`source`, a texture's `file`) are relative to the folder of the
 //! glTF file that carries them.
 
-use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::scene::{
+use lumo_schema::{
     Background, Camera, Image, Light, Material, MeshSource, Profile, RenderSettings, Texture,
     Transform, Vec3,
 };
@@ -45,14 +44,14 @@ pub const EXTRAS_KEY: &str = "lumo";
 
 /// `extras` of a glTF element written by lumo: `{"lumo": T}`. Other keys are kept by other tools
 /// and ignored by lumo.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LumoExtras<T> {
     /// lumo's data.
     pub lumo: T,
 }
 
 /// `scenes[i].extras.lumo`: scene-wide settings glTF has no place for.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct SceneExtras {
     /// The scene file's `$schema`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -69,7 +68,7 @@ pub struct SceneExtras {
 }
 
 /// The exact description of a sphere: `nodes[i].extras.lumo.sphere`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SphereShape {
     /// Centre in object space.
     pub center: Vec3,
@@ -79,7 +78,7 @@ pub struct SphereShape {
 
 /// The exact description of an infinite plane: `nodes[i].extras.lumo.plane`. The node's mesh is
 /// a large square of it (see [`NodeExtras::tessellation`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlaneShape {
     /// Normal (not necessarily unit length).
     pub normal: Vec3,
@@ -88,7 +87,7 @@ pub struct PlaneShape {
 }
 
 /// How a curved object was tessellated into the node's glTF mesh.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Tessellation {
     /// Divisions around the axis (spheres, lathes); for a plane, 1.
     pub segments: u32,
@@ -104,7 +103,7 @@ pub struct Tessellation {
 /// At most one of `sphere`, `plane`, `lathe`, `triangle` is present; with one of them the node
 /// imports as that object and its mesh is ignored. Lathe vertices are written in three.js
 /// `LatheGeometry` order (outer loop around the axis, inner loop along the profile).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct NodeExtras {
     /// A sphere.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -138,28 +137,28 @@ pub struct NodeExtras {
 }
 
 /// `materials[i].extras.lumo`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MaterialExtras {
     /// The exact lumo material.
     pub material: Material,
 }
 
 /// `textures[i].extras.lumo`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TextureExtras {
     /// The exact lumo texture; its `file` is relative to the glTF file's folder.
     pub texture: Texture,
 }
 
 /// `cameras[i].extras.lumo`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CameraExtras {
     /// The exact lumo camera (world space).
     pub camera: Camera,
 }
 
 /// `extensions.KHR_lights_punctual.lights[i].extras.lumo`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LightExtras {
     /// The exact lumo light (world space).
     pub light: Light,
