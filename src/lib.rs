@@ -4,6 +4,8 @@
 //! [`scene::Scene`] graph ([`scene::build`]), rendered ([`render::render`]) and written
 //! ([`output::write_image`]). The renderer itself only ever sees the scene graph.
 
+#![warn(missing_docs)]
+
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;

@@ -285,7 +285,7 @@ fn sample_sphere(center: Vec3, radius: f32, p: Vec3, u: Vec2) -> Option<LightSam
         let wi = w / dist;
         let cos = n.dot(-wi).abs();
         let pdf = dist2 / (cos * 4.0 * PI * r2);
-        return pdf.is_finite().then(|| LightSample {
+        return pdf.is_finite().then_some(LightSample {
             wi,
             distance: dist,
             point: q,

@@ -50,11 +50,6 @@ impl Aabb {
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
-    /// The box of a set of points.
-    pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Aabb {
-        points.into_iter().fold(Aabb::EMPTY, |b, p| b.grow(p))
-    }
-
     /// This box enlarged to contain `p`.
     pub fn grow(self, p: Vec3) -> Aabb {
         Aabb {

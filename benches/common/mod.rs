@@ -244,11 +244,14 @@ impl Npy {
     }
 }
 
+/// One saved ray set: its kind, the rays, and Embree's closest-hit triangle per ray (−1: miss).
+pub type RaySet = (String, Rays, Vec<i32>);
+
 /// The ray sets saved by `benches/peers/embree_rays.py` for `mesh`, when `$LUMO_RAYS_DIR` is
 /// set: the mesh, and per kind the rays with Embree's closest-hit triangle per ray (−1: miss).
-pub fn embree_rays(mesh: &str) -> Option<(Soup, Vec<(String, Rays, Vec<i32>)>)> {
+pub fn embree_rays(mesh: &str) -> Option<(Soup, Vec<RaySet>)> {
     let dir = PathBuf::from(std::env::var_os("LUMO_RAYS_DIR")?);
-    let load = || -> Result<(Soup, Vec<(String, Rays, Vec<i32>)>), String> {
+    let load = || -> Result<(Soup, Vec<RaySet>), String> {
         let v = Npy::read(&dir.join(format!("{mesh}_vertices.npy")))?.vec3s();
         let f = Npy::read(&dir.join(format!("{mesh}_indices.npy")))?.i32s();
         let idx: Vec<[u32; 3]> = f

@@ -8,6 +8,8 @@
 //!
 //! This crate depends on `lumo-schema` only, never on the renderer.
 
+#![warn(missing_docs)]
+
 pub mod gltf;
 pub mod legacy;
 pub mod obj;

@@ -5,6 +5,8 @@
 //! schemars), reads scene files with errors that name the JSON path, line and column
 //! ([`load_scene_file`]), and checks everything serde cannot ([`validate()`]).
 
+#![warn(missing_docs)]
+
 mod diagnostic;
 mod keyword;
 mod load;

@@ -174,7 +174,7 @@ pub fn run(args: &ConvergeArgs) -> Result<Vec<Rung>, CliError> {
         None => {
             eprintln!("rendering a reference at {} spp…", args.reference_spp);
             let r = render_with_error(
-                &scene_at(args.reference_spp, 0x5eed_0f_2ef)?,
+                &scene_at(args.reference_spp, 0x5_eed0_f2ef)?,
                 &RenderOptions::default(),
             );
             write_image(

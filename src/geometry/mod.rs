@@ -105,29 +105,25 @@ impl Instance {
             Shape::Sphere(s) => s.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit {
                 t,
                 prim: 0,
-                b1: 0.0,
-                b2: 0.0,
+                coords: [0.0; 2],
             }),
             Shape::Plane(p) => p.intersect(r.o, r.d, t_min, t_max).map(|t| RawHit {
                 t,
                 prim: 0,
-                b1: 0.0,
-                b2: 0.0,
+                coords: [0.0; 2],
             }),
             Shape::Mesh(m) => m.intersect(r.o, r.d, t_min, t_max).map(|h| RawHit {
                 t: h.t,
                 prim: h.prim,
-                b1: h.b1,
-                b2: h.b2,
+                coords: [h.b1, h.b2],
             }),
-            // Solved in f64; the hit keeps (v, u) for the surface record.
+            // Solved in f64; the hit keeps (u, v) for the surface record.
             Shape::Lathe(l) => l
                 .intersect(r.o.as_dvec3(), r.d.as_dvec3(), t_min as f64, t_max as f64)
                 .map(|h| RawHit {
                     t: h.s as f32,
                     prim: h.segment as u32,
-                    b1: h.uv.y as f32,
-                    b2: h.uv.x as f32,
+                    coords: [h.uv.x as f32, h.uv.y as f32],
                 }),
         }
     }
@@ -159,13 +155,14 @@ impl Instance {
             Shape::Mesh(m) => m.surface(&mesh::MeshHit {
                 t: raw.t,
                 prim: raw.prim,
-                b1: raw.b1,
-                b2: raw.b2,
+                b1: raw.coords[0],
+                b2: raw.coords[1],
             }),
             Shape::Lathe(l) => {
                 let p = r.at(raw.t);
-                let n = l.normal_at(raw.b1 as f64, p.as_dvec3()).as_vec3();
-                (p, n, n, Vec2::new(raw.b2, raw.b1))
+                let [u, v] = raw.coords;
+                let n = l.normal_at(v as f64, p.as_dvec3()).as_vec3();
+                (p, n, n, Vec2::new(u, v))
             }
         };
         let (p, ng, ns) = if self.identity {
@@ -196,10 +193,10 @@ pub struct RawHit {
     pub t: f32,
     /// Primitive within the shape (triangle index).
     pub prim: u32,
-    /// Shape-specific coordinates (barycentrics for triangles).
-    pub b1: f32,
-    /// Shape-specific coordinates.
-    pub b2: f32,
+    /// Where on the shape: for triangles the barycentric coordinates of vertices 1 and 2
+    /// (vertex 0's is 1 − both); for lathes (u, v) = (θ/2π, profile parameter); unused (0) for
+    /// spheres and planes, whose surface is recomputed from the point.
+    pub coords: [f32; 2],
 }
 
 /// A ray's hit on a surface, in world space.
@@ -333,8 +330,7 @@ impl Geometry {
                     RawHit {
                         t: h.t,
                         prim: id[1],
-                        b1: h.b1,
-                        b2: h.b2,
+                        coords: [h.b1, h.b2],
                     },
                 ));
             }

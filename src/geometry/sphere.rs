@@ -41,12 +41,9 @@ impl Sphere {
         if t0 > t1 {
             std::mem::swap(&mut t0, &mut t1);
         }
-        for t in [t0 / len, t1 / len] {
-            if t > t_min && t < t_max {
-                return Some(t);
-            }
-        }
-        None
+        [t0 / len, t1 / len]
+            .into_iter()
+            .find(|&t| t > t_min && t < t_max)
     }
 
     /// The point on the sphere nearest to `p` (re-projection removes the error of o + t d),

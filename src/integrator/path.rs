@@ -58,8 +58,9 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
                     let li = if ls.delta {
                         ls.li
                     } else {
-                        let m = scene.material_of_light(light);
-                        m.emitted(&scene.textures, ls.normal, ls.uv, -ls.wi)
+                        scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
+                            m.emitted(&scene.textures, ls.normal, ls.uv, -ls.wi)
+                        })
                     };
                     if li != Vec3::ZERO {
                         let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);

@@ -91,12 +91,9 @@ fn direct(
         let light = &scene.lights[index];
         if matches!(light, Light::Triangle { .. } | Light::Sphere { .. }) {
             if let Some(ls) = light.sample(hit.p, u) {
-                let li = scene.material_of_light(light).emitted(
-                    &scene.textures,
-                    ls.normal,
-                    ls.uv,
-                    -ls.wi,
-                );
+                let li = scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
+                    m.emitted(&scene.textures, ls.normal, ls.uv, -ls.wi)
+                });
                 let (f, _) = bsdf.eval(wo, ls.wi);
                 if li != Vec3::ZERO
                     && f != Vec3::ZERO

@@ -303,7 +303,7 @@ impl Lathe {
         best.map(|b| self.hit_record(&f, b))
     }
 
-    /// Nearest hit on piece `i` only (for BVHs holding pieces as primitives).
+    /// Nearest hit on piece `i` only (for a BVH that would hold pieces as primitives).
     pub fn intersect_segment(
         &self,
         i: usize,

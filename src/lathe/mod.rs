@@ -13,9 +13,12 @@
 //! Representation: every profile becomes a list of Bézier segments (B-splines by Boehm knot
 //! insertion, [`bspline`]), and every segment is split at the extrema of x(t) and y(t) and at
 //! axis crossings into *pieces* on which x and y are monotone and x does not change sign. Each
-//! piece is bounded by an annular cylinder (its height range × its radius range) and is the
-//! unit the BVH sees ([`Lathe::segment_count`], [`Lathe::segment_bounds`],
-//! [`Lathe::intersect_segment`]).
+//! piece is bounded by an annular cylinder (its height range × its radius range).
+//! [`Lathe::intersect`] tests the pieces whose annuli the ray enters, nearest entry first
+//! (every piece in turn when there are many); the whole lathe is one primitive of the scene's
+//! BVH. The piece API ([`Lathe::segment_count`], [`Lathe::segment_bounds`],
+//! [`Lathe::segment_annulus`], [`Lathe::intersect_segment`]) exposes the pieces one by one so
+//! that a BVH can hold them as primitives instead (not done yet).
 //!
 //! Intersection (see [`intersect`]) reduces the ray–piece problem to the roots of one
 //! univariate polynomial in the curve parameter, in Bernstein form, isolates all of them by
@@ -247,11 +250,6 @@ impl Profile {
         let (p, dp) = eval_curve_with_derivative(&seg.points, t);
         (p, dp / (seg.v1 - seg.v0))
     }
-
-    /// Number of Bézier segments.
-    pub fn bezier_segment_count(&self) -> usize {
-        self.segments.len()
-    }
 }
 
 /// The clamped uniform knot vector on [0, 1] (the schema's default).
@@ -335,7 +333,7 @@ impl Lathe {
         self.bounds
     }
 
-    /// Number of independently intersectable pieces (BVH primitives).
+    /// Number of independently intersectable pieces (monotone in x and y, one sign of x).
     pub fn segment_count(&self) -> usize {
         self.pieces.len()
     }

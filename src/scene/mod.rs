@@ -96,13 +96,15 @@ impl Scene {
         })
     }
 
-    /// The material of an area light's surface.
+    /// The material of an area light's surface; `None` for punctual lights, which have no
+    /// surface.
     #[inline]
-    pub fn material_of_light(&self, light: &Light) -> &Material {
+    pub fn material_of_light(&self, light: &Light) -> Option<&Material> {
         let instance = match light {
             Light::Triangle { instance, .. } | Light::Sphere { instance, .. } => *instance,
-            _ => 0,
+            Light::Point { .. } | Light::Directional { .. } | Light::Spot { .. } => return None,
         };
-        &self.materials[self.geometry.instances[instance as usize].material as usize]
+        let material = self.geometry.instances.get(instance as usize)?.material;
+        self.materials.get(material as usize)
     }
 }

@@ -84,13 +84,16 @@ pub fn percent_encode(path: &str) -> String {
     out
 }
 
+/// Bytes with their MIME type when known.
+pub type TypedBytes = (Vec<u8>, Option<String>);
+
 /// Decodes a `data:` URI's payload (base64 only, as glTF requires). `None` when `uri` is not a
 /// data URI.
 pub fn decode_data_uri(
     file: &Path,
     element: &str,
     uri: &str,
-) -> Option<Result<(Vec<u8>, Option<String>), GltfError>> {
+) -> Option<Result<TypedBytes, GltfError>> {
     let rest = uri.strip_prefix("data:")?;
     let Some((meta, payload)) = rest.split_once(',') else {
         return Some(Err(GltfError::invalid(

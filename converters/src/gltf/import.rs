@@ -10,8 +10,8 @@ use gltf::mesh::Mode;
 use gltf::Semantic;
 use lumo_schema::{
     Background, Camera, ColorSpace, DirectionalLight, GltfMeshRef, Image, Lathe, Light, Material,
-    Mesh, MeshSource, Object, Plane, PointLight, RenderSettings, Scene, Sphere, SpotLight, Texture,
-    Transform, Triangle, Wrap, FORMAT_VERSION,
+    Mesh, MeshSource, Object, Plane, PointLight, Scene, Sphere, SpotLight, Texture, Transform,
+    Triangle, Wrap, FORMAT_VERSION,
 };
 use serde::de::DeserializeOwned;
 
@@ -273,7 +273,7 @@ impl Importer<'_> {
             schema: scene_extras.schema.clone(),
             format_version: FORMAT_VERSION,
             image,
-            render: scene_extras.render.unwrap_or_else(RenderSettings::default),
+            render: scene_extras.render.unwrap_or_default(),
             camera,
             background,
             textures: self.textures,
@@ -531,9 +531,9 @@ impl Importer<'_> {
                 continue;
             }
             let b = self.bounds.get_or_insert((w, w));
-            for i in 0..3 {
-                b.0[i] = b.0[i].min(w[i]);
-                b.1[i] = b.1[i].max(w[i]);
+            for (i, &x) in w.iter().enumerate() {
+                b.0[i] = b.0[i].min(x);
+                b.1[i] = b.1[i].max(x);
             }
         }
     }
