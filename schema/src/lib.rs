@@ -6,6 +6,7 @@
 //! ([`load_scene_file`]), and checks everything serde cannot ([`validate()`]).
 
 mod diagnostic;
+pub mod geometry;
 pub mod gltf_extras;
 mod load;
 pub mod locate;

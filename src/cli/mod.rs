@@ -303,10 +303,12 @@ fn convert_cmd(
         "json" => (true, false),
         "txt" => (false, true),
         "gltf" | "glb" => (false, false),
-        _ => return Err(CliError::invalid(format!(
+        _ => {
+            return Err(CliError::invalid(format!(
             "{}: cannot tell the output format from `{ext}` (expected .json, .txt, .gltf or .glb)",
             output.display()
-        ))),
+        )))
+        }
     };
     // A converted scene's paths are written relative to the output's folder.
     let options = input::LoadOptions {

@@ -16,9 +16,9 @@ use super::error::GltfError;
 use super::import::{camera_node_trs, camera_values, light_node_trs};
 use super::math::{self, Mat4};
 use super::mesh::{load_image, load_mesh_primitive, MeshData};
-use super::paths::relative;
 use super::pbr::{light_values, pbr_of_material, Pbr, TexInfo};
 use super::tessellate;
+use lumo_schema::geometry::paths::relative;
 
 /// Exports a scene as glTF 2.0: `.glb` (one binary file) or `.gltf` (JSON plus a `.bin` file
 /// with the same stem beside it), chosen by `out`'s extension. `scene_dir` is the folder the

@@ -22,8 +22,8 @@ use super::document::{decode_data_uri, percent_decode, Loaded};
 use super::error::GltfError;
 use super::math::{self, Mat4};
 use super::mesh::read_primitive;
-use super::paths::relative;
 use super::pbr::{self, LightValues, Pbr, TexInfo};
+use lumo_schema::geometry::paths::relative;
 
 /// Which glTF camera to look through.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -1,4 +1,4 @@
-//! Relative paths between the scene file's folder and the glTF file's folder.
+//! Relative paths between a file and a folder, as a scene file or a glTF URI stores them.
 
 use std::path::{Component, Path, PathBuf};
 

@@ -1,0 +1,8 @@
+//! Geometry over the scene types, in f64: the one implementation that the converters and the
+//! renderer share.
+//!
+//! - [`profile`]: lathe profile curves (parameter range, point and derivative).
+//! - [`paths`]: relative paths between files and folders, as scene files store them.
+
+pub mod paths;
+pub mod profile;
