@@ -15,6 +15,7 @@ use super::error::Problem;
 use super::lexer::Span;
 use super::math::{self, M4};
 use super::LightsPolicy;
+use lumo_schema::geometry::transform::to_rows;
 
 /// The framework's default background when the file has none (PA1/PA3 parser).
 pub const DEFAULT_BACKGROUND: [f32; 3] = [0.5, 0.5, 0.5];
@@ -672,7 +673,7 @@ impl Default for Chain {
     fn default() -> Self {
         Chain {
             ops: Vec::new(),
-            matrix: math::identity(),
+            matrix: M4::IDENTITY,
             has_matrix: false,
         }
     }
@@ -682,7 +683,7 @@ impl Chain {
     fn transform(&self) -> Vec<TransformOp> {
         if self.has_matrix {
             vec![TransformOp::Matrix(
-                self.matrix.map(|row| row.map(|x| x as f32)),
+                to_rows(&self.matrix).map(|row| row.map(|x| x as f32)),
             )]
         } else {
             self.ops.clone()
@@ -729,7 +730,7 @@ impl Walker<'_, '_> {
                 ops_list.extend(chain.ops.iter().cloned());
                 let next = Chain {
                     ops: ops_list,
-                    matrix: math::mul(&chain.matrix, &inner.1),
+                    matrix: chain.matrix * inner.1,
                     has_matrix: chain.has_matrix || inner.2,
                 };
                 return self.node(child, &next);
@@ -896,7 +897,7 @@ fn transform_block(ops: &[Located<Op>]) -> Result<(Vec<TransformOp>, M4, bool), 
                 TransformOp::Rotate(Rotation { axis, degrees: d })
             }
             Op::Matrix4f(ref v) => {
-                let m = math::matrix4f(v);
+                let m = to_rows(&math::matrix4f(v));
                 if m[3] != [0.0, 0.0, 0.0, 1.0] {
                     return Err(Problem::at(op.span, format!(
                         "Matrix4f is not affine: its last row is {} {} {} {} (the 4th, 8th, 12th and 16th numbers, as the file lists the matrix column by column)",

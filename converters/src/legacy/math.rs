@@ -1,72 +1,19 @@
-//! Small exact-enough math for the converter: 4×4 affine matrices in f64, the legacy transform
-//! composition rule, the point-light reference distance, and inverting f32 maps exactly so that
+//! Small exact-enough math for the converter: the legacy transform composition rule (on
+//! [`lumo_schema::geometry::transform`]'s f64 matrices), the point-light reference distance, and inverting f32 maps exactly so that
 //! export followed by import reproduces every number bit for bit.
 
-use lumo_schema::{Object, Scale, Scene, TransformOp};
+use lumo_schema::geometry::glam::{DMat4, DVec3};
+use lumo_schema::geometry::transform::{op_matrix, rotation_axis_angle};
+use lumo_schema::{Object, Scene, TransformOp};
 
 use super::ast::Op;
 
-/// A 4×4 matrix, row-major: `m[row][col]`. Points are columns: p' = M · (x, y, z, 1).
-pub type M4 = [[f64; 4]; 4];
+/// A 4×4 matrix acting on column vectors: p' = M · (x, y, z, 1).
+pub type M4 = DMat4;
 
-/// The identity.
-pub fn identity() -> M4 {
-    let mut m = [[0.0; 4]; 4];
-    for (i, row) in m.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    m
-}
-
-/// a · b.
-pub fn mul(a: &M4, b: &M4) -> M4 {
-    let mut m = [[0.0; 4]; 4];
-    for (r, row) in m.iter_mut().enumerate() {
-        for (c, v) in row.iter_mut().enumerate() {
-            *v = (0..4).map(|k| a[r][k] * b[k][c]).sum();
-        }
-    }
-    m
-}
-
-/// M · (p, 1), dropping the homogeneous coordinate (affine matrices only).
-pub fn apply(m: &M4, p: [f64; 3]) -> [f64; 3] {
-    let mut out = [0.0; 3];
-    for (r, v) in out.iter_mut().enumerate() {
-        *v = m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3];
-    }
-    out
-}
-
-fn translation(t: [f64; 3]) -> M4 {
-    let mut m = identity();
-    for i in 0..3 {
-        m[i][3] = t[i];
-    }
-    m
-}
-
-fn scaling(s: [f64; 3]) -> M4 {
-    let mut m = identity();
-    for i in 0..3 {
-        m[i][i] = s[i];
-    }
-    m
-}
-
-/// Right-handed rotation by `deg` degrees about `axis` (Rodrigues' formula): positive angles turn
-/// counter-clockwise when looking down the axis towards the origin.
-pub fn rotation(axis: [f64; 3], deg: f64) -> M4 {
-    let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-    let [x, y, z] = [axis[0] / len, axis[1] / len, axis[2] / len];
-    let (s, c) = deg.to_radians().sin_cos();
-    let t = 1.0 - c;
-    [
-        [t * x * x + c, t * x * y - s * z, t * x * z + s * y, 0.0],
-        [t * x * y + s * z, t * y * y + c, t * y * z - s * x, 0.0],
-        [t * x * z - s * y, t * y * z + s * x, t * z * z + c, 0.0],
-        [0.0, 0.0, 0.0, 1.0],
-    ]
+/// Right-handed rotation by `deg` degrees about `axis`.
+fn rotation(axis: [f64; 3], deg: f64) -> M4 {
+    rotation_axis_angle(DVec3::from(axis), deg.to_radians())
 }
 
 fn v64(v: [f32; 3]) -> [f64; 3] {
@@ -76,19 +23,15 @@ fn v64(v: [f32; 3]) -> [f64; 3] {
 /// The matrix a legacy `Matrix4f` lists: its 16 numbers run down the columns (row index varies
 /// fastest), so entry i is `m[i % 4][i / 4]`.
 pub fn matrix4f(values: &[f32; 16]) -> M4 {
-    let mut m = [[0.0; 4]; 4];
-    for (i, v) in values.iter().enumerate() {
-        m[i % 4][i / 4] = *v as f64;
-    }
-    m
+    DMat4::from_cols_array(&values.map(f64::from))
 }
 
 /// The matrix of one legacy step (Matrix4f as stored).
 pub fn legacy_op_matrix(op: &Op) -> M4 {
     match *op {
-        Op::Scale(s) => scaling(v64(s)),
-        Op::UniformScale(s) => scaling([s as f64; 3]),
-        Op::Translate(t) => translation(v64(t)),
+        Op::Scale(s) => DMat4::from_scale(DVec3::from(v64(s))),
+        Op::UniformScale(s) => DMat4::from_scale(DVec3::splat(s as f64)),
+        Op::Translate(t) => DMat4::from_translation(DVec3::from(v64(t))),
         Op::XRotate(d) => rotation([1.0, 0.0, 0.0], d as f64),
         Op::YRotate(d) => rotation([0.0, 1.0, 0.0], d as f64),
         Op::ZRotate(d) => rotation([0.0, 0.0, 1.0], d as f64),
@@ -101,26 +44,17 @@ pub fn legacy_op_matrix(op: &Op) -> M4 {
 /// identity and, for each step in file order, right-multiply (M = M · Op), except `Matrix4f`,
 /// which left-multiplies (M = Mat · M).
 pub fn legacy_block_matrix(ops: &[Op]) -> M4 {
-    ops.iter().fold(identity(), |m, op| match op {
-        Op::Matrix4f(_) => mul(&legacy_op_matrix(op), &m),
-        _ => mul(&m, &legacy_op_matrix(op)),
+    ops.iter().fold(DMat4::IDENTITY, |m, op| match op {
+        Op::Matrix4f(_) => legacy_op_matrix(op) * m,
+        _ => m * legacy_op_matrix(op),
     })
-}
-
-/// The matrix of one schema step.
-pub fn schema_op_matrix(op: &TransformOp) -> M4 {
-    match op {
-        TransformOp::Translate(t) => translation(v64(*t)),
-        TransformOp::Rotate(r) => rotation(v64(r.axis), r.degrees as f64),
-        TransformOp::Scale(Scale::Uniform(s)) => scaling([*s as f64; 3]),
-        TransformOp::Scale(Scale::PerAxis(s)) => scaling(v64(*s)),
-        TransformOp::Matrix(m) => m.map(|row| row.map(|x| x as f64)),
-    }
 }
 
 /// Applies schema steps to a point in listed order (the first step acts first).
 pub fn apply_ops(ops: &[TransformOp], p: [f64; 3]) -> [f64; 3] {
-    ops.iter().fold(p, |p, op| apply(&schema_op_matrix(op), p))
+    ops.iter().fold(p, |p, op| {
+        op_matrix(op).transform_point3(DVec3::from(p)).to_array()
+    })
 }
 
 /// The world-space point a legacy point light's brightness is matched at: the centre of the
@@ -274,9 +208,9 @@ mod tests {
 
     #[test]
     fn rotation_is_right_handed() {
-        let p = apply(&rotation([0.0, 0.0, 1.0], 90.0), [1.0, 0.0, 0.0]);
+        let p = rotation([0.0, 0.0, 1.0], 90.0).transform_point3(DVec3::X);
         assert!((p[0]).abs() < 1e-12 && (p[1] - 1.0).abs() < 1e-12);
-        let p = apply(&rotation([1.0, 0.0, 0.0], 90.0), [0.0, 1.0, 0.0]);
+        let p = rotation([1.0, 0.0, 0.0], 90.0).transform_point3(DVec3::Y);
         assert!((p[2] - 1.0).abs() < 1e-12);
     }
 
@@ -286,10 +220,13 @@ mod tests {
         let t = [
             1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0,
         ];
-        assert_eq!(apply(&matrix4f(&t), [0.0; 3]), [1.0, 2.0, 3.0]);
+        assert_eq!(
+            matrix4f(&t).transform_point3(DVec3::ZERO).to_array(),
+            [1.0, 2.0, 3.0]
+        );
         // Scale 2 then Matrix4f: M = Mat · (I · S), so the object is scaled first, then moved.
         let m = legacy_block_matrix(&[Op::UniformScale(2.0), Op::Matrix4f(t)]);
-        assert_eq!(apply(&m, [1.0, 1.0, 1.0]), [3.0, 4.0, 5.0]);
+        assert_eq!(m.transform_point3(DVec3::ONE).to_array(), [3.0, 4.0, 5.0]);
     }
 
     #[test]

@@ -2,7 +2,11 @@
 //! renderer share.
 //!
 //! - [`profile`]: lathe profile curves (parameter range, point and derivative).
+//! - [`transform`]: transform steps as one matrix, Rodrigues' rotation.
 //! - [`paths`]: relative paths between files and folders, as scene files store them.
 
 pub mod paths;
 pub mod profile;
+pub mod transform;
+
+pub use glam;
