@@ -1,10 +1,10 @@
-//! Triangle meshes of lumo's exact shapes, for export (glTF carries only triangles).
-//! Parameterisations, texture coordinates and front faces follow `lumo_schema`'s definitions.
+//! Triangle meshes of lumo's exact shapes, for export (glTF carries only triangles): the
+//! shared tessellation of [`lumo_schema::geometry::tessellate`] at the exporter's resolution,
+//! rounded to f32.
 
-use lumo_schema::geometry::profile::{domain, eval};
+use lumo_schema::geometry::tessellate::{self as shared, TriMesh};
 use lumo_schema::Profile;
 
-use super::math::normalize;
 use super::mesh::MeshData;
 
 /// Sphere tessellation used by the exporter: divisions around the y axis and pole to pole.
@@ -16,149 +16,52 @@ pub const LATHE_SEGMENTS: u32 = 64;
 /// Lathe tessellation: samples along the profile (uniform in the curve parameter).
 pub const LATHE_RINGS: u32 = 64;
 
-/// A UV sphere. Vertex (ring i, segment j): polar angle α = π i / rings from −y, azimuth
-/// φ = 2π j / segments from +x towards −z; u = φ / 2π, v = α / π. The seam column is duplicated
-/// so texture coordinates do not wrap.
+/// A UV sphere ([`lumo_schema::geometry::tessellate::sphere`]) as export data.
 pub fn sphere(center: [f32; 3], radius: f32, segments: u32, rings: u32) -> MeshData {
-    let (c, r) = (center.map(f64::from), f64::from(radius));
-    let mut m = empty();
-    for i in 0..=rings {
-        let alpha = std::f64::consts::PI * f64::from(i) / f64::from(rings);
-        let (sa, ca) = alpha.sin_cos();
-        for j in 0..=segments {
-            let phi = std::f64::consts::TAU * f64::from(j) / f64::from(segments);
-            let (sp, cp) = phi.sin_cos();
-            let d = [sa * cp, -ca, -sa * sp];
-            m.positions.push([
-                (c[0] + r * d[0]) as f32,
-                (c[1] + r * d[1]) as f32,
-                (c[2] + r * d[2]) as f32,
-            ]);
-            push_normal(&mut m, d);
-            push_uv(
-                &mut m,
-                f64::from(j) / f64::from(segments),
-                f64::from(i) / f64::from(rings),
-            );
-        }
-    }
-    grid_triangles(&mut m, rings, segments, |i, j| i * (segments + 1) + j);
-    m
+    export_data(shared::sphere(center, radius, segments, rings))
 }
 
-/// A square of side 2·`half_size` on the plane dot(n, p) = offset, centred on the point of the
-/// plane nearest the origin. Tangent frame (t, b, n̂) from Duff et al., "Building an
-/// Orthonormal Basis, Revisited", JCGT 6(1), 2017; texture coordinates are the coordinates
-/// along t and b in scene units.
+/// A square on a plane ([`lumo_schema::geometry::tessellate::plane`]) as export data.
 pub fn plane(normal: [f32; 3], offset: f32, half_size: f32) -> MeshData {
-    let n = normalize(normal.map(f64::from)).unwrap_or([0.0, 1.0, 0.0]);
-    let (t, b) = onb(n);
-    let o = [
-        n[0] * f64::from(offset),
-        n[1] * f64::from(offset),
-        n[2] * f64::from(offset),
-    ];
-    let h = f64::from(half_size);
-    let mut m = empty();
-    for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-        let p = [0, 1, 2].map(|k| o[k] + su * h * t[k] + sv * h * b[k]);
-        m.positions.push(p.map(|x| x as f32));
-        push_normal(&mut m, n);
-        push_uv(&mut m, su * h, sv * h);
-    }
-    // t × b = n, so (−t−b) → (t−b) → (t+b) is counter-clockwise seen from the normal's side.
-    m.indices = vec![[0, 1, 2], [0, 2, 3]];
-    m
+    export_data(shared::plane(normal, offset, half_size))
 }
 
-/// The orthonormal tangents (t, b) with t × b = n of a unit normal (Duff et al. 2017).
-pub fn onb(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let sign = 1f64.copysign(n[2]);
-    let a = -1.0 / (sign + n[2]);
-    let bb = n[0] * n[1] * a;
-    let t = [1.0 + sign * n[0] * n[0] * a, sign * bb, -sign * n[0]];
-    let b = [bb, sign + n[1] * n[1] * a, -n[1]];
-    (t, b)
-}
-
-/// A lathe: the profile sampled at `rings` + 1 uniform parameter values and revolved in
-/// `segments` steps: S(t, θ) = (x cos θ, y, −x sin θ). Vertices are in three.js LatheGeometry
-/// order (for each angle, every profile sample); u = θ / 2π, v = the normalised parameter.
-/// Normals are n = ∂S/∂θ × ∂S/∂t normalised (the schema's front side); where x = 0 (a pole)
-/// the normal is taken slightly inside the parameter range.
+/// A lathe ([`lumo_schema::geometry::tessellate::lathe`]) as export data.
 pub fn lathe(profile: &Profile, segments: u32, rings: u32) -> MeshData {
-    let (t0, t1) = domain(profile);
-    let mut samples = Vec::new();
-    for i in 0..=rings {
-        let s = f64::from(i) / f64::from(rings);
-        let t = t0 + (t1 - t0) * s;
-        let (p, d) = eval(profile, t);
-        // At a pole (x = 0) ∂S/∂θ vanishes: use the limit from a nearby parameter inside the
-        // range, whose normal points along the axis.
-        let (pn, dn) = if p[0] == 0.0 {
-            let eps = (t1 - t0) * 1e-4;
-            let tn = if i == rings { t - eps } else { t + eps };
-            eval(profile, tn)
-        } else {
-            (p, d)
-        };
-        samples.push((p, pn, dn, s));
-    }
-    let mut m = empty();
-    let rows = rings + 1;
-    for j in 0..=segments {
-        let theta = std::f64::consts::TAU * f64::from(j) / f64::from(segments);
-        let (st, ct) = theta.sin_cos();
-        for &(p, pn, dn, s) in &samples {
-            m.positions
-                .push([(p[0] * ct) as f32, p[1] as f32, (-p[0] * st) as f32]);
-            // n = x · (y′ cos θ, −x′, −y′ sin θ), using the pole-safe sample for its direction.
-            let n = [pn[0] * dn[1] * ct, -pn[0] * dn[0], -pn[0] * dn[1] * st];
-            let n = normalize(n).unwrap_or([0.0, 1.0, 0.0]);
-            push_normal(&mut m, n);
-            push_uv(&mut m, f64::from(j) / f64::from(segments), s);
-        }
-    }
-    // Vertex (ring i, segment j) is at j·rows + i. Quad corners p00 = (i, j), p10 = (i, j+1)
-    // (along θ), p01 = (i+1, j) (along t): (p10 − p00) × (p01 − p00) ≈ ∂S/∂θ × ∂S/∂t, the front.
-    grid_triangles(&mut m, rings, segments, |i, j| j * rows + i);
-    m
+    export_data(shared::lathe(profile, segments, rings))
 }
 
-fn empty() -> MeshData {
+/// Rounds a mesh to f32 and drops the triangles with two identical corners after rounding (at
+/// poles), which glTF validators reject.
+fn export_data(m: TriMesh) -> MeshData {
+    let positions: Vec<[f32; 3]> = m
+        .positions
+        .iter()
+        .map(|p| p.to_array().map(|x| x as f32))
+        .collect();
+    let indices = m
+        .indices
+        .into_iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|k| positions[k as usize]);
+            a != b && b != c && a != c
+        })
+        .collect();
     MeshData {
-        positions: Vec::new(),
-        normals: Some(Vec::new()),
-        uvs: Some(Vec::new()),
-        indices: Vec::new(),
-    }
-}
-
-fn push_normal(m: &mut MeshData, n: [f64; 3]) {
-    if let Some(ns) = &mut m.normals {
-        ns.push(n.map(|x| x as f32));
-    }
-}
-
-fn push_uv(m: &mut MeshData, u: f64, v: f64) {
-    if let Some(uv) = &mut m.uvs {
-        uv.push([u as f32, v as f32]);
-    }
-}
-
-/// Two triangles per grid cell, (p00, p10, p01) and (p10, p11, p01) with p10 one step in the
-/// second (segment) direction; triangles with two identical corners (at poles) are skipped.
-fn grid_triangles(m: &mut MeshData, rings: u32, segments: u32, at: impl Fn(u32, u32) -> u32) {
-    for i in 0..rings {
-        for j in 0..segments {
-            let (p00, p10, p01, p11) = (at(i, j), at(i, j + 1), at(i + 1, j), at(i + 1, j + 1));
-            for tri in [[p00, p10, p01], [p10, p11, p01]] {
-                let [a, b, c] = tri.map(|k| m.positions[k as usize]);
-                if a != b && b != c && a != c {
-                    m.indices.push(tri);
-                }
-            }
-        }
+        normals: Some(
+            m.normals
+                .iter()
+                .map(|n| n.to_array().map(|x| x as f32))
+                .collect(),
+        ),
+        uvs: Some(
+            m.uvs
+                .iter()
+                .map(|t| t.to_array().map(|x| x as f32))
+                .collect(),
+        ),
+        positions,
+        indices,
     }
 }
 

@@ -3,10 +3,12 @@
 //!
 //! - [`profile`]: lathe profile curves (parameter range, point and derivative).
 //! - [`transform`]: transform steps as one matrix, Rodrigues' rotation.
+//! - [`tessellate`]: triangle meshes of spheres, planes and lathes.
 //! - [`paths`]: relative paths between files and folders, as scene files store them.
 
 pub mod paths;
 pub mod profile;
+pub mod tessellate;
 pub mod transform;
 
 pub use glam;
