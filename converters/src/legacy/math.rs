@@ -2,9 +2,10 @@
 //! [`lumo_schema::geometry::transform`]'s f64 matrices), the point-light reference distance, and inverting f32 maps exactly so that
 //! export followed by import reproduces every number bit for bit.
 
+use lumo_schema::geometry::bounds::{object_bounds, points_bounds, Aabb};
 use lumo_schema::geometry::glam::{DMat4, DVec3};
-use lumo_schema::geometry::transform::{op_matrix, rotation_axis_angle};
-use lumo_schema::{Object, Scene, TransformOp};
+use lumo_schema::geometry::transform::{ops_matrix, rotation_axis_angle};
+use lumo_schema::{Mesh, MeshSource, Object, Scene};
 
 use super::ast::Op;
 
@@ -50,74 +51,29 @@ pub fn legacy_block_matrix(ops: &[Op]) -> M4 {
     })
 }
 
-/// Applies schema steps to a point in listed order (the first step acts first).
-pub fn apply_ops(ops: &[TransformOp], p: [f64; 3]) -> [f64; 3] {
-    ops.iter().fold(p, |p, op| {
-        op_matrix(op).transform_point3(DVec3::from(p)).to_array()
-    })
-}
-
 /// The world-space point a legacy point light's brightness is matched at: the centre of the
-/// bounding box of the scene's bounded objects (spheres, triangles, lathes by their control
-/// polygon's hull, meshes by their placed origin, since their files are not read here), or
-/// `None` when there are none. Computed from the schema scene alone, so import and export agree.
+/// box of the scene's bounded objects, by their true bounds
+/// ([`lumo_schema::geometry::bounds::object_bounds`]: a lathe by its curve, not its control
+/// points, so an exact lathe and its tessellation give the same point), or `None` when there
+/// are none. Meshes in OBJ or glTF files count by their placed origin, since the export side
+/// does not know the scene's folder to read them. Computed from the schema scene alone, so
+/// import and export agree.
 pub fn scene_reference_point(scene: &Scene) -> Option<[f64; 3]> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    let mut any = false;
+    let mut all: Option<Aabb> = None;
     for obj in &scene.objects {
-        let local: Vec<[f64; 3]> = match obj {
-            Object::Plane(_) => continue,
-            Object::Sphere(s) => corners(v64(s.center), [s.radius as f64; 3]),
-            Object::Triangle(t) => t.vertices.iter().map(|v| v64(*v)).collect(),
-            Object::Mesh(_) => vec![[0.0; 3]],
-            Object::Lathe(l) => {
-                let pts: &[[f32; 2]] = match &l.profile {
-                    lumo_schema::Profile::Bezier(b) => &b.points,
-                    lumo_schema::Profile::Bspline(b) => &b.points,
-                };
-                if pts.is_empty() {
-                    continue;
-                }
-                let r = pts.iter().map(|p| (p[0] as f64).abs()).fold(0.0, f64::max);
-                let y0 = pts
-                    .iter()
-                    .map(|p| p[1] as f64)
-                    .fold(f64::INFINITY, f64::min);
-                let y1 = pts
-                    .iter()
-                    .map(|p| p[1] as f64)
-                    .fold(f64::NEG_INFINITY, f64::max);
-                corners([0.0, (y0 + y1) / 2.0, 0.0], [r, (y1 - y0) / 2.0, r])
-            }
+        let b = match obj {
+            Object::Mesh(Mesh {
+                source: MeshSource::Obj(_) | MeshSource::Gltf(_),
+                transform,
+                ..
+            }) => points_bounds([DVec3::ZERO], &ops_matrix(transform)),
+            _ => object_bounds(obj),
         };
-        for p in local {
-            let w = apply_ops(obj.transform(), p);
-            if w.iter().all(|x| x.is_finite()) {
-                any = true;
-                for i in 0..3 {
-                    lo[i] = lo[i].min(w[i]);
-                    hi[i] = hi[i].max(w[i]);
-                }
-            }
+        if let Some(b) = b {
+            all = Some(all.map_or(b, |a| a.union(&b)));
         }
     }
-    any.then(|| {
-        [
-            (lo[0] + hi[0]) / 2.0,
-            (lo[1] + hi[1]) / 2.0,
-            (lo[2] + hi[2]) / 2.0,
-        ]
-    })
-}
-
-fn corners(c: [f64; 3], h: [f64; 3]) -> Vec<[f64; 3]> {
-    let mut out = Vec::with_capacity(8);
-    for i in 0..8 {
-        let s = |bit: usize| if i & (1 << bit) != 0 { 1.0 } else { -1.0 };
-        out.push([c[0] + s(0) * h[0], c[1] + s(1) * h[1], c[2] + s(2) * h[2]]);
-    }
-    out
+    all.map(|b| b.center().to_array())
 }
 
 /// The distance at which a legacy point light (no falloff) and lumo's inverse-square light give
@@ -205,6 +161,7 @@ pub fn roughness_to_shininess(r: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lumo_schema::TransformOp;
 
     #[test]
     fn rotation_is_right_handed() {
@@ -247,5 +204,70 @@ mod tests {
                 "r = {r}"
             );
         }
+    }
+
+    /// The intended change of issue 11: a lathe and its tessellation (as an inline mesh) put a
+    /// legacy point light at the same reference point. Before, the lathe counted by its control
+    /// polygon and a mesh by its origin (a B-spline student scene gave 70.8 vs 46.9). The
+    /// tolerance, 1e-3 relative on the intensity d², covers the 64-ring tessellation's chord
+    /// error on this profile (about 1e-4 of its size) doubled by the square.
+    #[test]
+    fn exact_and_tessellated_lathes_give_the_same_point_light() {
+        use lumo_schema::geometry::tessellate;
+        use lumo_schema::{BsplineProfile, InlineMesh, Lathe, Profile, Rotation};
+        let profile = Profile::Bspline(BsplineProfile {
+            degree: 3,
+            points: vec![
+                [0.0, -1.0],
+                [1.6, -1.0],
+                [0.2, 0.0],
+                [0.9, 1.2],
+                [0.4, 1.5],
+                [0.0, 1.5],
+            ],
+            knots: None,
+        });
+        let transform = vec![
+            TransformOp::Translate([1.7, 0.3, -2.0]),
+            TransformOp::Rotate(Rotation {
+                axis: [0.0, 0.0, 1.0],
+                degrees: 15.0,
+            }),
+        ];
+        let mut scene: Scene = lumo_schema::parse_scene(
+            r#"{"format_version": 1, "camera": {"position": [0, 0, 8], "look_at": [0, 0, 0], "fov_y_deg": 40}, "materials": {}, "objects": []}"#,
+        )
+        .expect("a minimal scene");
+        scene.objects = vec![Object::Lathe(Lathe {
+            name: None,
+            material: "m".into(),
+            transform: transform.clone(),
+            profile: profile.clone(),
+        })];
+        let light = [4.0, 5.0, 3.0];
+        let exact = point_light_reference_distance(&scene, light);
+        let t = tessellate::lathe(&profile, 64, 64);
+        let f32s = |v: DVec3| v.to_array().map(|x| x as f32);
+        scene.objects = vec![Object::Mesh(Mesh {
+            name: None,
+            material: "m".into(),
+            transform,
+            source: MeshSource::Inline(InlineMesh {
+                positions: t.positions.iter().map(|p| f32s(*p)).collect(),
+                indices: t.indices.clone(),
+                normals: None,
+                uvs: None,
+            }),
+            smooth: false,
+        })];
+        let mesh = point_light_reference_distance(&scene, light);
+        let (i1, i2) = (
+            legacy_to_radiometric(1.0, exact * exact),
+            legacy_to_radiometric(1.0, mesh * mesh),
+        );
+        assert!(
+            ((i1 - i2) / i1).abs() < 1e-3,
+            "exact lathe {i1} vs tessellated {i2}"
+        );
     }
 }

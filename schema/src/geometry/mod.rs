@@ -4,8 +4,10 @@
 //! - [`profile`]: lathe profile curves (parameter range, point and derivative).
 //! - [`transform`]: transform steps as one matrix, Rodrigues' rotation.
 //! - [`tessellate`]: triangle meshes of spheres, planes and lathes.
+//! - [`bounds`]: true world-space bounds of every object kind.
 //! - [`paths`]: relative paths between files and folders, as scene files store them.
 
+pub mod bounds;
 pub mod paths;
 pub mod profile;
 pub mod tessellate;
