@@ -2,7 +2,7 @@
 //! `docs/legacy.md`; the comments here say why.
 
 use std::collections::BTreeMap;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 use lumo_schema as schema;
 use lumo_schema::{
@@ -15,6 +15,7 @@ use super::error::Problem;
 use super::lexer::Span;
 use super::math::{self, M4};
 use super::LightsPolicy;
+use lumo_schema::geometry::paths::relative;
 use lumo_schema::geometry::transform::to_rows;
 
 /// The framework's default background when the file has none (PA1/PA3 parser).
@@ -611,51 +612,7 @@ fn ctx_file(
         return Err(Problem::at(name.span, format!("{what} `{}` not found", name.value))
             .help(format!("looked for {}; paths are relative to the scene's folder (or the folder above `testcases/`)", looked.join(" and "))));
     };
-    Ok((found.clone(), relative_to(&ctx.out_dir, found)))
-}
-
-/// `target` written relative to `dir` with `/` separators (absolute when they share no root).
-pub fn relative_to(dir: &Path, target: &Path) -> String {
-    let (dir, target) = (real_path(dir), real_path(target));
-    let a: Vec<Component> = dir.components().collect();
-    let b: Vec<Component> = target.components().collect();
-    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
-    if common == 0 {
-        return target.display().to_string();
-    }
-    let mut parts: Vec<String> = Vec::new();
-    for _ in common..a.len() {
-        parts.push("..".into());
-    }
-    for c in &b[common..] {
-        parts.push(c.as_os_str().to_string_lossy().into_owned());
-    }
-    parts.join("/")
-}
-
-/// The absolute path with symbolic links resolved; for a path that does not exist yet (an output
-/// folder about to be created), its nearest existing ancestor is resolved and the rest appended,
-/// so that both sides of [`relative_to`] are comparable.
-fn real_path(p: &Path) -> PathBuf {
-    let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
-    let mut existing = abs.as_path();
-    let mut rest = Vec::new();
-    loop {
-        if let Ok(real) = existing.canonicalize() {
-            let mut out = real;
-            for part in rest.iter().rev() {
-                out.push(part);
-            }
-            return out;
-        }
-        match (existing.parent(), existing.file_name()) {
-            (Some(parent), Some(name)) => {
-                rest.push(name.to_os_string());
-                existing = parent;
-            }
-            _ => return abs,
-        }
-    }
+    Ok((found.clone(), relative(found, &ctx.out_dir)))
 }
 
 /// Placement accumulated from the enclosing Transform blocks.
