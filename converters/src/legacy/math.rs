@@ -94,6 +94,13 @@ pub fn point_light_reference_distance(scene: &Scene, light: [f32; 3]) -> f64 {
     d
 }
 
+/// The intensity (W/sr) the importer gives a legacy point light of colour channel `color` at
+/// `position`: π · colour · d² with d from [`point_light_reference_distance`].
+pub fn point_light_intensity(scene: &Scene, position: [f32; 3], color: f32) -> f32 {
+    let d = point_light_reference_distance(scene, position);
+    legacy_to_radiometric(color, d * d)
+}
+
 /// Legacy colour → lumo radiometric quantity. The legacy shading is `kd · colour · cos θ` with
 /// no 1/π, while a lumo Lambertian surface reflects `albedo/π · E · cos θ`; so a directional
 /// light's irradiance is E = π · colour, and a point light's intensity is I = π · colour · d²
