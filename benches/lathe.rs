@@ -46,6 +46,21 @@ fn egg() -> (Lathe, RefCurve) {
     )
 }
 
+/// The profile as a scene stores it (f32 data), for the shared tessellation.
+fn schema_profile(curve: &RefCurve) -> lumo_schema::Profile {
+    let arr = |v: &Vec<DVec2>| v.iter().map(|p| [p.x as f32, p.y as f32]).collect();
+    match curve {
+        RefCurve::Bezier(p) => {
+            lumo_schema::Profile::Bezier(lumo_schema::BezierProfile { points: arr(p) })
+        }
+        RefCurve::Bspline(d, p, kn) => lumo_schema::Profile::Bspline(lumo_schema::BsplineProfile {
+            degree: *d as u32,
+            points: arr(p),
+            knots: Some(kn.iter().map(|&k| k as f32).collect()),
+        }),
+    }
+}
+
 /// The seed's approach: Newton on (s, v) from one initial guess (entry into the bounding box,
 /// middle of the profile), no bracketing, no root isolation.
 fn newton_single_guess(lathe: &Lathe, o: DVec3, d: DVec3) -> Option<f64> {
@@ -435,14 +450,19 @@ fn main() {
     println!("\n## Speed: ns per ray (single thread, random rays at the object)\n");
     println!("| profile | exact | tessellated (tol 1e-3·size: segments × samples, triangles) | BVH over mesh |");
     println!("|---|---|---|---|");
-    for (name, (lathe, _)) in [
+    for (name, (lathe, curve)) in [
         ("vase (cubic B-spline)", vase()),
         ("egg (cubic Bézier)", egg()),
     ] {
+        let schema_profile = schema_profile(&curve);
         let rays = ray_sets(&lathe, 11, 20000).remove(0).1;
         let size = (lathe.bounds().1 - lathe.bounds().0).max_element();
         let (seg, samples) = tessellation_for(&lathe, 1e-3 * size);
-        let mesh = lathe.tessellate(seg, samples);
+        let mesh = lumo_schema::geometry::tessellate::lathe(
+            &schema_profile,
+            seg as u32,
+            samples as u32 - 1,
+        );
         let bvh = MeshBvh::new(&mesh.positions, &mesh.indices);
         let (t_exact, h1) = time_per_ray(&rays, |o, d| {
             lathe.intersect(o, d, 0.0, f64::INFINITY).is_some()

@@ -34,7 +34,7 @@ fn small(mut desc: lumo_schema::Scene, seed: u64) -> lumo_schema::Scene {
 fn textured_vase_exact_and_finely_tessellated_agree_within_noise() {
     let dir = common::root().join("scenes");
     let desc = common::load_scene(&dir.join("lathe_vase.json"));
-    // The same surface as a mesh: tessellate the lathe built from the scene's profile.
+    // The same surface as a mesh: the shared tessellation of the scene's profile.
     let (k, lathe_obj) = desc
         .objects
         .iter()
@@ -44,16 +44,7 @@ fn textured_vase_exact_and_finely_tessellated_agree_within_noise() {
             _ => None,
         })
         .expect("the vase scene has a lathe");
-    let lumo_schema::Profile::Bezier(b) = &lathe_obj.profile else {
-        panic!("the vase is a Bézier profile")
-    };
-    let pts: Vec<[f64; 2]> = b
-        .points
-        .iter()
-        .map(|p| [p[0] as f64, p[1] as f64])
-        .collect();
-    let lathe = lumo::lathe::Lathe::new(lumo::lathe::Profile::bezier(&pts).expect("valid profile"));
-    let t = lathe.tessellate(512, 512);
+    let t = lumo_schema::geometry::tessellate::lathe(&lathe_obj.profile, 512, 511);
     let f = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
     let mesh = Object::Mesh(Mesh {
         name: Some("vase (tessellated)".into()),

@@ -1,9 +1,7 @@
-//! Checks on Wavefront OBJ files that scenes reference.
-//!
-//! The renderer loads OBJ files itself (a superset of the legacy loader: `v/vt/vn` corners,
-//! negative indices, polygons fan-triangulated). Converters only need to know, before writing a
-//! scene, that a referenced file exists and that its faces point at vertices it has, and to
-//! notice where the legacy course loader would have read the file differently.
+//! The one Wavefront OBJ reader: geometry through `tobj` ([`load`]: all objects and groups,
+//! `v/vt/vn` corners, negative indices, polygons fan-triangulated), and a line scan
+//! ([`scan_file`]) that checks a referenced file before a scene is written and notices where the
+//! legacy course loader would have read it differently.
 
 use std::path::Path;
 
@@ -41,6 +39,104 @@ pub enum ObjError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// The triangles of an OBJ file as plain f32 arrays, all objects and groups concatenated.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ObjMesh {
+    /// Vertex positions (all finite).
+    pub positions: Vec<[f32; 3]>,
+    /// Triangles as indices into `positions`, in the file's winding.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per-vertex normals as the file gives them (not normalised), when every object has them
+    /// for every vertex.
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Per-vertex texture coordinates, when every object has them for every vertex.
+    pub uvs: Option<Vec<[f32; 2]>>,
+}
+
+/// Why [`load`] failed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ObjLoadError {
+    /// `tobj` could not read or parse the file (its message).
+    #[error("{0}")]
+    Read(String),
+    /// A vertex is NaN or infinite, or a face refers to a vertex its object does not have.
+    #[error("object `{object}`: {message}")]
+    Object {
+        /// The OBJ object's name.
+        object: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file has no triangles.
+    #[error("the file contains no faces")]
+    NoFaces,
+}
+
+/// Reads the triangles of the OBJ file at `path` through `tobj` (polygons fan-triangulated,
+/// one index per corner: a vertex is duplicated where its corners carry different normals or
+/// texture coordinates).
+pub fn load(path: &Path) -> Result<ObjMesh, ObjLoadError> {
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, _materials) =
+        tobj::load_obj(path, &options).map_err(|e| ObjLoadError::Read(e.to_string()))?;
+    let mut out = ObjMesh::default();
+    let (mut normals, mut uvs) = (Some(Vec::new()), Some(Vec::new()));
+    for model in &models {
+        let m = &model.mesh;
+        let bad = |message: String| ObjLoadError::Object {
+            object: model.name.clone(),
+            message,
+        };
+        let base = out.positions.len() as u32;
+        let n = m.positions.len() / 3;
+        for (i, p) in m.positions.chunks_exact(3).enumerate() {
+            if !p.iter().all(|x| x.is_finite()) {
+                return Err(bad(format!(
+                    "vertex {} is not finite ([{}, {}, {}])",
+                    i + 1,
+                    p[0],
+                    p[1],
+                    p[2]
+                )));
+            }
+            out.positions.push([p[0], p[1], p[2]]);
+        }
+        match &mut normals {
+            Some(ns) if m.normals.len() == n * 3 => {
+                ns.extend(m.normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]))
+            }
+            _ => normals = None,
+        }
+        match &mut uvs {
+            Some(ts) if m.texcoords.len() == n * 2 => {
+                ts.extend(m.texcoords.chunks_exact(2).map(|c| [c[0], c[1]]))
+            }
+            _ => uvs = None,
+        }
+        for (f, t) in m.indices.chunks_exact(3).enumerate() {
+            if let Some(&i) = t.iter().find(|&&i| i as usize >= n) {
+                return Err(bad(format!(
+                    "face {} refers to vertex {} but there are {n}",
+                    f + 1,
+                    i + 1
+                )));
+            }
+            out.triangles.push([base + t[0], base + t[1], base + t[2]]);
+        }
+    }
+    if out.triangles.is_empty() {
+        return Err(ObjLoadError::NoFaces);
+    }
+    out.normals = normals.filter(|v| !v.is_empty());
+    out.uvs = uvs.filter(|v| !v.is_empty());
+    Ok(out)
 }
 
 /// Reads and checks the OBJ file at `path`.
@@ -153,6 +249,29 @@ pub fn scan(text: &str) -> Result<ObjSummary, ObjError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn loads_triangles_and_reports_bad_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let quad = dir.path().join("quad.obj");
+        std::fs::write(
+            &quad,
+            "o q\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 2\nf 1//1 2//1 3//1 4//1\n",
+        )
+        .unwrap();
+        let m = load(&quad).unwrap();
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.normals.as_ref().unwrap()[0], [0.0, 0.0, 2.0]);
+        assert_eq!(m.uvs, None);
+        let empty = dir.path().join("empty.obj");
+        std::fs::write(&empty, "v 0 0 0\n").unwrap();
+        assert_eq!(load(&empty), Err(ObjLoadError::NoFaces));
+        assert!(matches!(
+            load(&dir.path().join("missing.obj")),
+            Err(ObjLoadError::Read(_))
+        ));
+    }
 
     #[test]
     fn counts_and_checks_faces() {

@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 mod diagnostic;
+pub mod geometry;
 mod keyword;
 mod load;
 pub mod locate;

@@ -144,18 +144,7 @@ impl Mesh {
     /// normal weighted by its corner angle at the vertex, so the result does not depend on how
     /// a surface is split into triangles.
     pub fn angle_weighted_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
-        let mut acc = vec![Vec3::ZERO; positions.len()];
-        for t in triangles {
-            let p = t.map(|i| positions[i as usize]);
-            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
-            for k in 0..3 {
-                let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-                let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
-                let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
-                acc[t[k] as usize] += n * angle;
-            }
-        }
-        acc.into_iter().map(|n| n.normalize_or_zero()).collect()
+        lumo_schema::geometry::normals::angle_weighted_normals(positions, triangles)
     }
 }
 

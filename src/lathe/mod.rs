@@ -27,7 +27,6 @@
 pub mod bernstein;
 pub mod bspline;
 mod intersect;
-mod tessellate;
 
 #[cfg(test)]
 mod reference;
@@ -36,8 +35,6 @@ mod tests;
 
 use bernstein::{eval_curve_with_derivative, roots_in_unit_interval, split_curve, MAX_DEGREE};
 use glam::{DVec2, DVec3};
-
-pub use tessellate::Tessellation;
 
 /// Why a profile cannot be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -39,6 +39,38 @@ impl Case {
         };
         Lathe::new(profile.expect("test profiles are valid"))
     }
+    /// The profile as a scene stores it (f32 data).
+    fn schema_profile(&self) -> lumo_schema::Profile {
+        let arr = |v: &Vec<DVec2>| v.iter().map(|p| [p.x as f32, p.y as f32]).collect();
+        match &self.curve {
+            RefCurve::Bezier(p) => {
+                lumo_schema::Profile::Bezier(lumo_schema::BezierProfile { points: arr(p) })
+            }
+            RefCurve::Bspline(d, p, kn) => {
+                lumo_schema::Profile::Bspline(lumo_schema::BsplineProfile {
+                    degree: *d as u32,
+                    points: arr(p),
+                    knots: Some(kn.iter().map(|&k| k as f32).collect()),
+                })
+            }
+        }
+    }
+    /// The exact lathe of [`Case::schema_profile`] (its f32 data widened, as a scene builds it).
+    fn schema_lathe(&self) -> Lathe {
+        let wide = |v: &[[f32; 2]]| {
+            v.iter()
+                .map(|p| [f64::from(p[0]), f64::from(p[1])])
+                .collect::<Vec<_>>()
+        };
+        let profile = match self.schema_profile() {
+            lumo_schema::Profile::Bezier(b) => Profile::bezier(&wide(&b.points)),
+            lumo_schema::Profile::Bspline(b) => {
+                let knots: Vec<f64> = b.knots_or_default().iter().map(|&k| k.into()).collect();
+                Profile::bspline(b.degree as usize, &wide(&b.points), Some(&knots))
+            }
+        };
+        Lathe::new(profile.expect("test profiles are valid"))
+    }
 }
 
 fn pts(v: &[(f64, f64)]) -> Vec<DVec2> {
@@ -431,8 +463,10 @@ fn ray_through_the_axis_hits_the_nearly_flat_bottom() {
 #[test]
 fn tessellation_lies_on_the_surface_and_faces_out() {
     for case in cases() {
-        let lathe = case.lathe();
-        let t = lathe.tessellate(24, 40);
+        // The one tessellation (the glTF exporter's), of the profile as a scene stores it,
+        // checked against the exact lathe built from the same f32 data.
+        let lathe = case.schema_lathe();
+        let t = lumo_schema::geometry::tessellate::lathe(&case.schema_profile(), 24, 39);
         assert_eq!(t.positions.len(), 25 * 40);
         assert_eq!(t.indices.len(), 2 * 24 * 39);
         for (k, p) in t.positions.iter().enumerate() {

@@ -16,9 +16,11 @@ use super::extras::{
 use super::math::{self, Mat4};
 use super::mesh::{load_image, load_mesh_primitive, MeshData};
 use super::nodes::{camera_node_trs, camera_values, light_node_trs};
-use super::paths::relative;
 use super::pbr::{light_values, pbr_of_material, Pbr, TexInfo};
 use super::tessellate;
+use lumo_schema::geometry::glam::DVec3;
+use lumo_schema::geometry::normals;
+use lumo_schema::geometry::paths::relative;
 
 /// Exports a scene as glTF 2.0: `.glb` (one binary file) or `.gltf` (JSON plus a `.bin` file
 /// with the same stem beside it), chosen by `out`'s extension. `scene_dir` is the folder the
@@ -612,81 +614,30 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
     m
 }
 
-/// Loads an OBJ file's triangles (all objects and groups, polygons fan-triangulated by tobj).
+/// Loads an OBJ file's triangles through the one reader ([`crate::obj::load`]).
 fn load_obj(path: &Path) -> Result<MeshData, String> {
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let (models, _) = tobj::load_obj(path, &opts)
-        .map_err(|e| format!("cannot load OBJ `{}`: {e}", path.display()))?;
-    let mut d = MeshData {
-        positions: Vec::new(),
-        normals: Some(Vec::new()),
-        uvs: Some(Vec::new()),
-        indices: Vec::new(),
-    };
-    for m in &models {
-        let mesh = &m.mesh;
-        let base = d.positions.len() as u32;
-        let n = mesh.positions.len() / 3;
-        d.positions
-            .extend(mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
-        if mesh.normals.len() == n * 3 {
-            if let Some(ns) = &mut d.normals {
-                ns.extend(mesh.normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
-            }
-        } else {
-            d.normals = None;
-        }
-        if mesh.texcoords.len() == n * 2 {
-            if let Some(uv) = &mut d.uvs {
-                uv.extend(mesh.texcoords.chunks_exact(2).map(|c| [c[0], c[1]]));
-            }
-        } else {
-            d.uvs = None;
-        }
-        d.indices.extend(
-            mesh.indices
-                .chunks_exact(3)
-                .map(|c| [base + c[0], base + c[1], base + c[2]]),
-        );
-    }
-    Ok(d)
+    let m =
+        crate::obj::load(path).map_err(|e| format!("cannot load OBJ `{}`: {e}", path.display()))?;
+    Ok(MeshData {
+        positions: m.positions,
+        normals: m.normals,
+        uvs: m.uvs,
+        indices: m.triangles,
+    })
 }
 
-/// Angle-weighted vertex normals: each face's unit normal weighted by its angle at the vertex
-/// (Thürmer & Wüthrich, "Computing vertex normals from polygonal facets", JGT 3(1), 1998).
+/// Angle-weighted vertex normals ([`lumo_schema::geometry::normals`]), +z where a vertex has
+/// no non-degenerate face.
 pub fn vertex_normals(d: &MeshData) -> Vec<[f32; 3]> {
-    let mut acc = vec![[0.0f64; 3]; d.positions.len()];
-    for t in &d.indices {
-        let p = t.map(|k| math::f64x3(d.positions[k as usize]));
-        let Some(n) = math::normalize(math::cross(math::sub(p[1], p[0]), math::sub(p[2], p[0])))
-        else {
-            continue;
-        };
-        for c in 0..3 {
-            let (a, b) = (
-                math::sub(p[(c + 1) % 3], p[c]),
-                math::sub(p[(c + 2) % 3], p[c]),
-            );
-            let cos = math::dot(a, b) / (math::len(a) * math::len(b));
-            let angle = cos.clamp(-1.0, 1.0).acos();
-            if angle.is_finite() {
-                for k in 0..3 {
-                    acc[t[c] as usize][k] += angle * n[k];
-                }
-            }
-        }
-    }
-    acc.iter()
-        .map(|a| {
-            math::normalize(*a)
-                .unwrap_or([0.0, 0.0, 1.0])
-                .map(|x| x as f32)
-        })
+    let p: Vec<DVec3> = d
+        .positions
+        .iter()
+        .map(|v| DVec3::from(math::f64x3(*v)))
+        .collect();
+    normals::angle_weighted_normals(&p, &d.indices)
+        .into_iter()
+        .map(|n| if n == DVec3::ZERO { DVec3::Z } else { n })
+        .map(|n| n.to_array().map(|x| x as f32))
         .collect()
 }
 

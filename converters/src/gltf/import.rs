@@ -23,8 +23,8 @@ use super::extras::{
 use super::math::{self, Mat4};
 use super::mesh::read_primitive;
 use super::nodes::{camera_node_matrix, camera_values, light_node_matrix};
-use super::paths::relative;
 use super::pbr::{self, LightValues, Pbr, TexInfo};
+use lumo_schema::geometry::paths::relative;
 
 /// Which glTF camera to look through.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -1,10 +1,13 @@
-//! Small linear algebra for transforms: 4×4 affine matrices in f64 (row-major, points as
-//! columns: p' = M · p), quaternions, and the conversion of lumo transform steps.
+//! glTF's side of transforms: row-major 4×4 affine matrices in f64 (points as columns:
+//! p' = M · p), quaternions, TRS and column-major conversion. The matrix of lumo transform steps
+//! and Rodrigues' rotation are [`lumo_schema::geometry::transform`]'s.
 //!
 //! Everything is computed in f64 and rounded to f32 once at the end, so the same input always
 //! gives the same f32 matrix on export and on import (that is what makes round trips exact).
 
-use lumo_schema::{Scale, Transform, TransformOp};
+use lumo_schema::geometry::glam::{DMat4, DVec3};
+use lumo_schema::geometry::transform::{self as shared, from_rows, to_rows};
+use lumo_schema::{Transform, TransformOp};
 
 /// Row-major 4×4 matrix.
 pub type Mat4 = [[f64; 4]; 4];
@@ -19,48 +22,7 @@ pub const IDENTITY: Mat4 = [
 
 /// a · b.
 pub fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
-    let mut m = [[0.0; 4]; 4];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, x) in row.iter_mut().enumerate() {
-            *x = (0..4).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    m
-}
-
-/// The matrix of a translation.
-pub fn translation(t: [f64; 3]) -> Mat4 {
-    let mut m = IDENTITY;
-    for i in 0..3 {
-        m[i][3] = t[i];
-    }
-    m
-}
-
-/// The matrix of a per-axis scale.
-pub fn scaling(s: [f64; 3]) -> Mat4 {
-    let mut m = IDENTITY;
-    for i in 0..3 {
-        m[i][i] = s[i];
-    }
-    m
-}
-
-/// Rotation by `radians` right-handedly about `axis` (Rodrigues' formula).
-pub fn rotation_axis_angle(axis: [f64; 3], radians: f64) -> Mat4 {
-    let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-    if len == 0.0 || !len.is_finite() {
-        return IDENTITY;
-    }
-    let [x, y, z] = [axis[0] / len, axis[1] / len, axis[2] / len];
-    let (s, c) = radians.sin_cos();
-    let t = 1.0 - c;
-    [
-        [t * x * x + c, t * x * y - s * z, t * x * z + s * y, 0.0],
-        [t * x * y + s * z, t * y * y + c, t * y * z - s * x, 0.0],
-        [t * x * z - s * y, t * y * z + s * x, t * z * z + c, 0.0],
-        [0.0, 0.0, 0.0, 1.0],
-    ]
+    to_rows(&(from_rows(a) * from_rows(b)))
 }
 
 /// Rotation matrix of a unit quaternion (x, y, z, w) as glTF stores it.
@@ -131,22 +93,9 @@ pub fn quat_from_rotation(m: &Mat4) -> [f64; 4] {
     [q[0] / n, q[1] / n, q[2] / n, q[3] / n]
 }
 
-/// The matrix of lumo transform steps: the first step acts first, so M = Opₙ ⋯ Op₁.
+/// The matrix of lumo transform steps (the first step acts first), row-major.
 pub fn ops_matrix(ops: &Transform) -> Mat4 {
-    let mut m = IDENTITY;
-    for op in ops {
-        let step = match op {
-            TransformOp::Translate(t) => translation(f64x3(*t)),
-            TransformOp::Rotate(r) => {
-                rotation_axis_angle(f64x3(r.axis), f64::from(r.degrees).to_radians())
-            }
-            TransformOp::Scale(Scale::Uniform(k)) => scaling([f64::from(*k); 3]),
-            TransformOp::Scale(Scale::PerAxis(v)) => scaling(f64x3(*v)),
-            TransformOp::Matrix(rows) => rows.map(|r| r.map(f64::from)),
-        };
-        m = mul(&step, &m);
-    }
-    m
+    to_rows(&shared::ops_matrix(ops))
 }
 
 /// Rounds to the f32 row-major matrix lumo's `matrix` step holds (last row forced to 0 0 0 1).
@@ -195,8 +144,8 @@ pub fn from_column_major(a: &[f32; 16]) -> [[f32; 4]; 4] {
 
 /// The node matrix T · R · S of glTF's decomposed transform.
 pub fn trs(t: [f32; 3], r: [f32; 4], s: [f32; 3]) -> Mat4 {
-    let m = mul(&rotation_quat(r.map(f64::from)), &scaling(f64x3(s)));
-    mul(&translation(f64x3(t)), &m)
+    let rs = from_rows(&rotation_quat(r.map(f64::from))) * DMat4::from_scale(DVec3::from(f64x3(s)));
+    to_rows(&(DMat4::from_translation(DVec3::from(f64x3(t))) * rs))
 }
 
 /// Decomposes an affine matrix into translation, rotation and scale when it is one (its

@@ -18,15 +18,14 @@ mod import;
 mod math;
 mod mesh;
 mod nodes;
-mod paths;
 mod pbr;
 mod tessellate;
 
 pub use error::GltfError;
 pub use export::export;
 pub use import::{import, CameraChoice, ImportOptions, Imported};
+pub use lumo_schema::geometry::paths::relative as relative_path;
 pub use mesh::{load_image, load_mesh_primitive, GltfFile, MeshData};
-pub use paths::relative as relative_path;
 pub use pbr::LUMENS_PER_WATT;
 
 /// Imports glTF or GLB bytes held in memory, as if read from `file` (used to resolve relative

@@ -1,9 +1,10 @@
-//! Triangle meshes of lumo's exact shapes, for export (glTF carries only triangles).
-//! Parameterisations, texture coordinates and front faces follow `lumo_schema`'s definitions.
+//! Triangle meshes of lumo's exact shapes, for export (glTF carries only triangles): the
+//! shared tessellation of [`lumo_schema::geometry::tessellate`] at the exporter's resolution,
+//! rounded to f32.
 
-use lumo_schema::{BsplineProfile, Profile, Vec2};
+use lumo_schema::geometry::tessellate::{self as shared, TriMesh};
+use lumo_schema::Profile;
 
-use super::math::normalize;
 use super::mesh::MeshData;
 
 /// Sphere tessellation used by the exporter: divisions around the y axis and pole to pole.
@@ -15,267 +16,53 @@ pub const LATHE_SEGMENTS: u32 = 64;
 /// Lathe tessellation: samples along the profile (uniform in the curve parameter).
 pub const LATHE_RINGS: u32 = 64;
 
-/// A UV sphere. Vertex (ring i, segment j): polar angle α = π i / rings from −y, azimuth
-/// φ = 2π j / segments from +x towards −z; u = φ / 2π, v = α / π. The seam column is duplicated
-/// so texture coordinates do not wrap.
+/// A UV sphere ([`lumo_schema::geometry::tessellate::sphere`]) as export data.
 pub fn sphere(center: [f32; 3], radius: f32, segments: u32, rings: u32) -> MeshData {
-    let (c, r) = (center.map(f64::from), f64::from(radius));
-    let mut m = empty();
-    for i in 0..=rings {
-        let alpha = std::f64::consts::PI * f64::from(i) / f64::from(rings);
-        let (sa, ca) = alpha.sin_cos();
-        for j in 0..=segments {
-            let phi = std::f64::consts::TAU * f64::from(j) / f64::from(segments);
-            let (sp, cp) = phi.sin_cos();
-            let d = [sa * cp, -ca, -sa * sp];
-            m.positions.push([
-                (c[0] + r * d[0]) as f32,
-                (c[1] + r * d[1]) as f32,
-                (c[2] + r * d[2]) as f32,
-            ]);
-            push_normal(&mut m, d);
-            push_uv(
-                &mut m,
-                f64::from(j) / f64::from(segments),
-                f64::from(i) / f64::from(rings),
-            );
-        }
-    }
-    grid_triangles(&mut m, rings, segments, |i, j| i * (segments + 1) + j);
-    m
+    export_data(shared::sphere(center, radius, segments, rings))
 }
 
-/// A square of side 2·`half_size` on the plane dot(n, p) = offset, centred on the point of the
-/// plane nearest the origin. Tangent frame (t, b, n̂) from Duff et al., "Building an
-/// Orthonormal Basis, Revisited", JCGT 6(1), 2017; texture coordinates are the coordinates
-/// along t and b in scene units.
+/// A square on a plane ([`lumo_schema::geometry::tessellate::plane`]) as export data.
 pub fn plane(normal: [f32; 3], offset: f32, half_size: f32) -> MeshData {
-    let n = normalize(normal.map(f64::from)).unwrap_or([0.0, 1.0, 0.0]);
-    let (t, b) = onb(n);
-    let o = [
-        n[0] * f64::from(offset),
-        n[1] * f64::from(offset),
-        n[2] * f64::from(offset),
-    ];
-    let h = f64::from(half_size);
-    let mut m = empty();
-    for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-        let p = [0, 1, 2].map(|k| o[k] + su * h * t[k] + sv * h * b[k]);
-        m.positions.push(p.map(|x| x as f32));
-        push_normal(&mut m, n);
-        push_uv(&mut m, su * h, sv * h);
-    }
-    // t × b = n, so (−t−b) → (t−b) → (t+b) is counter-clockwise seen from the normal's side.
-    m.indices = vec![[0, 1, 2], [0, 2, 3]];
-    m
+    export_data(shared::plane(normal, offset, half_size))
 }
 
-/// The orthonormal tangents (t, b) with t × b = n of a unit normal (Duff et al. 2017).
-pub fn onb(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let sign = 1f64.copysign(n[2]);
-    let a = -1.0 / (sign + n[2]);
-    let bb = n[0] * n[1] * a;
-    let t = [1.0 + sign * n[0] * n[0] * a, sign * bb, -sign * n[0]];
-    let b = [bb, sign + n[1] * n[1] * a, -n[1]];
-    (t, b)
-}
-
-/// A lathe: the profile sampled at `rings` + 1 uniform parameter values and revolved in
-/// `segments` steps: S(t, θ) = (x cos θ, y, −x sin θ). Vertices are in three.js LatheGeometry
-/// order (for each angle, every profile sample); u = θ / 2π, v = the normalised parameter.
-/// Normals are n = ∂S/∂θ × ∂S/∂t normalised (the schema's front side); where x = 0 (a pole)
-/// the normal is taken slightly inside the parameter range.
+/// A lathe ([`lumo_schema::geometry::tessellate::lathe`]) as export data.
 pub fn lathe(profile: &Profile, segments: u32, rings: u32) -> MeshData {
-    let (t0, t1) = domain(profile);
-    let mut samples = Vec::new();
-    for i in 0..=rings {
-        let s = f64::from(i) / f64::from(rings);
-        let t = t0 + (t1 - t0) * s;
-        let (p, d) = eval(profile, t);
-        // At a pole (x = 0) ∂S/∂θ vanishes: use the limit from a nearby parameter inside the
-        // range, whose normal points along the axis.
-        let (pn, dn) = if p[0] == 0.0 {
-            let eps = (t1 - t0) * 1e-4;
-            let tn = if i == rings { t - eps } else { t + eps };
-            eval(profile, tn)
-        } else {
-            (p, d)
-        };
-        samples.push((p, pn, dn, s));
-    }
-    let mut m = empty();
-    let rows = rings + 1;
-    for j in 0..=segments {
-        let theta = std::f64::consts::TAU * f64::from(j) / f64::from(segments);
-        let (st, ct) = theta.sin_cos();
-        for &(p, pn, dn, s) in &samples {
-            m.positions
-                .push([(p[0] * ct) as f32, p[1] as f32, (-p[0] * st) as f32]);
-            // n = x · (y′ cos θ, −x′, −y′ sin θ), using the pole-safe sample for its direction.
-            let n = [pn[0] * dn[1] * ct, -pn[0] * dn[0], -pn[0] * dn[1] * st];
-            let n = normalize(n).unwrap_or([0.0, 1.0, 0.0]);
-            push_normal(&mut m, n);
-            push_uv(&mut m, f64::from(j) / f64::from(segments), s);
-        }
-    }
-    // Vertex (ring i, segment j) is at j·rows + i. Quad corners p00 = (i, j), p10 = (i, j+1)
-    // (along θ), p01 = (i+1, j) (along t): (p10 − p00) × (p01 − p00) ≈ ∂S/∂θ × ∂S/∂t, the front.
-    grid_triangles(&mut m, rings, segments, |i, j| j * rows + i);
-    m
+    export_data(shared::lathe(profile, segments, rings))
 }
 
-fn empty() -> MeshData {
+/// Rounds a mesh to f32 and drops the triangles with two identical corners after rounding (at
+/// poles), which glTF validators reject.
+fn export_data(m: TriMesh) -> MeshData {
+    let positions: Vec<[f32; 3]> = m
+        .positions
+        .iter()
+        .map(|p| p.to_array().map(|x| x as f32))
+        .collect();
+    let indices = m
+        .indices
+        .into_iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|k| positions[k as usize]);
+            a != b && b != c && a != c
+        })
+        .collect();
     MeshData {
-        positions: Vec::new(),
-        normals: Some(Vec::new()),
-        uvs: Some(Vec::new()),
-        indices: Vec::new(),
+        normals: Some(
+            m.normals
+                .iter()
+                .map(|n| n.to_array().map(|x| x as f32))
+                .collect(),
+        ),
+        uvs: Some(
+            m.uvs
+                .iter()
+                .map(|t| t.to_array().map(|x| x as f32))
+                .collect(),
+        ),
+        positions,
+        indices,
     }
-}
-
-fn push_normal(m: &mut MeshData, n: [f64; 3]) {
-    if let Some(ns) = &mut m.normals {
-        ns.push(n.map(|x| x as f32));
-    }
-}
-
-fn push_uv(m: &mut MeshData, u: f64, v: f64) {
-    if let Some(uv) = &mut m.uvs {
-        uv.push([u as f32, v as f32]);
-    }
-}
-
-/// Two triangles per grid cell, (p00, p10, p01) and (p10, p11, p01) with p10 one step in the
-/// second (segment) direction; triangles with two identical corners (at poles) are skipped.
-fn grid_triangles(m: &mut MeshData, rings: u32, segments: u32, at: impl Fn(u32, u32) -> u32) {
-    for i in 0..rings {
-        for j in 0..segments {
-            let (p00, p10, p01, p11) = (at(i, j), at(i, j + 1), at(i + 1, j), at(i + 1, j + 1));
-            for tri in [[p00, p10, p01], [p10, p11, p01]] {
-                let [a, b, c] = tri.map(|k| m.positions[k as usize]);
-                if a != b && b != c && a != c {
-                    m.indices.push(tri);
-                }
-            }
-        }
-    }
-}
-
-/// The parameter range of a profile.
-pub fn domain(profile: &Profile) -> (f64, f64) {
-    match profile {
-        Profile::Bezier(_) => (0.0, 1.0),
-        Profile::Bspline(b) => {
-            let k = b.knots_or_default();
-            let (p, n) = (b.degree as usize, b.points.len());
-            match (k.get(p), k.get(n)) {
-                (Some(a), Some(z)) => (f64::from(*a), f64::from(*z)),
-                _ => (0.0, 1.0),
-            }
-        }
-    }
-}
-
-/// The point and first derivative of a profile at parameter t.
-pub fn eval(profile: &Profile, t: f64) -> ([f64; 2], [f64; 2]) {
-    match profile {
-        Profile::Bezier(b) => bezier(&b.points, t),
-        Profile::Bspline(b) => bspline(b, t),
-    }
-}
-
-/// De Casteljau's algorithm; the derivative is n times the difference of the last two
-/// intermediate points.
-fn bezier(points: &[Vec2], t: f64) -> ([f64; 2], [f64; 2]) {
-    let mut pts: Vec<[f64; 2]> = points
-        .iter()
-        .map(|p| [f64::from(p[0]), f64::from(p[1])])
-        .collect();
-    let n = pts.len().saturating_sub(1);
-    if n == 0 {
-        return (pts.first().copied().unwrap_or([0.0; 2]), [0.0; 2]);
-    }
-    for level in 1..=n {
-        if level == n {
-            let (a, b) = (pts[0], pts[1]);
-            let d = [n as f64 * (b[0] - a[0]), n as f64 * (b[1] - a[1])];
-            let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-            return (p, d);
-        }
-        for i in 0..(pts.len() - 1) {
-            pts[i] = [
-                pts[i][0] + t * (pts[i + 1][0] - pts[i][0]),
-                pts[i][1] + t * (pts[i + 1][1] - pts[i][1]),
-            ];
-        }
-        pts.pop();
-    }
-    unreachable!("the loop returns at level n")
-}
-
-/// De Boor's algorithm (Piegl & Tiller, The NURBS Book, 2nd ed., A2.1 and A3.1); the
-/// derivative from the derivative curve's control points Qᵢ = p (Pᵢ₊₁ − Pᵢ) / (uᵢ₊ₚ₊₁ − uᵢ₊₁)
-/// (ibid. eq. 3.8).
-fn bspline(b: &BsplineProfile, t: f64) -> ([f64; 2], [f64; 2]) {
-    let knots: Vec<f64> = b.knots_or_default().iter().map(|k| f64::from(*k)).collect();
-    let pts: Vec<[f64; 2]> = b
-        .points
-        .iter()
-        .map(|p| [f64::from(p[0]), f64::from(p[1])])
-        .collect();
-    let p = b.degree as usize;
-    let pos = de_boor(&pts, &knots, p, t);
-    let der = if p == 0 {
-        [0.0; 2]
-    } else {
-        let q: Vec<[f64; 2]> = (0..pts.len() - 1)
-            .map(|i| {
-                let den = knots[i + p + 1] - knots[i + 1];
-                if den == 0.0 {
-                    [0.0; 2]
-                } else {
-                    let f = p as f64 / den;
-                    [
-                        f * (pts[i + 1][0] - pts[i][0]),
-                        f * (pts[i + 1][1] - pts[i][1]),
-                    ]
-                }
-            })
-            .collect();
-        de_boor(&q, &knots[1..knots.len() - 1], p - 1, t)
-    };
-    (pos, der)
-}
-
-fn de_boor(pts: &[[f64; 2]], knots: &[f64], p: usize, t: f64) -> [f64; 2] {
-    let n = pts.len();
-    if n == 0 || knots.len() < n + p + 1 {
-        return [0.0; 2];
-    }
-    // The span k with knots[k] ≤ t < knots[k+1], clamped to the last non-empty span at the end.
-    let mut k = p;
-    while k + 1 < n && knots[k + 1] <= t {
-        k += 1;
-    }
-    let mut d: Vec<[f64; 2]> = (0..=p)
-        .map(|j| pts[(j + k).saturating_sub(p).min(n - 1)])
-        .collect();
-    for r in 1..=p {
-        for j in (r..=p).rev() {
-            let i = j + k - p;
-            let den = knots[i + p + 1 - r] - knots[i];
-            let a = if den == 0.0 {
-                0.0
-            } else {
-                (t - knots[i]) / den
-            };
-            d[j] = [
-                (1.0 - a) * d[j - 1][0] + a * d[j][0],
-                (1.0 - a) * d[j - 1][1] + a * d[j][1],
-            ];
-        }
-    }
-    d[p]
 }
 
 #[cfg(test)]
@@ -283,46 +70,6 @@ mod tests {
     use super::*;
     use crate::gltf::math::cross;
     use lumo_schema::BezierProfile;
-
-    #[test]
-    fn bspline_degree_one_is_the_polyline() {
-        let b = BsplineProfile {
-            degree: 1,
-            points: vec![[1.0, 0.0], [2.0, 1.0], [2.0, 3.0]],
-            knots: None,
-        };
-        let (p, d) = bspline(&b, 0.25);
-        assert!(
-            (p[0] - 1.5).abs() < 1e-12 && (p[1] - 0.5).abs() < 1e-12,
-            "{p:?}"
-        );
-        assert!(
-            (d[0] - 2.0).abs() < 1e-12 && (d[1] - 2.0).abs() < 1e-12,
-            "{d:?}"
-        );
-        let (p, _) = bspline(&b, 1.0);
-        assert_eq!(p, [2.0, 3.0]);
-    }
-
-    #[test]
-    fn clamped_cubic_bspline_with_four_points_is_the_bezier() {
-        let pts = vec![[0.0, 0.0], [1.0, 2.0], [3.0, 2.0], [4.0, 0.0]];
-        let b = BsplineProfile {
-            degree: 3,
-            points: pts.clone(),
-            knots: None,
-        };
-        for t in [0.0, 0.3, 0.7, 1.0] {
-            let (p1, d1) = bspline(&b, t);
-            let (p2, d2) = bezier(&pts, t);
-            for k in 0..2 {
-                assert!(
-                    (p1[k] - p2[k]).abs() < 1e-9 && (d1[k] - d2[k]).abs() < 1e-9,
-                    "t={t}: {p1:?} {p2:?} {d1:?} {d2:?}"
-                );
-            }
-        }
-    }
 
     #[test]
     fn lathe_of_an_upward_line_faces_away_from_the_axis() {

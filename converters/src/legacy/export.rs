@@ -12,6 +12,7 @@ use lumo_schema::{Light, Material, MeshSource, Object, Profile, Scale, Scene, Tr
 use super::error::ExportError;
 use super::import::{material_name, uniform_knots};
 use super::math;
+use lumo_schema::geometry::transform::ops_matrix;
 
 /// Writes `scene` as legacy text, or lists everything the format cannot express.
 ///
@@ -404,15 +405,11 @@ fn bezier_for_legacy(points: &[[f32; 2]]) -> Vec<[f32; 2]> {
 /// placement, column by column.
 fn transform_lines(ops: &[TransformOp]) -> Vec<String> {
     if ops.iter().any(|o| matches!(o, TransformOp::Matrix(_))) {
-        let m = ops.iter().fold(math::identity(), |acc, op| {
-            math::mul(&math::schema_op_matrix(op), &acc)
-        });
+        let m = ops_matrix(ops);
         let mut s = String::from("Matrix4f {");
         // Column by column: the row index varies fastest.
-        for c in 0..4 {
-            for row in &m {
-                let _ = write!(s, " {}", f(row[c] as f32));
-            }
+        for x in m.to_cols_array() {
+            let _ = write!(s, " {}", f(x as f32));
         }
         s.push_str(" }");
         return vec![s];

@@ -2,7 +2,7 @@
 //! `docs/legacy.md`; the comments here say why.
 
 use std::collections::BTreeMap;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 use lumo_schema as schema;
 use lumo_schema::{
@@ -16,6 +16,8 @@ use super::lexer::Span;
 use super::material::material;
 use super::math::{self, M4};
 use super::LightsPolicy;
+use lumo_schema::geometry::paths::relative;
+use lumo_schema::geometry::transform::to_rows;
 
 /// The framework's default background when the file has none (PA1/PA3 parser).
 pub const DEFAULT_BACKGROUND: [f32; 3] = [0.5, 0.5, 0.5];
@@ -408,51 +410,7 @@ pub(super) fn ctx_file(
         return Err(Problem::at(name.span, format!("{what} `{}` not found", name.value))
             .help(format!("looked for {}; paths are relative to the scene's folder (or the folder above `testcases/`)", looked.join(" and "))));
     };
-    Ok((found.clone(), relative_to(&ctx.out_dir, found)))
-}
-
-/// `target` written relative to `dir` with `/` separators (absolute when they share no root).
-pub fn relative_to(dir: &Path, target: &Path) -> String {
-    let (dir, target) = (real_path(dir), real_path(target));
-    let a: Vec<Component> = dir.components().collect();
-    let b: Vec<Component> = target.components().collect();
-    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
-    if common == 0 {
-        return target.display().to_string();
-    }
-    let mut parts: Vec<String> = Vec::new();
-    for _ in common..a.len() {
-        parts.push("..".into());
-    }
-    for c in &b[common..] {
-        parts.push(c.as_os_str().to_string_lossy().into_owned());
-    }
-    parts.join("/")
-}
-
-/// The absolute path with symbolic links resolved; for a path that does not exist yet (an output
-/// folder about to be created), its nearest existing ancestor is resolved and the rest appended,
-/// so that both sides of [`relative_to`] are comparable.
-fn real_path(p: &Path) -> PathBuf {
-    let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
-    let mut existing = abs.as_path();
-    let mut rest = Vec::new();
-    loop {
-        if let Ok(real) = existing.canonicalize() {
-            let mut out = real;
-            for part in rest.iter().rev() {
-                out.push(part);
-            }
-            return out;
-        }
-        match (existing.parent(), existing.file_name()) {
-            (Some(parent), Some(name)) => {
-                rest.push(name.to_os_string());
-                existing = parent;
-            }
-            _ => return abs,
-        }
-    }
+    Ok((found.clone(), relative(found, &ctx.out_dir)))
 }
 
 /// Placement accumulated from the enclosing Transform blocks.
@@ -470,7 +428,7 @@ impl Default for Chain {
     fn default() -> Self {
         Chain {
             ops: Vec::new(),
-            matrix: math::identity(),
+            matrix: M4::IDENTITY,
             has_matrix: false,
         }
     }
@@ -480,7 +438,7 @@ impl Chain {
     fn transform(&self) -> Vec<TransformOp> {
         if self.has_matrix {
             vec![TransformOp::Matrix(
-                self.matrix.map(|row| row.map(|x| x as f32)),
+                to_rows(&self.matrix).map(|row| row.map(|x| x as f32)),
             )]
         } else {
             self.ops.clone()
@@ -527,7 +485,7 @@ impl Walker<'_, '_> {
                 ops_list.extend(chain.ops.iter().cloned());
                 let next = Chain {
                     ops: ops_list,
-                    matrix: math::mul(&chain.matrix, &inner.1),
+                    matrix: chain.matrix * inner.1,
                     has_matrix: chain.has_matrix || inner.2,
                 };
                 return self.node(child, &next);
@@ -694,7 +652,7 @@ fn transform_block(ops: &[Located<Op>]) -> Result<(Vec<TransformOp>, M4, bool), 
                 TransformOp::Rotate(Rotation { axis, degrees: d })
             }
             Op::Matrix4f(ref v) => {
-                let m = math::matrix4f(v);
+                let m = to_rows(&math::matrix4f(v));
                 if m[3] != [0.0, 0.0, 0.0, 1.0] {
                     return Err(Problem::at(op.span, format!(
                         "Matrix4f is not affine: its last row is {} {} {} {} (the 4th, 8th, 12th and 16th numbers, as the file lists the matrix column by column)",

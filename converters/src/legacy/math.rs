@@ -1,72 +1,20 @@
-//! Small exact-enough math for the converter: 4×4 affine matrices in f64, the legacy transform
-//! composition rule, the point-light reference distance, and inverting f32 maps exactly so that
+//! Small exact-enough math for the converter: the legacy transform composition rule (on
+//! [`lumo_schema::geometry::transform`]'s f64 matrices), the point-light reference distance, and inverting f32 maps exactly so that
 //! export followed by import reproduces every number bit for bit.
 
-use lumo_schema::{Object, Scale, Scene, TransformOp};
+use lumo_schema::geometry::bounds::{object_bounds, points_bounds, Aabb};
+use lumo_schema::geometry::glam::{DMat4, DVec3};
+use lumo_schema::geometry::transform::{ops_matrix, rotation_axis_angle};
+use lumo_schema::{Mesh, MeshSource, Object, Scene};
 
 use super::ast::Op;
 
-/// A 4×4 matrix, row-major: `m[row][col]`. Points are columns: p' = M · (x, y, z, 1).
-pub type M4 = [[f64; 4]; 4];
+/// A 4×4 matrix acting on column vectors: p' = M · (x, y, z, 1).
+pub type M4 = DMat4;
 
-/// The identity.
-pub fn identity() -> M4 {
-    let mut m = [[0.0; 4]; 4];
-    for (i, row) in m.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    m
-}
-
-/// a · b.
-pub fn mul(a: &M4, b: &M4) -> M4 {
-    let mut m = [[0.0; 4]; 4];
-    for (r, row) in m.iter_mut().enumerate() {
-        for (c, v) in row.iter_mut().enumerate() {
-            *v = (0..4).map(|k| a[r][k] * b[k][c]).sum();
-        }
-    }
-    m
-}
-
-/// M · (p, 1), dropping the homogeneous coordinate (affine matrices only).
-pub fn apply(m: &M4, p: [f64; 3]) -> [f64; 3] {
-    let mut out = [0.0; 3];
-    for (r, v) in out.iter_mut().enumerate() {
-        *v = m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3];
-    }
-    out
-}
-
-fn translation(t: [f64; 3]) -> M4 {
-    let mut m = identity();
-    for i in 0..3 {
-        m[i][3] = t[i];
-    }
-    m
-}
-
-fn scaling(s: [f64; 3]) -> M4 {
-    let mut m = identity();
-    for i in 0..3 {
-        m[i][i] = s[i];
-    }
-    m
-}
-
-/// Right-handed rotation by `deg` degrees about `axis` (Rodrigues' formula): positive angles turn
-/// counter-clockwise when looking down the axis towards the origin.
-pub fn rotation(axis: [f64; 3], deg: f64) -> M4 {
-    let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-    let [x, y, z] = [axis[0] / len, axis[1] / len, axis[2] / len];
-    let (s, c) = deg.to_radians().sin_cos();
-    let t = 1.0 - c;
-    [
-        [t * x * x + c, t * x * y - s * z, t * x * z + s * y, 0.0],
-        [t * x * y + s * z, t * y * y + c, t * y * z - s * x, 0.0],
-        [t * x * z - s * y, t * y * z + s * x, t * z * z + c, 0.0],
-        [0.0, 0.0, 0.0, 1.0],
-    ]
+/// Right-handed rotation by `deg` degrees about `axis`.
+fn rotation(axis: [f64; 3], deg: f64) -> M4 {
+    rotation_axis_angle(DVec3::from(axis), deg.to_radians())
 }
 
 fn v64(v: [f32; 3]) -> [f64; 3] {
@@ -76,19 +24,15 @@ fn v64(v: [f32; 3]) -> [f64; 3] {
 /// The matrix a legacy `Matrix4f` lists: its 16 numbers run down the columns (row index varies
 /// fastest), so entry i is `m[i % 4][i / 4]`.
 pub fn matrix4f(values: &[f32; 16]) -> M4 {
-    let mut m = [[0.0; 4]; 4];
-    for (i, v) in values.iter().enumerate() {
-        m[i % 4][i / 4] = *v as f64;
-    }
-    m
+    DMat4::from_cols_array(&values.map(f64::from))
 }
 
 /// The matrix of one legacy step (Matrix4f as stored).
 pub fn legacy_op_matrix(op: &Op) -> M4 {
     match *op {
-        Op::Scale(s) => scaling(v64(s)),
-        Op::UniformScale(s) => scaling([s as f64; 3]),
-        Op::Translate(t) => translation(v64(t)),
+        Op::Scale(s) => DMat4::from_scale(DVec3::from(v64(s))),
+        Op::UniformScale(s) => DMat4::from_scale(DVec3::splat(s as f64)),
+        Op::Translate(t) => DMat4::from_translation(DVec3::from(v64(t))),
         Op::XRotate(d) => rotation([1.0, 0.0, 0.0], d as f64),
         Op::YRotate(d) => rotation([0.0, 1.0, 0.0], d as f64),
         Op::ZRotate(d) => rotation([0.0, 0.0, 1.0], d as f64),
@@ -101,89 +45,35 @@ pub fn legacy_op_matrix(op: &Op) -> M4 {
 /// identity and, for each step in file order, right-multiply (M = M · Op), except `Matrix4f`,
 /// which left-multiplies (M = Mat · M).
 pub fn legacy_block_matrix(ops: &[Op]) -> M4 {
-    ops.iter().fold(identity(), |m, op| match op {
-        Op::Matrix4f(_) => mul(&legacy_op_matrix(op), &m),
-        _ => mul(&m, &legacy_op_matrix(op)),
+    ops.iter().fold(DMat4::IDENTITY, |m, op| match op {
+        Op::Matrix4f(_) => legacy_op_matrix(op) * m,
+        _ => m * legacy_op_matrix(op),
     })
-}
-
-/// The matrix of one schema step.
-pub fn schema_op_matrix(op: &TransformOp) -> M4 {
-    match op {
-        TransformOp::Translate(t) => translation(v64(*t)),
-        TransformOp::Rotate(r) => rotation(v64(r.axis), r.degrees as f64),
-        TransformOp::Scale(Scale::Uniform(s)) => scaling([*s as f64; 3]),
-        TransformOp::Scale(Scale::PerAxis(s)) => scaling(v64(*s)),
-        TransformOp::Matrix(m) => m.map(|row| row.map(|x| x as f64)),
-    }
-}
-
-/// Applies schema steps to a point in listed order (the first step acts first).
-pub fn apply_ops(ops: &[TransformOp], p: [f64; 3]) -> [f64; 3] {
-    ops.iter().fold(p, |p, op| apply(&schema_op_matrix(op), p))
 }
 
 /// The world-space point a legacy point light's brightness is matched at: the centre of the
-/// bounding box of the scene's bounded objects (spheres, triangles, lathes by their control
-/// polygon's hull, meshes by their placed origin, since their files are not read here), or
-/// `None` when there are none. Computed from the schema scene alone, so import and export agree.
+/// box of the scene's bounded objects, by their true bounds
+/// ([`lumo_schema::geometry::bounds::object_bounds`]: a lathe by its curve, not its control
+/// points, so an exact lathe and its tessellation give the same point), or `None` when there
+/// are none. Meshes in OBJ or glTF files count by their placed origin, since the export side
+/// does not know the scene's folder to read them. Computed from the schema scene alone, so
+/// import and export agree.
 pub fn scene_reference_point(scene: &Scene) -> Option<[f64; 3]> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    let mut any = false;
+    let mut all: Option<Aabb> = None;
     for obj in &scene.objects {
-        let local: Vec<[f64; 3]> = match obj {
-            Object::Plane(_) => continue,
-            Object::Sphere(s) => corners(v64(s.center), [s.radius as f64; 3]),
-            Object::Triangle(t) => t.vertices.iter().map(|v| v64(*v)).collect(),
-            Object::Mesh(_) => vec![[0.0; 3]],
-            Object::Lathe(l) => {
-                let pts: &[[f32; 2]] = match &l.profile {
-                    lumo_schema::Profile::Bezier(b) => &b.points,
-                    lumo_schema::Profile::Bspline(b) => &b.points,
-                };
-                if pts.is_empty() {
-                    continue;
-                }
-                let r = pts.iter().map(|p| (p[0] as f64).abs()).fold(0.0, f64::max);
-                let y0 = pts
-                    .iter()
-                    .map(|p| p[1] as f64)
-                    .fold(f64::INFINITY, f64::min);
-                let y1 = pts
-                    .iter()
-                    .map(|p| p[1] as f64)
-                    .fold(f64::NEG_INFINITY, f64::max);
-                corners([0.0, (y0 + y1) / 2.0, 0.0], [r, (y1 - y0) / 2.0, r])
-            }
+        let b = match obj {
+            Object::Mesh(Mesh {
+                source: MeshSource::Obj(_) | MeshSource::Gltf(_),
+                transform,
+                ..
+            }) => points_bounds([DVec3::ZERO], &ops_matrix(transform)),
+            _ => object_bounds(obj),
         };
-        for p in local {
-            let w = apply_ops(obj.transform(), p);
-            if w.iter().all(|x| x.is_finite()) {
-                any = true;
-                for i in 0..3 {
-                    lo[i] = lo[i].min(w[i]);
-                    hi[i] = hi[i].max(w[i]);
-                }
-            }
+        if let Some(b) = b {
+            all = Some(all.map_or(b, |a| a.union(&b)));
         }
     }
-    any.then(|| {
-        [
-            (lo[0] + hi[0]) / 2.0,
-            (lo[1] + hi[1]) / 2.0,
-            (lo[2] + hi[2]) / 2.0,
-        ]
-    })
-}
-
-fn corners(c: [f64; 3], h: [f64; 3]) -> Vec<[f64; 3]> {
-    let mut out = Vec::with_capacity(8);
-    for i in 0..8 {
-        let s = |bit: usize| if i & (1 << bit) != 0 { 1.0 } else { -1.0 };
-        out.push([c[0] + s(0) * h[0], c[1] + s(1) * h[1], c[2] + s(2) * h[2]]);
-    }
-    out
+    all.map(|b| b.center().to_array())
 }
 
 /// The distance at which a legacy point light (no falloff) and lumo's inverse-square light give
@@ -202,6 +92,13 @@ pub fn point_light_reference_distance(scene: &Scene, light: [f32; 3]) -> f64 {
         d = 1.0;
     }
     d
+}
+
+/// The intensity (W/sr) the importer gives a legacy point light of colour channel `color` at
+/// `position`: π · colour · d² with d from [`point_light_reference_distance`].
+pub fn point_light_intensity(scene: &Scene, position: [f32; 3], color: f32) -> f32 {
+    let d = point_light_reference_distance(scene, position);
+    legacy_to_radiometric(color, d * d)
 }
 
 /// Legacy colour → lumo radiometric quantity. The legacy shading is `kd · colour · cos θ` with
@@ -271,12 +168,13 @@ pub fn roughness_to_shininess(r: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lumo_schema::TransformOp;
 
     #[test]
     fn rotation_is_right_handed() {
-        let p = apply(&rotation([0.0, 0.0, 1.0], 90.0), [1.0, 0.0, 0.0]);
+        let p = rotation([0.0, 0.0, 1.0], 90.0).transform_point3(DVec3::X);
         assert!((p[0]).abs() < 1e-12 && (p[1] - 1.0).abs() < 1e-12);
-        let p = apply(&rotation([1.0, 0.0, 0.0], 90.0), [0.0, 1.0, 0.0]);
+        let p = rotation([1.0, 0.0, 0.0], 90.0).transform_point3(DVec3::Y);
         assert!((p[2] - 1.0).abs() < 1e-12);
     }
 
@@ -286,10 +184,13 @@ mod tests {
         let t = [
             1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0,
         ];
-        assert_eq!(apply(&matrix4f(&t), [0.0; 3]), [1.0, 2.0, 3.0]);
+        assert_eq!(
+            matrix4f(&t).transform_point3(DVec3::ZERO).to_array(),
+            [1.0, 2.0, 3.0]
+        );
         // Scale 2 then Matrix4f: M = Mat · (I · S), so the object is scaled first, then moved.
         let m = legacy_block_matrix(&[Op::UniformScale(2.0), Op::Matrix4f(t)]);
-        assert_eq!(apply(&m, [1.0, 1.0, 1.0]), [3.0, 4.0, 5.0]);
+        assert_eq!(m.transform_point3(DVec3::ONE).to_array(), [3.0, 4.0, 5.0]);
     }
 
     #[test]
@@ -310,5 +211,70 @@ mod tests {
                 "r = {r}"
             );
         }
+    }
+
+    /// The intended change of issue 11: a lathe and its tessellation (as an inline mesh) put a
+    /// legacy point light at the same reference point. Before, the lathe counted by its control
+    /// polygon and a mesh by its origin (a B-spline student scene gave 70.8 vs 46.9). The
+    /// tolerance, 1e-3 relative on the intensity d², covers the 64-ring tessellation's chord
+    /// error on this profile (about 1e-4 of its size) doubled by the square.
+    #[test]
+    fn exact_and_tessellated_lathes_give_the_same_point_light() {
+        use lumo_schema::geometry::tessellate;
+        use lumo_schema::{BsplineProfile, InlineMesh, Lathe, Profile, Rotation};
+        let profile = Profile::Bspline(BsplineProfile {
+            degree: 3,
+            points: vec![
+                [0.0, -1.0],
+                [1.6, -1.0],
+                [0.2, 0.0],
+                [0.9, 1.2],
+                [0.4, 1.5],
+                [0.0, 1.5],
+            ],
+            knots: None,
+        });
+        let transform = vec![
+            TransformOp::Translate([1.7, 0.3, -2.0]),
+            TransformOp::Rotate(Rotation {
+                axis: [0.0, 0.0, 1.0],
+                degrees: 15.0,
+            }),
+        ];
+        let mut scene: Scene = lumo_schema::parse_scene(
+            r#"{"format_version": 1, "camera": {"position": [0, 0, 8], "look_at": [0, 0, 0], "fov_y_deg": 40}, "materials": {}, "objects": []}"#,
+        )
+        .expect("a minimal scene");
+        scene.objects = vec![Object::Lathe(Lathe {
+            name: None,
+            material: "m".into(),
+            transform: transform.clone(),
+            profile: profile.clone(),
+        })];
+        let light = [4.0, 5.0, 3.0];
+        let exact = point_light_reference_distance(&scene, light);
+        let t = tessellate::lathe(&profile, 64, 64);
+        let f32s = |v: DVec3| v.to_array().map(|x| x as f32);
+        scene.objects = vec![Object::Mesh(Mesh {
+            name: None,
+            material: "m".into(),
+            transform,
+            source: MeshSource::Inline(InlineMesh {
+                positions: t.positions.iter().map(|p| f32s(*p)).collect(),
+                indices: t.indices.clone(),
+                normals: None,
+                uvs: None,
+            }),
+            smooth: false,
+        })];
+        let mesh = point_light_reference_distance(&scene, light);
+        let (i1, i2) = (
+            legacy_to_radiometric(1.0, exact * exact),
+            legacy_to_radiometric(1.0, mesh * mesh),
+        );
+        assert!(
+            ((i1 - i2) / i1).abs() < 1e-3,
+            "exact lathe {i1} vs tessellated {i2}"
+        );
     }
 }

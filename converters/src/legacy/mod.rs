@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 pub use error::{ExportError, LegacyError, Problem};
 pub use export::export;
-pub use import::{material_name, relative_to, uniform_knots, DEFAULT_BACKGROUND};
+pub use import::{material_name, uniform_knots, DEFAULT_BACKGROUND};
 pub use material::GLOSSY_ALPHA;
 pub use parser::{MAX_CONTROL_POINTS, MAX_COUNT, MAX_DEPTH};
 
