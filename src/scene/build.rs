@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use glam::{Affine2, Mat4};
+use glam::Affine2;
 use lumo_schema as schema;
 use lumo_schema::Validated;
 
@@ -56,27 +56,10 @@ pub enum BuildError {
     },
 }
 
-/// The object → world map of a list of transform steps (the first step acts first).
+/// The object → world map of a list of transform steps (the first step acts first), in the
+/// renderer's f32 ([`lumo_schema::geometry::transform::compose`]).
 pub fn compose_transform(ops: &[schema::TransformOp]) -> Affine3A {
-    ops.iter().fold(Affine3A::IDENTITY, |m, op| step(op) * m)
-}
-
-fn step(op: &schema::TransformOp) -> Affine3A {
-    match op {
-        schema::TransformOp::Translate(t) => Affine3A::from_translation(Vec3::from(*t)),
-        schema::TransformOp::Rotate(r) => {
-            Affine3A::from_axis_angle(Vec3::from(r.axis).normalize(), r.degrees.to_radians())
-        }
-        schema::TransformOp::Scale(schema::Scale::Uniform(s)) => {
-            Affine3A::from_scale(Vec3::splat(*s))
-        }
-        schema::TransformOp::Scale(schema::Scale::PerAxis(s)) => {
-            Affine3A::from_scale(Vec3::from(*s))
-        }
-        schema::TransformOp::Matrix(rows) => {
-            Affine3A::from_mat4(Mat4::from_cols_array_2d(rows).transpose())
-        }
-    }
+    lumo_schema::geometry::transform::compose(ops)
 }
 
 /// Builds the scene graph from a validated scene and the assets read for it (see

@@ -3,7 +3,7 @@
 //! Matrices are [`glam::DMat4`] acting on column vectors, p′ = M · (x, y, z, 1). A scene's
 //! [`Transform`] lists steps with the first acting first, so its matrix is M = Opₙ ⋯ Op₁.
 
-use glam::{DMat4, DVec3};
+use glam::{Affine3A, DMat4, DVec3, Mat4, Vec3};
 
 use crate::{Scale, TransformOp};
 
@@ -27,22 +27,83 @@ pub fn rotation_axis_angle(axis: DVec3, radians: f64) -> DMat4 {
     ])
 }
 
-/// The matrix of one transform step (f32 values widened exactly to f64).
-pub fn op_matrix(op: &TransformOp) -> DMat4 {
-    let v = |a: [f32; 3]| DVec3::from(a.map(f64::from));
-    match op {
-        TransformOp::Translate(t) => DMat4::from_translation(v(*t)),
-        TransformOp::Rotate(r) => rotation_axis_angle(v(r.axis), f64::from(r.degrees).to_radians()),
-        TransformOp::Scale(Scale::Uniform(k)) => DMat4::from_scale(DVec3::splat(f64::from(*k))),
-        TransformOp::Scale(Scale::PerAxis(s)) => DMat4::from_scale(v(*s)),
-        TransformOp::Matrix(rows) => from_rows(&rows.map(|r| r.map(f64::from))),
+/// A matrix type transform steps compose in. The meaning of a step (its order, degrees, the
+/// row-major matrix) is written once, in [`step`]; the type says only how each kind of step is
+/// built: f64 [`DMat4`] for the converters (exact round trips), f32 [`Affine3A`] for the
+/// renderer (its instances' own type, rounded per step as renders always were).
+pub trait StepMatrix: Copy + std::ops::Mul<Output = Self> {
+    /// The identity map.
+    const IDENTITY: Self;
+    /// Translation by `t`.
+    fn translation(t: [f32; 3]) -> Self;
+    /// Right-handed rotation by `degrees` about `axis` (any length but zero).
+    fn rotation(axis: [f32; 3], degrees: f32) -> Self;
+    /// Scaling by `s` per axis.
+    fn scaling(s: [f32; 3]) -> Self;
+    /// The affine map of a row-major 4×4 matrix (last row 0 0 0 1).
+    fn from_rows_f32(rows: &[[f32; 4]; 4]) -> Self;
+}
+
+impl StepMatrix for DMat4 {
+    const IDENTITY: Self = DMat4::IDENTITY;
+    fn translation(t: [f32; 3]) -> Self {
+        DMat4::from_translation(DVec3::from(t.map(f64::from)))
+    }
+    fn rotation(axis: [f32; 3], degrees: f32) -> Self {
+        rotation_axis_angle(
+            DVec3::from(axis.map(f64::from)),
+            f64::from(degrees).to_radians(),
+        )
+    }
+    fn scaling(s: [f32; 3]) -> Self {
+        DMat4::from_scale(DVec3::from(s.map(f64::from)))
+    }
+    fn from_rows_f32(rows: &[[f32; 4]; 4]) -> Self {
+        from_rows(&rows.map(|r| r.map(f64::from)))
     }
 }
 
-/// The matrix of a list of transform steps: the first step acts first, M = Opₙ ⋯ Op₁; the
-/// identity for an empty list.
+impl StepMatrix for Affine3A {
+    const IDENTITY: Self = Affine3A::IDENTITY;
+    fn translation(t: [f32; 3]) -> Self {
+        Affine3A::from_translation(Vec3::from(t))
+    }
+    fn rotation(axis: [f32; 3], degrees: f32) -> Self {
+        Affine3A::from_axis_angle(Vec3::from(axis).normalize(), degrees.to_radians())
+    }
+    fn scaling(s: [f32; 3]) -> Self {
+        Affine3A::from_scale(Vec3::from(s))
+    }
+    fn from_rows_f32(rows: &[[f32; 4]; 4]) -> Self {
+        Affine3A::from_mat4(Mat4::from_cols_array_2d(rows).transpose())
+    }
+}
+
+/// The matrix of one transform step.
+pub fn step<M: StepMatrix>(op: &TransformOp) -> M {
+    match op {
+        TransformOp::Translate(t) => M::translation(*t),
+        TransformOp::Rotate(r) => M::rotation(r.axis, r.degrees),
+        TransformOp::Scale(Scale::Uniform(k)) => M::scaling([*k; 3]),
+        TransformOp::Scale(Scale::PerAxis(s)) => M::scaling(*s),
+        TransformOp::Matrix(rows) => M::from_rows_f32(rows),
+    }
+}
+
+/// The map of a list of transform steps in the matrix type `M`: the first step acts first,
+/// M = Opₙ ⋯ Op₁; the identity for an empty list.
+pub fn compose<M: StepMatrix>(ops: &[TransformOp]) -> M {
+    ops.iter().fold(M::IDENTITY, |m, op| step::<M>(op) * m)
+}
+
+/// The f64 matrix of one transform step (f32 values widened exactly to f64).
+pub fn op_matrix(op: &TransformOp) -> DMat4 {
+    step(op)
+}
+
+/// The f64 matrix of a list of transform steps (see [`compose`]).
 pub fn ops_matrix(ops: &[TransformOp]) -> DMat4 {
-    ops.iter().fold(DMat4::IDENTITY, |m, op| op_matrix(op) * m)
+    compose(ops)
 }
 
 /// The matrix whose rows are `rows` (`rows[r][c]` is the entry in row r, column c).
