@@ -70,37 +70,16 @@ impl Soup {
     }
 }
 
-/// Loads an OBJ through lumo's own loader path (tobj, triangulated).
+/// Loads an OBJ through lumo's one OBJ reader (`lumo_converters::obj`, tobj triangulated).
 pub fn load_obj(path: &Path) -> Soup {
-    let (models, _) = tobj::load_obj(
-        path,
-        &tobj::LoadOptions {
-            triangulate: true,
-            single_index: true,
-            ignore_points: true,
-            ignore_lines: true,
-        },
-    )
-    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut tris = Vec::new();
-    for m in models {
-        let p = &m.mesh.positions;
-        let v = |i: u32| {
-            Vec3::new(
-                p[3 * i as usize],
-                p[3 * i as usize + 1],
-                p[3 * i as usize + 2],
-            )
-        };
-        for t in m.mesh.indices.chunks_exact(3) {
-            tris.push([v(t[0]), v(t[1]), v(t[2])]);
-        }
-    }
+    let mesh =
+        lumo_converters::obj::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let positions: Vec<Vec3> = mesh.positions.into_iter().map(Vec3::from).collect();
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    Soup { name, tris }
+    Soup::indexed(&name, &positions, &mesh.triangles)
 }
 
 /// A ray set.
