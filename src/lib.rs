@@ -1,8 +1,20 @@
 //! lumo: a physically based renderer.
 //!
-//! Data flows one way: a scene description (crate `lumo-schema`) is validated, turned into a
-//! [`scene::Scene`] graph ([`scene::build`]), rendered ([`render::render`]) and written
-//! ([`output::write_image`]). The renderer itself only ever sees the scene graph.
+//! Data flows one way: any input (scene JSON, legacy text, glTF) is read and validated by
+//! [`load()`], with every mesh and image it references ([`load::Assets`]); [`Loaded::build`]
+//! turns it into a [`scene::Scene`] graph ([`scene::build()`], no I/O), which is rendered
+//! ([`render::render`]) and written ([`output::write_image`]). The renderer itself only ever
+//! sees the scene graph.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let loaded = lumo::load("scenes/cornell.json", &lumo::LoadOptions::default())?;
+//! let (scene, _warnings) = loaded.build()?;
+//! let (image, _stats) = lumo::render::render(&scene, &Default::default());
+//! lumo::output::write_image(&image, "cornell.png".as_ref(), lumo::output::ToneMap::Clamp)?;
+//! # Ok(())
+//! # }
+//! ```
 
 #![warn(missing_docs)]
 

@@ -19,7 +19,7 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
-    /// A diagnostic at `path` with no location yet (filled in by [`crate::load`]).
+    /// A diagnostic at `path` with no location yet (filled in by [`crate::load_scene_str`]).
     pub fn new(path: JsonPath, message: impl Into<String>) -> Self {
         Diagnostic {
             path,

@@ -604,6 +604,8 @@ pub struct BsplineProfile {
     /// Knot vector: `points.len() + degree + 1` non-decreasing values. The curve is traced over
     /// [knots[degree], knots[points.len()]]. Default: clamped uniform on [0, 1] (the curve starts
     /// and ends at the first and last control points).
+    // The doc is also the JSON Schema's description, so its math stays unescaped.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub knots: Option<Vec<f32>>,
 }

@@ -10,8 +10,8 @@ use crate::math::Vec3;
 /// Per-ray constants of the shear transform.
 ///
 /// With `kz` the dominant axis of the direction and (kx, ky) the other two (swapped when
-/// d[kz] < 0 to keep the winding), a vertex a relative to the origin maps to
-/// (a[kx] − sx·a[kz], a[ky] − sy·a[kz], sz·a[kz]). That map is stored as a matrix whose columns
+/// d\[kz\] < 0 to keep the winding), a vertex a relative to the origin maps to
+/// (a\[kx\] − sx·a\[kz\], a\[ky\] − sy·a\[kz\], sz·a\[kz\]). That map is stored as a matrix whose columns
 /// are the images of the unit axes: (1, 0, 0) for kx, (0, 1, 0) for ky and (−sx, −sy, sz) for
 /// kz. Multiplying by it adds the same products as the scalar formula plus exact zeros, so the
 /// result is bit-identical to the paper's, without per-ray branching on axis indices.
@@ -22,7 +22,7 @@ pub struct RayShear {
 }
 
 /// The shear's axis permutation [kx, ky, kz] for direction `d`: kz is the dominant axis, and kx,
-/// ky follow it cyclically, swapped when d[kz] < 0 so the triangles' winding is kept.
+/// ky follow it cyclically, swapped when d\[kz\] < 0 so the triangles' winding is kept.
 #[inline]
 pub fn shear_axes(d: Vec3) -> [usize; 3] {
     let a = d.abs();

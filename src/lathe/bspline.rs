@@ -48,7 +48,7 @@ pub struct BezierSpan {
 }
 
 /// Decomposes a validated B-spline (degree `p`, `points`, `knots` of length n + p + 1,
-/// non-decreasing, knots[p] < knots[n]) into Bézier spans covering [knots[p], knots[n]].
+/// non-decreasing, knots\[p\] < knots\[n\]) into Bézier spans covering \[knots\[p\], knots\[n\]\].
 pub fn decompose(p: usize, points: &[DVec2], knots: &[f64]) -> Vec<BezierSpan> {
     let n = points.len();
     let (start, end) = (knots[p], knots[n]);

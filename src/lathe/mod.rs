@@ -20,7 +20,7 @@
 //! [`Lathe::segment_annulus`], [`Lathe::intersect_segment`]) exposes the pieces one by one so
 //! that a BVH can hold them as primitives instead (not done yet).
 //!
-//! Intersection (see [`intersect`]) reduces the ray–piece problem to the roots of one
+//! Intersection (see `intersect.rs`) reduces the ray–piece problem to the roots of one
 //! univariate polynomial in the curve parameter, in Bernstein form, isolates all of them by
 //! subdivision with the convex-hull property and polishes them with safeguarded Newton.
 
@@ -173,7 +173,7 @@ impl Profile {
 
     /// A B-spline of the given degree. `knots`: `points.len() + degree + 1` non-decreasing
     /// values, or `None` for the clamped uniform vector on [0, 1]. The curve is traced over
-    /// [knots[degree], knots[points.len()]], and v is that interval mapped to [0, 1].
+    /// \[knots\[degree\], knots\[points.len()\]\], and v is that interval mapped to \[0, 1\].
     pub fn bspline(
         degree: usize,
         points: &[[f64; 2]],

@@ -63,7 +63,7 @@ pub fn compose_transform(ops: &[schema::TransformOp]) -> Affine3A {
 }
 
 /// Builds the scene graph from a validated scene and the assets read for it (see
-/// [`crate::load`]); reads no file. Returns the scene and warnings about what was dropped.
+/// [`crate::load()`]); reads no file. Returns the scene and warnings about what was dropped.
 pub fn build(
     desc: &Validated<schema::Scene>,
     assets: &Assets,

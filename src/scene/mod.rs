@@ -1,5 +1,5 @@
 //! The scene graph: everything the renderer needs, resolved and in world space. Built from a
-//! validated scene description by [`build`]; the renderer never sees the file formats.
+//! validated scene description and its assets by [`build()`]; the renderer never sees the file formats.
 
 pub mod build;
 

@@ -702,7 +702,7 @@ fn curve_profile(c: &CurveDef, flat: bool) -> Result<Profile, Problem> {
 }
 
 /// The legacy B-spline's knots: uniform and unclamped, t_i = i / (N + 3) for i = 0 … N + 3
-/// (N control points, degree 3). lumo traces [knots[3], knots[N]] = [3/(N+3), N/(N+3)], exactly
+/// (N control points, degree 3). lumo traces \[knots\[3\], knots\[N\]\] = \[3/(N+3), N/(N+3)\], exactly
 /// the legacy parameter range.
 pub fn uniform_knots(n: usize) -> Vec<f32> {
     (0..n + 4)

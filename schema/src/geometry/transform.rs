@@ -1,14 +1,14 @@
 //! Transform steps as one f64 matrix.
 //!
 //! Matrices are [`glam::DMat4`] acting on column vectors, p′ = M · (x, y, z, 1). A scene's
-//! [`Transform`] lists steps with the first acting first, so its matrix is M = Opₙ ⋯ Op₁.
+//! [`Transform`](crate::Transform) lists steps with the first acting first, so its matrix is M = Opₙ ⋯ Op₁.
 
 use glam::{Affine3A, DMat4, DVec3, Mat4, Vec3};
 
 use crate::{Scale, TransformOp};
 
 /// Right-handed rotation by `radians` about `axis` (Rodrigues' rotation formula,
-/// R = cos θ I + sin θ [k]ₓ + (1 − cos θ) k kᵀ for the unit axis k): positive angles turn
+/// R = cos θ I + sin θ \[k\]ₓ + (1 − cos θ) k kᵀ for the unit axis k): positive angles turn
 /// counter-clockwise when looking down the axis towards the origin. A zero or non-finite axis
 /// gives the identity.
 pub fn rotation_axis_angle(axis: DVec3, radians: f64) -> DMat4 {
