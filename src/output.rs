@@ -50,11 +50,7 @@ fn aces(x: f32) -> f32 {
 
 /// The output format for a path, by extension.
 pub fn format_of(path: &Path) -> Result<ImageFormat, ImageIoError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = lumo_schema::geometry::paths::lowercase_extension(path);
     match ext.as_str() {
         "png" => Ok(ImageFormat::Png),
         "exr" => Ok(ImageFormat::OpenExr),

@@ -233,11 +233,7 @@ fn convert_cmd(
     camera: Option<&str>,
     lights: LightsPolicy,
 ) -> Result<(), CliError> {
-    let ext = output
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = lumo_schema::geometry::paths::lowercase_extension(output);
     let out_dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),

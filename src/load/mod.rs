@@ -156,11 +156,7 @@ impl Loaded {
 
 /// The input kind of a path, by extension.
 pub fn kind_of(path: &Path) -> Result<InputKind, LoadError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = lumo_schema::geometry::paths::lowercase_extension(path);
     match ext.as_str() {
         "json" => Ok(InputKind::Json),
         "txt" => Ok(InputKind::Legacy),

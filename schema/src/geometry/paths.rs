@@ -12,6 +12,15 @@
 
 use std::path::{Component, Path, PathBuf};
 
+/// A path's extension in lower case (`""` when it has none or it is not UTF-8): how every
+/// input and output format is told apart.
+pub fn lowercase_extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
 /// The absolute path with symbolic links resolved. For a path that does not exist yet (an
 /// output folder about to be created), its nearest existing ancestor is resolved and the rest
 /// appended, so that both sides of [`relative`] are comparable.
