@@ -95,7 +95,8 @@ fn corrupt_and_missing_textures() {
     let (code, err) = render(&scene);
     assert_eq!(code, 2, "{err}");
     assert!(
-        err.contains("broken.png")
+        err.contains("scene.json: ")
+            && err.contains("broken.png")
             && err.contains("cannot decode image")
             && err.contains("textures.t"),
         "{err}"

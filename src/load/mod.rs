@@ -86,12 +86,6 @@ impl fmt::Display for LoadError {
 
 impl std::error::Error for LoadError {}
 
-impl From<AssetError> for LoadError {
-    fn from(e: AssetError) -> Self {
-        LoadError::Invalid(e.to_string())
-    }
-}
-
 /// A scene description read from any supported input, validated, before its assets are read.
 #[derive(Debug, Clone)]
 pub struct SceneFile {
@@ -170,8 +164,10 @@ pub fn kind_of(path: &Path) -> Result<InputKind, LoadError> {
 
 /// Reads and validates the scene at `path` and reads every asset it references.
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, LoadError> {
-    let description = read_scene(path.as_ref(), options)?;
-    let assets = Assets::read(&description.scene, &description.base_dir)?;
+    let path = path.as_ref();
+    let description = read_scene(path, options)?;
+    let assets = Assets::read(&description.scene, &description.base_dir)
+        .map_err(|e| LoadError::Invalid(format!("{}: {e}", path.display())))?;
     Ok(Loaded {
         description,
         assets,
