@@ -5,10 +5,17 @@
 //! Conventions follow pbrt-v4 ch. 9: `wo` points away from the surface towards the viewer, `wi`
 //! towards the light; `f` includes no cosine; sample weights are f·|cos θi| / pdf.
 
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 use crate::math::{Frame, Rgb, Vec2, Vec3};
-use crate::sampling::{concentric_disk, cosine_hemisphere};
+use crate::sampling::cosine_hemisphere;
+
+pub mod fresnel;
+pub mod microfacet;
+
+pub use fresnel::fresnel_dielectric;
+use fresnel::fresnel_schlick;
+use microfacet::{ggx_d, ggx_g2, ggx_reflect_pdf, ggx_sample_visible};
 
 /// The lobe weights and parameters of one surface point (textures already applied).
 #[derive(Debug, Clone, Copy)]
@@ -47,88 +54,6 @@ pub struct BsdfSample {
     pub delta: bool,
     /// Whether the direction passes through the surface.
     pub transmitted: bool,
-}
-
-/// Fresnel reflectance of a smooth dielectric boundary for unpolarised light (exact), given
-/// cos θ on the incident side and the relative index η = η_t / η_i. Returns 1 for total internal
-/// reflection.
-pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let cos_i = cos_i.clamp(-1.0, 1.0);
-    let (cos_i, eta) = if cos_i < 0.0 {
-        (-cos_i, 1.0 / eta)
-    } else {
-        (cos_i, eta)
-    };
-    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (r_parl * r_parl + r_perp * r_perp)
-}
-
-/// Schlick's approximation for a metal with normal-incidence reflectance `f0`.
-fn fresnel_schlick(f0: Rgb, cos: f32) -> Rgb {
-    let m = (1.0 - cos.abs()).clamp(0.0, 1.0);
-    let m5 = m * m * m * m * m;
-    f0 + (Vec3::ONE - f0) * m5
-}
-
-/// GGX / Trowbridge–Reitz normal distribution D(ωm) (pbrt-v4 eq. 9.16).
-fn ggx_d(wm: Vec3, alpha: f32) -> f32 {
-    let cos2 = wm.z * wm.z;
-    if cos2 <= 0.0 {
-        return 0.0;
-    }
-    let tan2 = (1.0 - cos2).max(0.0) / cos2;
-    let a2 = alpha * alpha;
-    let e = 1.0 + tan2 / a2;
-    1.0 / (PI * a2 * cos2 * cos2 * e * e)
-}
-
-/// Smith Λ for GGX (pbrt-v4 eq. 9.20).
-fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
-    let cos2 = w.z * w.z;
-    if cos2 <= 0.0 {
-        return f32::INFINITY;
-    }
-    let tan2 = (1.0 - cos2).max(0.0) / cos2;
-    ((1.0 + alpha * alpha * tan2).sqrt() - 1.0) * 0.5
-}
-
-fn ggx_g1(w: Vec3, alpha: f32) -> f32 {
-    1.0 / (1.0 + ggx_lambda(w, alpha))
-}
-
-/// Height-correlated masking-shadowing G2 (Heitz 2014).
-fn ggx_g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
-    1.0 / (1.0 + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha))
-}
-
-/// Samples a visible normal of GGX seen from `wo` (upper hemisphere). Heitz, "Sampling the GGX
-/// Distribution of Visible Normals", JCGT 7(4), 2018.
-fn ggx_sample_visible(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
-    let wh = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
-    let t1 = if wh.z < 0.99999 {
-        Vec3::Z.cross(wh).normalize()
-    } else {
-        Vec3::X
-    };
-    let t2 = wh.cross(t1);
-    let p = concentric_disk(u);
-    let h = (1.0 - p.x * p.x).max(0.0).sqrt();
-    let py = (1.0 + wh.z) * 0.5 * p.y + (1.0 - (1.0 + wh.z) * 0.5) * h;
-    let pz = (1.0 - p.x * p.x - py * py).max(0.0).sqrt();
-    let nh = t1 * p.x + t2 * py + wh * pz;
-    Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(1e-6)).normalize()
-}
-
-/// Pdf of [`ggx_sample_visible`] for the resulting reflected direction: D_wo(ωm) / (4 |wo·ωm|).
-fn ggx_reflect_pdf(wo: Vec3, wm: Vec3, alpha: f32) -> f32 {
-    let d_wo = ggx_g1(wo, alpha) * wo.dot(wm).max(0.0) * ggx_d(wm, alpha) / wo.z.abs();
-    d_wo / (4.0 * wo.dot(wm).abs())
 }
 
 impl Bsdf {
@@ -316,6 +241,7 @@ impl Bsdf {
 mod tests {
     use super::*;
     use crate::sampler::Pcg32;
+    use std::f32::consts::PI;
 
     fn bsdf(w_d: f32, w_s: f32, w_t: f32, alpha: f32, base: Rgb) -> Bsdf {
         Bsdf {
@@ -475,14 +401,6 @@ mod tests {
                 s.x
             );
         }
-    }
-
-    #[test]
-    fn fresnel_limits() {
-        assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
-        assert_eq!(fresnel_dielectric(0.2, 1.0 / 1.5), 1.0); // total internal reflection
-        assert!((fresnel_dielectric(-1.0, 1.5) - 0.04).abs() < 1e-6); // from inside, normal incidence
-        assert!(fresnel_dielectric(1e-4, 1.5) > 0.99);
     }
 
     #[test]
