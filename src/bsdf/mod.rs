@@ -10,8 +10,13 @@ use std::f32::consts::FRAC_1_PI;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::cosine_hemisphere;
 
+#[cfg(test)]
+mod chi2;
+pub mod dielectric;
 pub mod fresnel;
+pub mod metallic_roughness;
 pub mod microfacet;
+pub mod multiple_scattering;
 
 pub use fresnel::fresnel_dielectric;
 use fresnel::fresnel_schlick;
@@ -54,6 +59,40 @@ pub struct BsdfSample {
     pub delta: bool,
     /// Whether the direction passes through the surface.
     pub transmitted: bool,
+}
+
+/// A direction sampled by the lobes of [`metallic_roughness`] and [`dielectric`], in the local
+/// shading frame (z = shading normal on the front side). Same conventions as [`BsdfSample`]; turn
+/// it into one with [`LocalSample::to_world`].
+#[derive(Debug, Clone, Copy)]
+pub struct LocalSample {
+    /// Local incident direction (unit).
+    pub wi: Vec3,
+    /// f·|cos θi| / pdf, including the lobe-selection probability.
+    pub weight: Rgb,
+    /// Solid-angle pdf of the mixture for non-delta samples; the discrete probability of the
+    /// chosen delta lobe for delta ones.
+    pub pdf: f32,
+    /// Whether the direction came from a Dirac delta lobe.
+    pub delta: bool,
+    /// Whether the direction passes through the surface (`wi.z` and `wo.z` of opposite signs).
+    pub transmitted: bool,
+    /// Relative index of refraction η_i / η_o across the boundary for transmitted samples (the
+    /// index on `wi`'s side over that on `wo`'s side), 1 otherwise (pbrt-v4's `BSDFSample::eta`).
+    pub etap: f32,
+}
+
+impl LocalSample {
+    /// The same sample with `wi` expressed in world space through `frame`.
+    pub fn to_world(&self, frame: &Frame) -> BsdfSample {
+        BsdfSample {
+            wi: frame.to_world(self.wi),
+            weight: self.weight,
+            pdf: self.pdf,
+            delta: self.delta,
+            transmitted: self.transmitted,
+        }
+    }
 }
 
 impl Bsdf {
