@@ -195,6 +195,7 @@ pub fn p_value(
 pub fn assert_all_pass(ps: &[(String, f64)]) {
     let level = 1.0 - (1.0 - SIGNIFICANCE).powf(1.0 / ps.len() as f64);
     for (name, p) in ps {
+        eprintln!("χ² {name}: p = {p:.4} (level {level:.2e})");
         assert!(*p > level, "χ² test {name}: p-value {p:.3e} < {level:.3e}");
     }
 }

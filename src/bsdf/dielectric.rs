@@ -157,8 +157,9 @@ impl RoughDielectric {
         let t = 1.0 - r;
         let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
         let pdf = pdf_wm * wi.dot(wm).abs() / denom * t;
-        let f = ggx_d(wm, a) * ggx_g2(wo, wi, a) * t * (wi.dot(wm) * wo.dot(wm) / (wo.z * denom)).abs()
-            / (etap * etap);
+        let f =
+            ggx_d(wm, a) * ggx_g2(wo, wi, a) * t * (wi.dot(wm) * wo.dot(wm) / (wo.z * denom)).abs()
+                / (etap * etap);
         if pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
@@ -350,7 +351,11 @@ mod tests {
 
     #[test]
     fn thin_dielectric_chi2() {
-        let cases = [(1.5f32, 0.3f32, 40.0f32), (1.5, 0.7, 160.0), (2.0, 0.5, 80.0)];
+        let cases = [
+            (1.5f32, 0.3f32, 40.0f32),
+            (1.5, 0.7, 160.0),
+            (2.0, 0.5, 80.0),
+        ];
         let mut ps = Vec::new();
         for (k, &(eta, alpha, theta)) in cases.iter().enumerate() {
             let b = ThinDielectric { eta, alpha };
@@ -405,8 +410,14 @@ mod tests {
             let b = RoughDielectric { eta, alpha };
             let thin = ThinDielectric { eta, alpha };
             for _ in 0..5000 {
-                let wo = dir(rng.next_f32() * 180.0, rng.next_f32() * 6.283);
-                let wi = dir(rng.next_f32() * 180.0, rng.next_f32() * 6.283);
+                let wo = dir(
+                    rng.next_f32() * 180.0,
+                    rng.next_f32() * std::f32::consts::TAU,
+                );
+                let wi = dir(
+                    rng.next_f32() * 180.0,
+                    rng.next_f32() * std::f32::consts::TAU,
+                );
                 // f without the cosine, both ways.
                 let f = |a: Vec3, c: Vec3| b.eval(a, c).0 / c.z.abs();
                 let (f_oi, f_io) = (f(wo, wi), f(wi, wo));
@@ -466,7 +477,10 @@ mod tests {
                     assert!(e <= 1.01 && e > 0.25, "η {eta} α {alpha} θ {theta}: {e}");
                     let t = ThinDielectric { eta, alpha };
                     let e = energy(|uc, u| t.sample(wo, uc, u), 40_000);
-                    assert!(e <= 1.01 && e > 0.25, "thin η {eta} α {alpha} θ {theta}: {e}");
+                    assert!(
+                        e <= 1.01 && e > 0.25,
+                        "thin η {eta} α {alpha} θ {theta}: {e}"
+                    );
                 }
             }
         }

@@ -275,12 +275,15 @@ mod tests {
                 let mut sum = 0.0f64;
                 for _ in 0..n {
                     let wi = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
-                    sum += (compensation(mu, wi.z, alpha, Vec3::ONE).x * std::f32::consts::PI)
-                        as f64;
+                    sum +=
+                        (compensation(mu, wi.z, alpha, Vec3::ONE).x * std::f32::consts::PI) as f64;
                 }
                 let got = (sum / n as f64) as f32;
                 let want = 1.0 - albedo(mu, alpha);
-                assert!((got - want).abs() < 0.003, "α {alpha} μ {mu}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 0.003,
+                    "α {alpha} μ {mu}: {got} vs {want}"
+                );
             }
         }
     }
