@@ -8,11 +8,11 @@
 //!
 //! Radiance convention (pbrt-v4 §9.5.2): the BTDF carries the 1/η′² factor of radiance
 //! transport, η′ = η_i/η_o being the index on `wi`'s side over that on `wo`'s side, so it is not
-//! symmetric; it obeys f(ωo, ωi)/η_o² = f(ωi, ωo)/η_i² (Veach 1997 eq. 5.15, with η_x the index
+//! symmetric; it obeys f(ωo, ωi)/η_o² = f(ωi, ωo)/η_i² (Veach 1997 §5.2, with η_x the index
 //! on the side of ωx), which the tests check.
 //!
 //! References: Walter, Marschner, Li & Torrance, "Microfacet Models for Refraction through Rough
-//! Surfaces", EGSR 2007 (eqs. 20–21, 38–41), in the form of pbrt-v4's `DielectricBxDF` (§9.7),
+//! Surfaces", EGSR 2007, in the form of pbrt-v4's `DielectricBxDF` (§9.7),
 //! with visible-normal sampling (Heitz 2018); pbrt-v4's `ThinDielectricBxDF` (§9.5.3) for the
 //! inter-reflection inside a thin slab; glTF `KHR_materials_transmission` ("thin-walled":
 //! transmission does not bend the ray).
@@ -23,7 +23,7 @@ use super::{LocalSample, DELTA_ALPHA};
 use crate::math::{Vec2, Vec3};
 
 /// Refracts `wi` (either side) through the surface with normal `n`, given η = η_t/η_i for
-/// `wi` on the side `n` points to (pbrt-v4 eq. 9.3). Returns the refracted direction and the
+/// `wi` on the side `n` points to (pbrt-v4 §9.3). Returns the refracted direction and the
 /// relative index η′ actually crossed, or `None` under total internal reflection.
 fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
     let mut cos_i = n.dot(wi);

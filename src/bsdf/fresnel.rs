@@ -3,8 +3,8 @@
 //! `conductor_fresnel` and `fresnel_mix`, the latter with the specular weight and colour of
 //! `KHR_materials_specular`.
 //!
-//! References: pbrt-v4 §9.3 (eq. 9.4–9.6, exact dielectric Fresnel); Schlick, "An Inexpensive
-//! BRDF Model for Physically-based Rendering", CGF 13(3), 1994; glTF 2.0 Appendix B.3.
+//! References: pbrt-v4 §9.3 (exact dielectric Fresnel); Schlick, "An Inexpensive
+//! BRDF Model for Physically-based Rendering", CGF 13(3), 1994; glTF 2.0 Appendix B.
 
 use crate::math::{Rgb, Vec3};
 
@@ -37,7 +37,7 @@ pub fn fresnel_schlick(f0: Rgb, cos: f32) -> Rgb {
 }
 
 /// Schlick's approximation with explicit reflectance at normal (`f0`) and grazing (`f90`)
-/// incidence: F = F0 + (F90 − F0)(1 − |cos θ|)⁵ (glTF 2.0 Appendix B.3.4).
+/// incidence: F = F0 + (F90 − F0)(1 − |cos θ|)⁵ (glTF 2.0 Appendix B).
 pub fn schlick_f0_f90(f0: Rgb, f90: Rgb, cos: f32) -> Rgb {
     let m = (1.0 - cos.abs()).clamp(0.0, 1.0);
     let m5 = m * m * m * m * m;
@@ -45,13 +45,13 @@ pub fn schlick_f0_f90(f0: Rgb, f90: Rgb, cos: f32) -> Rgb {
 }
 
 /// Normal-incidence reflectance of a dielectric of index `ior` in vacuum: ((ior − 1)/(ior + 1))²
-/// (glTF 2.0 Appendix B.3.4, `KHR_materials_ior`).
+/// (glTF 2.0 Appendix B, `KHR_materials_ior`).
 pub fn ior_to_f0(ior: f32) -> f32 {
     let r = (ior - 1.0) / (ior + 1.0);
     r * r
 }
 
-/// Fresnel term of glTF's metal BRDF, `conductor_fresnel(f0 = baseColor, bsdf)` (Appendix B.3.2):
+/// Fresnel term of glTF's metal BRDF, `conductor_fresnel(f0 = baseColor, bsdf)` (Appendix B):
 /// Schlick with F0 = base colour and F90 = 1 at |V·H| = `v_dot_h`.
 pub fn conductor_fresnel(base_color: Rgb, v_dot_h: f32) -> Rgb {
     schlick_f0_f90(base_color, Vec3::ONE, v_dot_h)
@@ -63,7 +63,7 @@ pub fn dielectric_f0(ior: f32, specular_color: Rgb) -> Rgb {
 }
 
 /// The weights glTF's `fresnel_mix` gives its two operands at |V·H| = `v_dot_h` (glTF 2.0
-/// Appendix B.3.2, extended by `KHR_materials_specular`): with F = Schlick(F0 =
+/// Appendix B, extended by `KHR_materials_specular`): with F = Schlick(F0 =
 /// [`dielectric_f0`], F90 = 1), `fresnel_mix(base, layer) = (1 − w·max(F))·base + w·F·layer`,
 /// where w is the specular factor. Returns (base weight, layer weight). Without the extension
 /// (w = 1, colour 1) this is the plain `mix(base, layer, F)`.

@@ -20,7 +20,7 @@
 //!   1 − specular·max(F(V·H)), evaluated at the half vector of each pair; at grazing view the
 //!   specular layer then reflects almost everything while the diffuse base still receives nearly
 //!   all of its weight, and the albedo exceeds 1. We use the albedo-scaling form of the same
-//!   layering (Kulla & Conty 2017, slide 21): the base is weighted by
+//!   layering (in the reciprocal form of Kulla & Conty 2017's energy compensation): the base is weighted by
 //!   (1 − a(μo))(1 − a(μi)) / (1 − a_avg), where a(μ) is the directional albedo of the specular
 //!   layer (its largest channel, times the specular factor) and a_avg its cosine-weighted mean —
 //!   exactly the energy the layer did not reflect, reciprocal by construction.
@@ -52,8 +52,8 @@ use super::microfacet::{ggx_d, ggx_g2, ggx_reflect_pdf, ggx_sample_visible};
 use super::multiple_scattering::{
     compensation, compensation_albedo, specular_albedo, specular_average_albedo,
 };
-use super::{LocalSample, DELTA_ALPHA};
-use crate::math::{Rgb, Vec2, Vec3};
+use super::{BsdfSample, LocalSample, DELTA_ALPHA};
+use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::cosine_hemisphere;
 
 /// The glTF metallic-roughness parameters of one shading point.
@@ -384,6 +384,45 @@ impl MetallicRoughness {
     }
 }
 
+impl MetallicRoughness {
+    /// Whether a world-space pair is on the same side of the surface by the shading normal but
+    /// not by the geometric normal, or the reverse: such pairs would leak light through the
+    /// surface and are not scattered (the guard of the legacy `Bsdf::eval`).
+    fn leaks(local_same_side: bool, ng: Vec3, wo: Vec3, wi: Vec3) -> bool {
+        local_same_side != (wo.dot(ng) * wi.dot(ng) > 0.0)
+    }
+
+    /// [`eval`](Self::eval) for world-space directions at a point with shading frame `frame`
+    /// (its normal on the front side) and geometric normal `ng`, with the same signature and
+    /// meaning as the legacy `Bsdf::eval`.
+    pub fn eval_world(&self, frame: &Frame, ng: Vec3, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        let (lo, li) = (frame.to_local(wo), frame.to_local(wi));
+        if Self::leaks(lo.z * li.z > 0.0, ng, wo, wi) {
+            return (Vec3::ZERO, 0.0);
+        }
+        self.eval(lo, li)
+    }
+
+    /// [`sample`](Self::sample) for a world-space `wo`, returning a world-space
+    /// [`BsdfSample`] like the legacy `Bsdf::sample` (see [`eval_world`](Self::eval_world)).
+    pub fn sample_world(
+        &self,
+        frame: &Frame,
+        ng: Vec3,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+    ) -> Option<BsdfSample> {
+        let lo = frame.to_local(wo);
+        let s = self.sample(lo, u_lobe, u)?;
+        let world = s.to_world(frame);
+        if Self::leaks(lo.z * s.wi.z > 0.0, ng, wo, world.wi) {
+            return None;
+        }
+        Some(world)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::chi2;
@@ -681,5 +720,43 @@ mod tests {
             |wi| wrong.pdf(wo, wi),
         );
         assert!(p < 1e-6, "p = {p}");
+    }
+
+    /// The world-space entry points agree with each other under a tilted shading normal and
+    /// refuse pairs that the geometric normal puts on the other side.
+    #[test]
+    fn world_space_entry_points() {
+        let frame = Frame::from_normal(Vec3::new(0.3, -0.2, 1.0).normalize());
+        let ng = Vec3::Z;
+        let mut rng = Pcg32::new(21, 4);
+        let mut taken = 0;
+        for m in [mat(TINT, 0.3, 0.5, 1.5, 0.0), mat(TINT, 0.0, 0.4, 1.5, 1.0)] {
+            for wo in [dir(20.0, 0.5), dir(80.0, 2.5), dir(140.0, 1.0)] {
+                for _ in 0..2000 {
+                    let (ul, u) = u3(&mut rng);
+                    let Some(s) = m.sample_world(&frame, ng, wo, ul, u) else {
+                        continue;
+                    };
+                    assert_eq!(s.transmitted, wo.dot(ng) * s.wi.dot(ng) < 0.0);
+                    let (f, pdf) = m.eval_world(&frame, ng, wo, s.wi);
+                    assert!((s.pdf - pdf).abs() <= 1e-3 * pdf.max(1.0));
+                    assert!(
+                        (s.weight * s.pdf - f).abs().max_element()
+                            <= 1e-3 * f.max_element().max(1.0)
+                    );
+                    taken += 1;
+                }
+            }
+        }
+        assert!(taken > 5000, "{taken}");
+        // Above the shading horizon but below the geometric one: no reflection.
+        let m = mat(TINT, 0.0, 0.5, 1.5, 0.0);
+        let n = frame.n;
+        let wi = (Vec3::new(n.x, n.y, 0.0).normalize() * 0.995 - Vec3::Z * 0.1).normalize();
+        assert!(frame.to_local(wi).z > 0.0 && wi.dot(ng) < 0.0);
+        assert_eq!(
+            m.eval_world(&frame, ng, dir(10.0, 0.0), wi),
+            (Vec3::ZERO, 0.0)
+        );
     }
 }

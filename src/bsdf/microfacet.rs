@@ -3,7 +3,7 @@
 //! distribution of visible normals with its density.
 //!
 //! All functions work in the local shading frame (z = macro-surface normal); `alpha` is the GGX
-//! width α (glTF: α = roughness²). References: pbrt-v4 §9.6 (eqs. 9.16–9.24); Heitz, "Understanding
+//! width α (glTF: α = roughness²). References: pbrt-v4 §9.6; Heitz, "Understanding
 //! the Masking-Shadowing Function in Microfacet-Based BRDFs", JCGT 3(2), 2014 (G2); Heitz,
 //! "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), 2018 (sampling).
 
@@ -35,13 +35,13 @@ pub fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
     ((1.0 + alpha * alpha * tan2).sqrt() - 1.0) * 0.5
 }
 
-/// Smith masking G1(ω) = 1 / (1 + Λ(ω)) (pbrt-v4 eq. 9.18).
+/// Smith masking G1(ω) = 1 / (1 + Λ(ω)) (pbrt-v4 §9.6).
 pub fn ggx_g1(w: Vec3, alpha: f32) -> f32 {
     1.0 / (1.0 + ggx_lambda(w, alpha))
 }
 
-/// Height-correlated masking-shadowing G2 = 1 / (1 + Λ(ωo) + Λ(ωi)) (Heitz 2014 eq. 99;
-/// pbrt-v4 eq. 9.22).
+/// Height-correlated masking-shadowing G2 = 1 / (1 + Λ(ωo) + Λ(ωi)) (the height-correlated
+/// Smith form of Heitz 2014; pbrt-v4 §9.6).
 pub fn ggx_g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
     1.0 / (1.0 + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha))
 }
@@ -65,8 +65,8 @@ pub fn ggx_sample_visible(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(1e-6)).normalize()
 }
 
-/// Density of visible normals D_ω(ωm) = G1(ω) max(0, ω·ωm) D(ωm) / |cos θ| (Heitz 2018 eq. 1;
-/// pbrt-v4 eq. 9.23), the solid-angle pdf of [`ggx_sample_visible`] over ωm. `w` must be in the
+/// Density of visible normals D_ω(ωm) = G1(ω) max(0, ω·ωm) D(ωm) / |cos θ| (Heitz 2018;
+/// pbrt-v4 §9.6), the solid-angle pdf of [`ggx_sample_visible`] over ωm. `w` must be in the
 /// upper hemisphere (flip it first otherwise).
 pub fn ggx_visible_pdf(w: Vec3, wm: Vec3, alpha: f32) -> f32 {
     if w.z == 0.0 {
@@ -76,7 +76,8 @@ pub fn ggx_visible_pdf(w: Vec3, wm: Vec3, alpha: f32) -> f32 {
 }
 
 /// Pdf of the reflected direction 2(wo·ωm)ωm − wo when ωm is drawn by [`ggx_sample_visible`]:
-/// D_wo(ωm) / (4 |wo·ωm|) (pbrt-v4 eq. 9.28 with the reflection Jacobian, eq. 9.26).
+/// D_wo(ωm) / (4 |wo·ωm|) (pbrt-v4 §9.6, with the reflection Jacobian
+/// dωm/dωi = 1/(4 |wo·ωm|)).
 pub fn ggx_reflect_pdf(wo: Vec3, wm: Vec3, alpha: f32) -> f32 {
     let d_wo = ggx_g1(wo, alpha) * wo.dot(wm).max(0.0) * ggx_d(wm, alpha) / wo.z.abs();
     d_wo / (4.0 * wo.dot(wm).abs())

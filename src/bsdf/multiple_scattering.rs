@@ -1,6 +1,6 @@
 //! Energy compensation for multiple scattering between GGX microfacets, after Kulla & Conty,
 //! "Revisiting Physically Based Shading at Imageworks", SIGGRAPH 2017 course *Physically Based
-//! Shading in Theory and Practice* (slides 16–19).
+//! Shading in Theory and Practice*, section on energy compensation.
 //!
 //! A single-scattering microfacet BRDF with a perfect reflector (F = 1) has directional albedo
 //! E(μ, α) < 1 at high roughness: light that bounces more than once between microfacets is lost.
@@ -10,7 +10,7 @@
 //!
 //! with E_avg(α) = 2 ∫₀¹ E(μ, α) μ dμ, whose albedo is exactly the missing 1 − E(μo) (so a white
 //! rough metal is white again, and the lobe is reciprocal), tinted for a coloured Fresnel by
-//! F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)) (slide 18), F_avg = 2 ∫ F(μ) μ dμ, which for
+//! F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)), F_avg = 2 ∫ F(μ) μ dμ, which for
 //! Schlick with F90 = 1 is F0 + (1 − F0)/21.
 //!
 //! E and E_avg are tabulated once per process (lazily, [`OnceLock`]) by numerical integration
@@ -54,7 +54,7 @@ fn mu_node(i: usize) -> f32 {
 
 /// Directional albedos (E, E5) of the GGX reflection lobe with F = 1 at cos θo = `mu`:
 /// E = ∫ D(ωm) G2(ωo, ωi) (ωo·ωm)⁺ / μo dωm over the microfacets whose mirror direction ωi is
-/// above the horizon (pbrt-v4 eq. 9.26–9.27 changed to the half-vector measure). The integral
+/// above the horizon (the reflection lobe's albedo written over the half vector). The integral
 /// is taken in the GGX CDF coordinate ξ = tan²θm / (α² + tan²θm), in which D cos θm dωm =
 /// dξ dφ/(2π), warped by ξ = 1 − (1 − s)² to resolve GGX's long tail (the microfacets that
 /// reflect below the horizon, ≈ 1 % of the albedo even at α = 0.09), midpoint rule in (s, φ).
