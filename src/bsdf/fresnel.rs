@@ -45,8 +45,12 @@ pub fn schlick_f0_f90(f0: Rgb, f90: Rgb, cos: f32) -> Rgb {
 }
 
 /// Normal-incidence reflectance of a dielectric of index `ior` in vacuum: ((ior − 1)/(ior + 1))²
-/// (glTF 2.0 Appendix B, `KHR_materials_ior`).
+/// (glTF 2.0 Appendix B, `KHR_materials_ior`). An infinite ior, like 0, gives 1 (the value
+/// `KHR_materials_specular` uses to convert specular-glossiness materials).
 pub fn ior_to_f0(ior: f32) -> f32 {
+    if ior.is_infinite() {
+        return 1.0;
+    }
     let r = (ior - 1.0) / (ior + 1.0);
     r * r
 }
@@ -106,6 +110,7 @@ mod tests {
     #[test]
     fn schlick_and_gltf_combinators() {
         assert!((ior_to_f0(1.5) - 0.04).abs() < 1e-7);
+        assert_eq!((ior_to_f0(0.0), ior_to_f0(f32::INFINITY)), (1.0, 1.0));
         let f0 = Vec3::new(0.9, 0.5, 0.1);
         // F0 at normal incidence, F90 at grazing incidence, monotone in between.
         assert!((conductor_fresnel(f0, 1.0) - f0).abs().max_element() < 1e-7);

@@ -79,6 +79,9 @@ pub struct MetallicRoughness {
     pub energy_compensation: bool,
 }
 
+/// Refractive index standing in for ior 0 or ∞ in the transmissive part (see `eta`).
+const DEGENERATE_IOR: f32 = 1e4;
+
 /// Index of the three sampling strategies in the probabilities.
 const SPECULAR: usize = 0;
 const COSINE: usize = 1;
@@ -154,16 +157,27 @@ impl MetallicRoughness {
         }
     }
 
+    /// The index the transmissive part refracts with: `ior`, except that the F0 = 1 values of
+    /// `KHR_materials_specular`'s specular-glossiness conversion (ior 0 or ∞), which have no
+    /// refraction, become a very dense dielectric (F0 ≈ 0.9996) instead of dividing by zero.
+    fn eta(&self) -> f32 {
+        if self.ior > 0.0 && self.ior.is_finite() {
+            self.ior
+        } else {
+            DEGENERATE_IOR
+        }
+    }
+
     fn volume(&self) -> RoughDielectric {
         RoughDielectric {
-            eta: self.ior,
+            eta: self.eta(),
             alpha: self.alpha(),
         }
     }
 
     fn thin(&self) -> ThinDielectric {
         ThinDielectric {
-            eta: self.ior,
+            eta: self.eta(),
             alpha: self.alpha(),
         }
     }
@@ -239,7 +253,7 @@ impl MetallicRoughness {
             d > 0.0 || (comp && !self.specular_is_delta() && m + d * w > 0.0),
         );
         let trans = if t > 0.0 {
-            let r = fresnel_dielectric(mu, self.ior);
+            let r = fresnel_dielectric(mu, self.eta());
             floor(t * (r + (1.0 - r) * mean(self.base_color)), true)
         } else {
             0.0
@@ -369,9 +383,9 @@ impl MetallicRoughness {
         let etap = if !transmitted || self.thin_walled {
             1.0
         } else if wo.z > 0.0 {
-            self.ior
+            self.eta()
         } else {
-            1.0 / self.ior
+            1.0 / self.eta()
         };
         Some(LocalSample {
             wi,
@@ -488,10 +502,14 @@ mod tests {
         ]
     }
 
-    #[test]
-    fn chi2_of_the_whole_bsdf() {
+    /// χ² of the whole BSDF's sampling against its pdf for the settings whose parts pass the
+    /// filter `transmissive` selects (split in two tests to keep each one fast).
+    fn chi2_of_the_whole_bsdf(transmissive: bool) {
         let mut ps = Vec::new();
         for (k, (name, m, theta)) in rough_settings().into_iter().enumerate() {
+            if (m.transmission > 0.0) != transmissive {
+                continue;
+            }
             let wo = dir(theta, 0.4);
             let p = chi2::p_value(
                 name,
@@ -505,7 +523,18 @@ mod tests {
             );
             ps.push((name.to_string(), p));
         }
+        assert!(ps.len() >= 4);
         chi2::assert_all_pass(&ps);
+    }
+
+    #[test]
+    fn chi2_opaque() {
+        chi2_of_the_whole_bsdf(false);
+    }
+
+    #[test]
+    fn chi2_transmissive() {
+        chi2_of_the_whole_bsdf(true);
     }
 
     #[test]
@@ -758,5 +787,42 @@ mod tests {
             m.eval_world(&frame, ng, dir(10.0, 0.0), wi),
             (Vec3::ZERO, 0.0)
         );
+    }
+
+    /// ior 0 and ∞ (F0 = 1, used to convert specular-glossiness materials) give finite values
+    /// and no energy gain, with or without transmission.
+    #[test]
+    fn degenerate_ior_is_finite() {
+        let mut rng = Pcg32::new(30, 1);
+        for ior in [0.0f32, f32::INFINITY] {
+            for (roughness, transmission, thin_walled) in [
+                (0.0f32, 0.0f32, false),
+                (0.5, 0.0, false),
+                (0.5, 0.6, false),
+                (0.0, 1.0, false),
+                (0.4, 0.5, true),
+            ] {
+                let m = MetallicRoughness {
+                    thin_walled,
+                    ..mat(TINT, 0.0, roughness, ior, transmission)
+                };
+                for theta in [10.0f32, 60.0, 120.0] {
+                    let wo = dir(theta, 0.3);
+                    for _ in 0..500 {
+                        let (ul, u) = u3(&mut rng);
+                        if let Some(s) = m.sample(wo, ul, u) {
+                            assert!(
+                                s.weight.is_finite() && s.pdf.is_finite(),
+                                "ior {ior}: {s:?}"
+                            );
+                            let (f, pdf) = m.eval(wo, s.wi);
+                            assert!(f.is_finite() && pdf.is_finite(), "ior {ior}");
+                        }
+                    }
+                    let a = albedo(&m, wo, 5_000, 7).max_element();
+                    assert!(a <= 1.01, "ior {ior} r {roughness} t {transmission}: {a}");
+                }
+            }
+        }
     }
 }
