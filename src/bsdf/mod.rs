@@ -4,6 +4,12 @@
 //!
 //! Conventions follow pbrt-v4 ch. 9: `wo` points away from the surface towards the viewer, `wi`
 //! towards the light; `f` includes no cosine; sample weights are f·|cos θi| / pdf.
+//!
+//! [`Bsdf`] is the scene format's current material. The submodules are the scattering functions
+//! of glTF 2.0's material model (issue 12), not yet wired to materials: [`microfacet`] (GGX),
+//! [`fresnel`], [`dielectric`] (rough and thin-walled interfaces), [`multiple_scattering`]
+//! (Kulla–Conty energy compensation) and [`metallic_roughness`] (the glTF BSDF itself, sampled
+//! and evaluated with the same conventions as [`Bsdf`]).
 
 use std::f32::consts::FRAC_1_PI;
 
