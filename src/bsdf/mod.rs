@@ -4,11 +4,29 @@
 //!
 //! Conventions follow pbrt-v4 ch. 9: `wo` points away from the surface towards the viewer, `wi`
 //! towards the light; `f` includes no cosine; sample weights are f·|cos θi| / pdf.
+//!
+//! [`Bsdf`] is the scene format's current material. The submodules are the scattering functions
+//! of glTF 2.0's material model (issue 12), not yet wired to materials: [`microfacet`] (GGX),
+//! [`fresnel`], [`dielectric`] (rough and thin-walled interfaces), [`multiple_scattering`]
+//! (Kulla–Conty energy compensation) and [`metallic_roughness`] (the glTF BSDF itself, sampled
+//! and evaluated with the same conventions as [`Bsdf`]).
 
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 use crate::math::{Frame, Rgb, Vec2, Vec3};
-use crate::sampling::{concentric_disk, cosine_hemisphere};
+use crate::sampling::cosine_hemisphere;
+
+#[cfg(test)]
+mod chi2;
+pub mod dielectric;
+pub mod fresnel;
+pub mod metallic_roughness;
+pub mod microfacet;
+pub mod multiple_scattering;
+
+pub use fresnel::fresnel_dielectric;
+use fresnel::fresnel_schlick;
+use microfacet::{ggx_d, ggx_g2, ggx_reflect_pdf, ggx_sample_visible};
 
 /// The lobe weights and parameters of one surface point (textures already applied).
 #[derive(Debug, Clone, Copy)]
@@ -49,86 +67,38 @@ pub struct BsdfSample {
     pub transmitted: bool,
 }
 
-/// Fresnel reflectance of a smooth dielectric boundary for unpolarised light (exact), given
-/// cos θ on the incident side and the relative index η = η_t / η_i. Returns 1 for total internal
-/// reflection.
-pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let cos_i = cos_i.clamp(-1.0, 1.0);
-    let (cos_i, eta) = if cos_i < 0.0 {
-        (-cos_i, 1.0 / eta)
-    } else {
-        (cos_i, eta)
-    };
-    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
+/// A direction sampled by the lobes of [`metallic_roughness`] and [`dielectric`], in the local
+/// shading frame (z = shading normal on the front side). Same conventions as [`BsdfSample`]; turn
+/// it into one with [`LocalSample::to_world`].
+#[derive(Debug, Clone, Copy)]
+pub struct LocalSample {
+    /// Local incident direction (unit).
+    pub wi: Vec3,
+    /// f·|cos θi| / pdf, including the lobe-selection probability.
+    pub weight: Rgb,
+    /// Solid-angle pdf of the mixture for non-delta samples; the discrete probability of the
+    /// chosen delta lobe for delta ones.
+    pub pdf: f32,
+    /// Whether the direction came from a Dirac delta lobe.
+    pub delta: bool,
+    /// Whether the direction passes through the surface (`wi.z` and `wo.z` of opposite signs).
+    pub transmitted: bool,
+    /// Relative index of refraction η_i / η_o across the boundary for transmitted samples (the
+    /// index on `wi`'s side over that on `wo`'s side), 1 otherwise (pbrt-v4's `BSDFSample::eta`).
+    pub etap: f32,
+}
+
+impl LocalSample {
+    /// The same sample with `wi` expressed in world space through `frame`.
+    pub fn to_world(&self, frame: &Frame) -> BsdfSample {
+        BsdfSample {
+            wi: frame.to_world(self.wi),
+            weight: self.weight,
+            pdf: self.pdf,
+            delta: self.delta,
+            transmitted: self.transmitted,
+        }
     }
-    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (r_parl * r_parl + r_perp * r_perp)
-}
-
-/// Schlick's approximation for a metal with normal-incidence reflectance `f0`.
-fn fresnel_schlick(f0: Rgb, cos: f32) -> Rgb {
-    let m = (1.0 - cos.abs()).clamp(0.0, 1.0);
-    let m5 = m * m * m * m * m;
-    f0 + (Vec3::ONE - f0) * m5
-}
-
-/// GGX / Trowbridge–Reitz normal distribution D(ωm) (pbrt-v4 eq. 9.16).
-fn ggx_d(wm: Vec3, alpha: f32) -> f32 {
-    let cos2 = wm.z * wm.z;
-    if cos2 <= 0.0 {
-        return 0.0;
-    }
-    let tan2 = (1.0 - cos2).max(0.0) / cos2;
-    let a2 = alpha * alpha;
-    let e = 1.0 + tan2 / a2;
-    1.0 / (PI * a2 * cos2 * cos2 * e * e)
-}
-
-/// Smith Λ for GGX (pbrt-v4 eq. 9.20).
-fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
-    let cos2 = w.z * w.z;
-    if cos2 <= 0.0 {
-        return f32::INFINITY;
-    }
-    let tan2 = (1.0 - cos2).max(0.0) / cos2;
-    ((1.0 + alpha * alpha * tan2).sqrt() - 1.0) * 0.5
-}
-
-fn ggx_g1(w: Vec3, alpha: f32) -> f32 {
-    1.0 / (1.0 + ggx_lambda(w, alpha))
-}
-
-/// Height-correlated masking-shadowing G2 (Heitz 2014).
-fn ggx_g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
-    1.0 / (1.0 + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha))
-}
-
-/// Samples a visible normal of GGX seen from `wo` (upper hemisphere). Heitz, "Sampling the GGX
-/// Distribution of Visible Normals", JCGT 7(4), 2018.
-fn ggx_sample_visible(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
-    let wh = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
-    let t1 = if wh.z < 0.99999 {
-        Vec3::Z.cross(wh).normalize()
-    } else {
-        Vec3::X
-    };
-    let t2 = wh.cross(t1);
-    let p = concentric_disk(u);
-    let h = (1.0 - p.x * p.x).max(0.0).sqrt();
-    let py = (1.0 + wh.z) * 0.5 * p.y + (1.0 - (1.0 + wh.z) * 0.5) * h;
-    let pz = (1.0 - p.x * p.x - py * py).max(0.0).sqrt();
-    let nh = t1 * p.x + t2 * py + wh * pz;
-    Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(1e-6)).normalize()
-}
-
-/// Pdf of [`ggx_sample_visible`] for the resulting reflected direction: D_wo(ωm) / (4 |wo·ωm|).
-fn ggx_reflect_pdf(wo: Vec3, wm: Vec3, alpha: f32) -> f32 {
-    let d_wo = ggx_g1(wo, alpha) * wo.dot(wm).max(0.0) * ggx_d(wm, alpha) / wo.z.abs();
-    d_wo / (4.0 * wo.dot(wm).abs())
 }
 
 impl Bsdf {
@@ -316,6 +286,7 @@ impl Bsdf {
 mod tests {
     use super::*;
     use crate::sampler::Pcg32;
+    use std::f32::consts::PI;
 
     fn bsdf(w_d: f32, w_s: f32, w_t: f32, alpha: f32, base: Rgb) -> Bsdf {
         Bsdf {
@@ -475,14 +446,6 @@ mod tests {
                 s.x
             );
         }
-    }
-
-    #[test]
-    fn fresnel_limits() {
-        assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
-        assert_eq!(fresnel_dielectric(0.2, 1.0 / 1.5), 1.0); // total internal reflection
-        assert!((fresnel_dielectric(-1.0, 1.5) - 0.04).abs() < 1e-6); // from inside, normal incidence
-        assert!(fresnel_dielectric(1e-4, 1.5) > 0.99);
     }
 
     #[test]
