@@ -20,7 +20,10 @@ fn main() -> ExitCode {
                 eprintln!("{w}");
             }
             if args.iter().any(|a| a == "--export") {
-                match legacy::export(&imported.scene) {
+                match legacy::export(
+                    &imported.scene,
+                    &lumo_schema::base_dir_of(&PathBuf::from(path)),
+                ) {
                     Ok(text) => print!("{text}"),
                     Err(e) => {
                         eprintln!("{e}");

@@ -80,7 +80,7 @@ fn exercise(text: &str, base: &Path) {
     let path = base.join("mutant.txt");
     match legacy::import_str(text, &path, &ImportOptions::default()) {
         Ok(imported) => {
-            if let Ok(out) = legacy::export(&imported.scene) {
+            if let Ok(out) = legacy::export(&imported.scene, base) {
                 let again = legacy::import_str(&out, &path, &ImportOptions::default());
                 assert!(
                     again.is_ok(),

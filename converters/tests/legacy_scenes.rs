@@ -77,7 +77,8 @@ fn fixpoint(path: &Path) {
     let out = tempfile::tempdir().expect("temp dir");
     let first = import_into(path, out.path());
     let json1 = lumo_schema::to_json(&first.scene);
-    let text = legacy::export(&first.scene).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let text = legacy::export(&first.scene, out.path())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let written = out.path().join("exported.txt");
     std::fs::write(&written, &text).expect("write");
     let second = legacy::import(

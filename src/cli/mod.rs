@@ -272,7 +272,7 @@ fn convert_cmd(
         write_text_atomically(output, &schema::to_json(&scene))?;
     } else if legacy_out {
         rebase_paths(&mut scene, &base_dir, &out_dir);
-        let text = lumo_converters::legacy::export(&scene)
+        let text = lumo_converters::legacy::export(&scene, &out_dir)
             .map_err(|e| CliError::invalid(format!("{}: {e}", output.display())))?;
         write_text_atomically(output, &text)?;
     } else {

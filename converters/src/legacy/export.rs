@@ -6,6 +6,7 @@
 
 use std::collections::HashMap;
 use std::fmt::Write;
+use std::path::Path;
 
 use lumo_schema::{Light, Material, MeshSource, Object, Profile, Scale, Scene, TransformOp};
 
@@ -20,7 +21,11 @@ use lumo_schema::geometry::transform::ops_matrix;
 /// names, render settings (integrator, samples, depth, seed) and unused textures. A scene whose
 /// materials emit and that also has punctual lights reads back with its lights only under
 /// `LightsPolicy::Keep`.
-pub fn export(scene: &Scene) -> Result<String, ExportError> {
+///
+/// `base_dir` is the folder the scene's relative paths resolve against (where the text will
+/// be written): point lights are fitted at the centre of the objects' bounds as on import, and
+/// the bounds of OBJ meshes come from their files.
+pub fn export(scene: &Scene, base_dir: &Path) -> Result<String, ExportError> {
     let mut w = Writer {
         out: String::new(),
         problems: Vec::new(),
@@ -31,7 +36,7 @@ pub fn export(scene: &Scene) -> Result<String, ExportError> {
     w.line(1, &format!("color {}", v3(scene.background.color)));
     w.line(0, "}");
     w.line(0, "");
-    w.lights(scene);
+    w.lights(scene, base_dir);
     let index = w.materials(scene);
     w.objects(scene, &index);
     if w.problems.is_empty() {
@@ -110,7 +115,7 @@ impl Writer {
         self.line(0, "}");
     }
 
-    fn lights(&mut self, scene: &Scene) {
+    fn lights(&mut self, scene: &Scene, base_dir: &Path) {
         let mut body = Vec::new();
         for (i, l) in scene.lights.iter().enumerate() {
             match l {
@@ -122,7 +127,7 @@ impl Writer {
                     body.push("}".to_string());
                 }
                 Light::Point(p) => {
-                    let d = math::point_light_reference_distance(scene, p.position);
+                    let d = math::point_light_reference_distance(scene, p.position, base_dir);
                     let s = d * d;
                     let color = p.intensity.map(|e| math::invert_exact(e, (e as f64 / (std::f64::consts::PI * s)) as f32, |c| math::legacy_to_radiometric(c, s)));
                     body.push("PointLight {".to_string());

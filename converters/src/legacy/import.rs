@@ -739,7 +739,7 @@ fn light(l: &LightDef, scene: &Scene, ctx: &mut Context<'_>) -> Result<(Light, S
             color,
         } => {
             check_color(color, "light colour", None)?;
-            let d = math::point_light_reference_distance(scene, position.value);
+            let d = math::point_light_reference_distance(scene, position.value, &ctx.out_dir);
             let intensity = color.value.map(|c| math::legacy_to_radiometric(c, d * d));
             ctx.warn(*span, format!(
                 "PointLight has no falloff in the legacy format; lumo's point light falls off with the squared distance, so its intensity is set to match the legacy brightness {d:.4} units away (at the centre of the scene's objects)"

@@ -7,6 +7,8 @@ use lumo_schema::geometry::glam::{DMat4, DVec3};
 use lumo_schema::geometry::transform::{ops_matrix, rotation_axis_angle};
 use lumo_schema::{Mesh, MeshSource, Object, Scene};
 
+use std::path::Path;
+
 use super::ast::Op;
 
 /// A 4×4 matrix acting on column vectors: p' = M · (x, y, z, 1).
@@ -55,15 +57,26 @@ pub fn legacy_block_matrix(ops: &[Op]) -> M4 {
 /// box of the scene's bounded objects, by their true bounds
 /// ([`lumo_schema::geometry::bounds::object_bounds`]: a lathe by its curve, not its control
 /// points, so an exact lathe and its tessellation give the same point), or `None` when there
-/// are none. Meshes in OBJ or glTF files count by their placed origin, since the export side
-/// does not know the scene's folder to read them. Computed from the schema scene alone, so
-/// import and export agree.
-pub fn scene_reference_point(scene: &Scene) -> Option<[f64; 3]> {
+/// are none. Meshes in OBJ files are read (relative to `base_dir`, the folder the scene's paths
+/// resolve against) and count by their placed vertices; one that cannot be read, and glTF
+/// meshes, count by their placed origin. Import and export pass the same folder, so they agree.
+pub fn scene_reference_point(scene: &Scene, base_dir: &Path) -> Option<[f64; 3]> {
     let mut all: Option<Aabb> = None;
     for obj in &scene.objects {
         let b = match obj {
             Object::Mesh(Mesh {
-                source: MeshSource::Obj(_) | MeshSource::Gltf(_),
+                source: MeshSource::Obj(file),
+                transform,
+                ..
+            }) => match crate::obj::load(&base_dir.join(file)) {
+                Ok(mesh) => points_bounds(
+                    mesh.positions.iter().map(|p| DVec3::from(p.map(f64::from))),
+                    &ops_matrix(transform),
+                ),
+                Err(_) => points_bounds([DVec3::ZERO], &ops_matrix(transform)),
+            },
+            Object::Mesh(Mesh {
+                source: MeshSource::Gltf(_),
                 transform,
                 ..
             }) => points_bounds([DVec3::ZERO], &ops_matrix(transform)),
@@ -79,12 +92,15 @@ pub fn scene_reference_point(scene: &Scene) -> Option<[f64; 3]> {
 /// The distance at which a legacy point light (no falloff) and lumo's inverse-square light give
 /// the same irradiance: from the light to [`scene_reference_point`], else to the camera; 1 when
 /// both coincide with the light.
-pub fn point_light_reference_distance(scene: &Scene, light: [f32; 3]) -> f64 {
+/// `base_dir` is where the scene's relative paths resolve (see [`scene_reference_point`]).
+pub fn point_light_reference_distance(scene: &Scene, light: [f32; 3], base_dir: &Path) -> f64 {
     let l = v64(light);
     let dist = |p: [f64; 3]| {
         ((p[0] - l[0]).powi(2) + (p[1] - l[1]).powi(2) + (p[2] - l[2]).powi(2)).sqrt()
     };
-    let mut d = scene_reference_point(scene).map(dist).unwrap_or(0.0);
+    let mut d = scene_reference_point(scene, base_dir)
+        .map(dist)
+        .unwrap_or(0.0);
     if !(d > 1e-6 && d.is_finite()) {
         d = dist(v64(scene.camera.position));
     }
@@ -96,8 +112,13 @@ pub fn point_light_reference_distance(scene: &Scene, light: [f32; 3]) -> f64 {
 
 /// The intensity (W/sr) the importer gives a legacy point light of colour channel `color` at
 /// `position`: π · colour · d² with d from [`point_light_reference_distance`].
-pub fn point_light_intensity(scene: &Scene, position: [f32; 3], color: f32) -> f32 {
-    let d = point_light_reference_distance(scene, position);
+pub fn point_light_intensity(
+    scene: &Scene,
+    position: [f32; 3],
+    color: f32,
+    base_dir: &Path,
+) -> f32 {
+    let d = point_light_reference_distance(scene, position, base_dir);
     legacy_to_radiometric(color, d * d)
 }
 
@@ -252,7 +273,7 @@ mod tests {
             profile: profile.clone(),
         })];
         let light = [4.0, 5.0, 3.0];
-        let exact = point_light_reference_distance(&scene, light);
+        let exact = point_light_reference_distance(&scene, light, Path::new("."));
         let t = tessellate::lathe(&profile, 64, 64);
         let f32s = |v: DVec3| v.to_array().map(|x| x as f32);
         scene.objects = vec![Object::Mesh(Mesh {
@@ -267,7 +288,7 @@ mod tests {
             }),
             smooth: false,
         })];
-        let mesh = point_light_reference_distance(&scene, light);
+        let mesh = point_light_reference_distance(&scene, light, Path::new("."));
         let (i1, i2) = (
             legacy_to_radiometric(1.0, exact * exact),
             legacy_to_radiometric(1.0, mesh * mesh),
