@@ -48,5 +48,6 @@ pub(super) fn mesh_data(file: &GltfFile, mesh: u32, primitive: u32) -> Result<Me
         normals: d.normals.map(|n| n.into_iter().map(Vec3::from).collect()),
         // Already in lumo's bottom-left convention.
         uvs: d.uvs.map(|t| t.into_iter().map(Vec2::from).collect()),
+        // `d.tangents` (normal mapping, issue 12) is not used by the renderer yet.
     })
 }

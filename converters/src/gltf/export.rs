@@ -379,6 +379,7 @@ impl Builder {
                     positions: t.vertices.to_vec(),
                     normals: None,
                     uvs: None,
+                    tangents: None,
                     indices: vec![[0, 1, 2]],
                 }
             }
@@ -405,6 +406,7 @@ impl Builder {
                             positions: inl.positions.clone(),
                             normals: inl.normals.clone(),
                             uvs: inl.uvs.clone(),
+                            tangents: None,
                             indices: inl.indices.clone(),
                         }
                     }
@@ -622,6 +624,7 @@ fn load_obj(path: &Path) -> Result<MeshData, String> {
         positions: m.positions,
         normals: m.normals,
         uvs: m.uvs,
+        tangents: None,
         indices: m.triangles,
     })
 }

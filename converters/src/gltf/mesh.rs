@@ -7,6 +7,7 @@ use gltf::Semantic;
 
 use super::document::Loaded;
 use super::error::GltfError;
+use super::tangents;
 
 /// The triangles of one glTF mesh primitive, in the primitive's own (object) space.
 #[derive(Debug, Clone, PartialEq)]
@@ -20,6 +21,14 @@ pub struct MeshData {
     /// v = 1 − v_glTF. From the set `TEXCOORD_n` that the material's base-colour texture names
     /// (else its emissive, else its metallic-roughness texture; else set 0).
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Per-vertex tangents `[x, y, z, w]` for normal mapping: xyz unit length, w = ±1 the
+    /// bitangent's handedness, B = cross(N, T.xyz) · w, in glTF's sense (B points up the
+    /// normal texture). The file's TANGENT attribute when the primitive has one (checked:
+    /// VEC4, finite, unit xyz, w = ±1); else, when its material has a `normalTexture` and the
+    /// primitive has normals and that texture's TEXCOORD set, MikkTSpace tangents computed as
+    /// glTF asks (see [`GltfFile::computed_tangents`]); else `None` (always `None` without
+    /// normals, as glTF then ignores tangents).
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// Triangles as vertex indices, counter-clockwise front faces.
     pub indices: Vec<[u32; 3]>,
 }
@@ -53,6 +62,46 @@ impl GltfFile {
     /// See [`load_mesh_primitive`].
     pub fn mesh_primitive(&self, mesh: u32, primitive: u32) -> Result<MeshData, GltfError> {
         read_primitive(&self.loaded, mesh as usize, primitive as usize)
+    }
+
+    /// The MikkTSpace tangents of a primitive computed from its positions, normals and the
+    /// TEXCOORD set of its material's normal texture (set 0 without one), whether or not the
+    /// file carries TANGENT: the tangents [`MeshData::tangents`] holds for a file without them.
+    /// `None` when the primitive has no normals or no such set. For checking a file's
+    /// tangents against the computed ones.
+    pub fn computed_tangents(
+        &self,
+        mesh: u32,
+        primitive: u32,
+    ) -> Result<Option<Vec<[f32; 4]>>, GltfError> {
+        let d = self.mesh_primitive(mesh, primitive)?;
+        let Some(normals) = &d.normals else {
+            return Ok(None);
+        };
+        let (m, p) = (mesh as usize, primitive as usize);
+        // mesh_primitive succeeded, so the primitive exists.
+        let Some(prim) = self
+            .loaded
+            .doc
+            .meshes()
+            .nth(m)
+            .and_then(|x| x.primitives().nth(p))
+        else {
+            return Ok(None);
+        };
+        let set = prim
+            .material()
+            .normal_texture()
+            .map_or(0, |t| t.tex_coord());
+        computed_tangents(
+            &self.loaded,
+            &prim,
+            &format!("meshes[{m}].primitives[{p}]"),
+            set,
+            &d.positions,
+            normals,
+            &d.indices,
+        )
     }
 
     /// Every file read to open this one: the glTF file, then its external buffer files.
@@ -176,36 +225,9 @@ pub fn read_primitive(
         None => None,
     };
     let set = texcoord_set(&p.material());
-    let uvs = match p.get(&Semantic::TexCoords(set)) {
-        Some(acc) => {
-            let te = format!("{el}.attributes.TEXCOORD_{set}");
-            if acc.dimensions() != gltf::accessor::Dimensions::Vec2 {
-                return Err(GltfError::invalid(
-                    file,
-                    te,
-                    format!(
-                        "has type {:?}, texture coordinates must be VEC2",
-                        acc.dimensions()
-                    ),
-                ));
-            }
-            let raw = loaded.read_accessor(&acc, &te)?;
-            if raw.len() / 2 != n {
-                return Err(GltfError::invalid(
-                    file,
-                    te,
-                    format!("{} texture coordinates for {n} positions", raw.len() / 2),
-                ));
-            }
-            // glTF's (0, 0) is the image's top-left corner, lumo's the bottom-left: v' = 1 − v.
-            Some(
-                raw.chunks_exact(2)
-                    .map(|c| [c[0] as f32, 1.0 - c[1] as f32])
-                    .collect(),
-            )
-        }
-        None => None,
-    };
+    // glTF's (0, 0) is the image's top-left corner, lumo's the bottom-left: v' = 1 − v.
+    let uvs = texcoords(loaded, &p, &el, set, n)?
+        .map(|t| t.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
     let flat: Vec<u32> = match p.indices() {
         Some(acc) => {
             let ie = format!("{el}.indices");
@@ -236,13 +258,148 @@ pub fn read_primitive(
             format!("{} indices is not a multiple of 3 (TRIANGLES)", flat.len()),
         ));
     }
-    let indices = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let indices: Vec<[u32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let tangents = match (&normals, p.get(&Semantic::Tangents)) {
+        // glTF §3.7.2.1: without normals, given tangents are ignored (shading is flat).
+        (None, _) => None,
+        (Some(_), Some(acc)) => Some(file_tangents(loaded, &acc, &el, n)?),
+        (Some(normals), None) => match p.material().normal_texture() {
+            Some(nt) => computed_tangents(
+                loaded,
+                &p,
+                &el,
+                nt.tex_coord(),
+                &positions,
+                normals,
+                &indices,
+            )?,
+            None => None,
+        },
+    };
     Ok(MeshData {
         positions,
         normals,
         uvs,
+        tangents,
         indices,
     })
+}
+
+/// MikkTSpace tangents from the primitive's normals and TEXCOORD set `set`; `None` when the
+/// primitive has no such set.
+fn computed_tangents(
+    loaded: &Loaded,
+    p: &gltf::Primitive,
+    el: &str,
+    set: u32,
+    positions: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    indices: &[[u32; 3]],
+) -> Result<Option<Vec<[f32; 4]>>, GltfError> {
+    let Some(uvs) = texcoords(loaded, p, el, set, positions.len())? else {
+        return Ok(None);
+    };
+    // MikkTSpace wants v up the image (see `tangents::mikktspace`): (u, −v) is an exact flip of
+    // glTF's v, so equal coordinates stay equal for its vertex welding.
+    let up: Vec<[f32; 2]> = uvs.into_iter().map(|[u, v]| [u, -v]).collect();
+    Ok(Some(tangents::mikktspace(positions, normals, &up, indices)))
+}
+
+/// Largest accepted |‖xyz‖ − 1| of a TANGENT: normalised byte tangents are off by up to about
+/// 1.4 %; anything further is not a unit vector written with rounding but a broken one.
+const TANGENT_LENGTH_TOLERANCE: f32 = 0.02;
+
+/// The TANGENT attribute: VEC4, one per vertex, finite, xyz unit length (within
+/// [`TANGENT_LENGTH_TOLERANCE`], then normalised), w = ±1.
+fn file_tangents(
+    loaded: &Loaded,
+    acc: &gltf::Accessor,
+    el: &str,
+    n: usize,
+) -> Result<Vec<[f32; 4]>, GltfError> {
+    let te = format!("{el}.attributes.TANGENT");
+    let file = &loaded.file;
+    let located = |msg: String| {
+        GltfError::invalid(
+            file,
+            format!("{te} (accessors[{}])", acc.index()),
+            format!("{msg}; re-export the model with valid tangents, or without TANGENT so lumo computes them"),
+        )
+    };
+    if acc.dimensions() != gltf::accessor::Dimensions::Vec4 {
+        return Err(located(format!(
+            "has type {:?}, tangents must be VEC4",
+            acc.dimensions()
+        )));
+    }
+    let raw = loaded.read_accessor(acc, &te)?;
+    if raw.len() / 4 != n {
+        return Err(located(format!(
+            "{} tangents for {n} positions",
+            raw.len() / 4
+        )));
+    }
+    let mut out = Vec::with_capacity(n);
+    for (i, c) in raw.chunks_exact(4).enumerate() {
+        let t = [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32];
+        if t.iter().any(|x| !x.is_finite()) {
+            return Err(located(format!(
+                "vertex {i} is {t:?}: tangents must be finite"
+            )));
+        }
+        let l = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+        if (l - 1.0).abs() > TANGENT_LENGTH_TOLERANCE {
+            return Err(located(format!(
+                "vertex {i} is {t:?}: its xyz has length {l}, tangents must be unit length"
+            )));
+        }
+        if (t[3].abs() - 1.0).abs() > 1e-3 {
+            return Err(located(format!(
+                "vertex {i} is {t:?}: w must be 1 or −1 (the bitangent's handedness)"
+            )));
+        }
+        out.push([t[0] / l, t[1] / l, t[2] / l, t[3].signum()]);
+    }
+    Ok(out)
+}
+
+/// TEXCOORD set `set` in glTF's convention ((0, 0) top-left), checked; `None` when the
+/// primitive has no such set.
+fn texcoords(
+    loaded: &Loaded,
+    p: &gltf::Primitive,
+    el: &str,
+    set: u32,
+    n: usize,
+) -> Result<Option<Vec<[f32; 2]>>, GltfError> {
+    let file = &loaded.file;
+    let Some(acc) = p.get(&Semantic::TexCoords(set)) else {
+        return Ok(None);
+    };
+    let te = format!("{el}.attributes.TEXCOORD_{set}");
+    if acc.dimensions() != gltf::accessor::Dimensions::Vec2 {
+        return Err(GltfError::invalid(
+            file,
+            te,
+            format!(
+                "has type {:?}, texture coordinates must be VEC2",
+                acc.dimensions()
+            ),
+        ));
+    }
+    let raw = loaded.read_accessor(&acc, &te)?;
+    if raw.len() / 2 != n {
+        return Err(GltfError::invalid(
+            file,
+            te,
+            format!("{} texture coordinates for {n} positions", raw.len() / 2),
+        ));
+    }
+    Ok(Some(
+        raw.chunks_exact(2)
+            .map(|c| [c[0] as f32, c[1] as f32])
+            .collect(),
+    ))
 }
 
 fn vec3s(loaded: &Loaded, acc: &gltf::Accessor, element: &str) -> Result<Vec<[f32; 3]>, GltfError> {

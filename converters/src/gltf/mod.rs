@@ -19,6 +19,7 @@ mod math;
 mod mesh;
 mod nodes;
 mod pbr;
+mod tangents;
 mod tessellate;
 
 pub use error::GltfError;
@@ -27,6 +28,7 @@ pub use import::{import, CameraChoice, ImportOptions, Imported};
 pub use lumo_schema::geometry::paths::relative as relative_path;
 pub use mesh::{load_image, load_mesh_primitive, GltfFile, MeshData};
 pub use pbr::LUMENS_PER_WATT;
+pub use tangents::mikktspace as mikktspace_tangents;
 
 /// Imports glTF or GLB bytes held in memory, as if read from `file` (used to resolve relative
 /// URIs and in messages). External buffers and images are not read. For fuzzing and tests.

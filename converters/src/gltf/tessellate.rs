@@ -60,6 +60,7 @@ fn export_data(m: TriMesh) -> MeshData {
                 .map(|t| t.to_array().map(|x| x as f32))
                 .collect(),
         ),
+        tangents: None,
         positions,
         indices,
     }
