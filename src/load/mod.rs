@@ -194,10 +194,11 @@ pub fn read_scene(path: &Path, options: &LoadOptions) -> Result<SceneFile, LoadE
                 None => schema::base_dir_of(path),
             };
             let scene = Validated::new(imported.scene, Some(&base_dir)).map_err(|d| {
+                let problems: Vec<String> = d.iter().map(ToString::to_string).collect();
                 LoadError::Invalid(format!(
                     "{}: the imported scene is not valid: {}",
                     path.display(),
-                    d[0]
+                    problems.join("; ")
                 ))
             })?;
             (scene, base_dir, imported.warnings)
