@@ -48,6 +48,7 @@ pub(super) fn mesh_data(file: &GltfFile, mesh: u32, primitive: u32) -> Result<Me
         normals: d.normals.map(|n| n.into_iter().map(Vec3::from).collect()),
         // Already in lumo's bottom-left convention.
         uvs: d.uvs.map(|t| t.into_iter().map(Vec2::from).collect()),
-        // `d.tangents` (normal mapping, issue 12) is not used by the renderer yet.
+        // `d.tangents` (normal mapping), `d.colors` (COLOR_0) and `d.texcoords_1` (TEXCOORD_1)
+        // are issue 12's; the renderer does not use them yet, so renders are unchanged.
     })
 }

@@ -380,6 +380,8 @@ impl Builder {
                     normals: None,
                     uvs: None,
                     tangents: None,
+                    texcoords_1: None,
+                    colors: None,
                     indices: vec![[0, 1, 2]],
                 }
             }
@@ -407,6 +409,8 @@ impl Builder {
                             normals: inl.normals.clone(),
                             uvs: inl.uvs.clone(),
                             tangents: None,
+                            texcoords_1: None,
+                            colors: None,
                             indices: inl.indices.clone(),
                         }
                     }
@@ -625,6 +629,8 @@ fn load_obj(path: &Path) -> Result<MeshData, String> {
         normals: m.normals,
         uvs: m.uvs,
         tangents: None,
+        texcoords_1: None,
+        colors: None,
         indices: m.triangles,
     })
 }

@@ -21,6 +21,20 @@ pub struct MeshData {
     /// v = 1 − v_glTF. From the set `TEXCOORD_n` that the material's base-colour texture names
     /// (else its emissive, else its metallic-roughness texture; else set 0).
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// The second texture-coordinate set, `TEXCOORD_1`, whatever set [`MeshData::uvs`] holds,
+    /// in the same convention (v = 1 − v_glTF), for textures whose `texCoord` (or
+    /// `KHR_texture_transform`'s `texCoord` override) is 1. Checked as glTF 2.0 (§3.7.2.1)
+    /// allows: VEC2 of FLOAT, or of normalized UNSIGNED_BYTE (c / 255) or UNSIGNED_SHORT
+    /// (c / 65535); one per vertex. `None` when the primitive has no `TEXCOORD_1`.
+    pub texcoords_1: Option<Vec<[f32; 2]>>,
+    /// Per-vertex colours `[r, g, b, a]` from `COLOR_0`, linear, each in [0, 1]: glTF
+    /// materials multiply their base colour (and alpha) by them. VEC3 (alpha 1) or VEC4, of
+    /// FLOAT or of normalized UNSIGNED_BYTE (c / 255) or UNSIGNED_SHORT (c / 65535), as glTF
+    /// 2.0 (§3.7.2.1) allows. FLOAT components that are not finite or lie outside [0, 1] are
+    /// an error, not clamped: the Khronos glTF-Validator reports them as the error
+    /// `ACCESSOR_NON_CLAMPED`, and a silent clamp would hide a broken export. `None` when the
+    /// primitive has no `COLOR_0`.
+    pub colors: Option<Vec<[f32; 4]>>,
     /// Per-vertex tangents `[x, y, z, w]` for normal mapping: xyz unit length, w = ±1 the
     /// bitangent's handedness, B = cross(N, T.xyz) · w, in glTF's sense (B points up the
     /// normal texture). The file's TANGENT attribute when the primitive has one (checked:
@@ -228,6 +242,23 @@ pub fn read_primitive(
     // glTF's (0, 0) is the image's top-left corner, lumo's the bottom-left: v' = 1 − v.
     let uvs = texcoords(loaded, &p, &el, set, n)?
         .map(|t| t.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
+    let texcoords_1 = match p.get(&Semantic::TexCoords(1)) {
+        Some(acc) => {
+            check_normalized_type(
+                loaded,
+                &acc,
+                &format!("{el}.attributes.TEXCOORD_1"),
+                "texture coordinates",
+            )?;
+            texcoords(loaded, &p, &el, 1, n)?
+                .map(|t| t.into_iter().map(|[u, v]| [u, 1.0 - v]).collect())
+        }
+        None => None,
+    };
+    let colors = match p.get(&Semantic::Colors(0)) {
+        Some(acc) => Some(vertex_colors(loaded, &acc, &el, n)?),
+        None => None,
+    };
     let flat: Vec<u32> = match p.indices() {
         Some(acc) => {
             let ie = format!("{el}.indices");
@@ -280,6 +311,8 @@ pub fn read_primitive(
         positions,
         normals,
         uvs,
+        texcoords_1,
+        colors,
         tangents,
         indices,
     })
@@ -359,6 +392,81 @@ fn file_tangents(
             )));
         }
         out.push([t[0] / l, t[1] / l, t[2] / l, t[3].signum()]);
+    }
+    Ok(out)
+}
+
+/// Checks that an accessor holds FLOAT, normalized UNSIGNED_BYTE or normalized UNSIGNED_SHORT
+/// components: the types glTF 2.0 (§3.7.2.1) allows for TEXCOORD_n and COLOR_n.
+fn check_normalized_type(
+    loaded: &Loaded,
+    acc: &gltf::Accessor,
+    element: &str,
+    what: &str,
+) -> Result<(), GltfError> {
+    use gltf::accessor::DataType;
+    let ok = match acc.data_type() {
+        DataType::F32 => true,
+        DataType::U8 | DataType::U16 => acc.normalized(),
+        _ => false,
+    };
+    if ok {
+        return Ok(());
+    }
+    let norm = if acc.normalized() { "normalized " } else { "" };
+    Err(GltfError::invalid(
+        &loaded.file,
+        format!("{element} (accessors[{}])", acc.index()),
+        format!(
+            "has {norm}component type {:?}; {what} must be FLOAT, or UNSIGNED_BYTE or UNSIGNED_SHORT with `normalized: true`",
+            acc.data_type()
+        ),
+    ))
+}
+
+/// The COLOR_0 attribute as linear RGBA (see [`MeshData::colors`]): VEC3 or VEC4, an allowed
+/// component type, one per vertex, every component finite and in [0, 1].
+fn vertex_colors(
+    loaded: &Loaded,
+    acc: &gltf::Accessor,
+    el: &str,
+    n: usize,
+) -> Result<Vec<[f32; 4]>, GltfError> {
+    let ce = format!("{el}.attributes.COLOR_0");
+    let located = |msg: String| {
+        GltfError::invalid(
+            &loaded.file,
+            format!("{ce} (accessors[{}])", acc.index()),
+            msg,
+        )
+    };
+    let k = match acc.dimensions() {
+        gltf::accessor::Dimensions::Vec3 => 3,
+        gltf::accessor::Dimensions::Vec4 => 4,
+        other => {
+            return Err(located(format!(
+                "has type {other:?}, vertex colours must be VEC3 or VEC4"
+            )))
+        }
+    };
+    check_normalized_type(loaded, acc, &ce, "vertex colours")?;
+    let raw = loaded.read_accessor(acc, &ce)?;
+    if raw.len() / k != n {
+        return Err(located(format!(
+            "{} colours for {n} positions",
+            raw.len() / k
+        )));
+    }
+    let mut out = Vec::with_capacity(n);
+    for (i, c) in raw.chunks_exact(k).enumerate() {
+        // Normalized integers are in [0, 1] by construction; only FLOAT can fail here.
+        if let Some(x) = c.iter().find(|x| !(0.0..=1.0).contains(*x)) {
+            return Err(located(format!(
+                "vertex {i} is {c:?}: component {x} is not in [0, 1] (glTF vertex colours are linear multipliers in 0..1); re-export the model with clamped colours"
+            )));
+        }
+        let a = if k == 4 { c[3] as f32 } else { 1.0 };
+        out.push([c[0] as f32, c[1] as f32, c[2] as f32, a]);
     }
     Ok(out)
 }

@@ -61,6 +61,8 @@ fn export_data(m: TriMesh) -> MeshData {
                 .collect(),
         ),
         tangents: None,
+        texcoords_1: None,
+        colors: None,
         positions,
         indices,
     }
