@@ -328,12 +328,6 @@ fn malformed_color_accessors_give_located_errors() {
         |j, _| j["accessors"][1]["componentType"] = json!(5120),
         &[at, "FLOAT"],
     );
-    // FLOAT outside [0, 1]: the positions accessor (x = 2 at vertex 1) as colours.
-    expect_error(
-        0,
-        |j, _| j["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(0),
-        &["COLOR_0 (accessors[0])", "vertex 1", "not in [0, 1]"],
-    );
     // A NaN in the sparse value.
     expect_error(
         2,
@@ -402,4 +396,23 @@ fn a_material_on_set_1_gets_the_same_uvs_as_texcoords_1() {
         assert_eq!(d.uvs, Some(set1.clone()), "{info}");
         assert_ne!(set1[1], [1.0, 1.0], "TEXCOORD_0's vertex 1 would be (1, 1)");
     }
+}
+
+/// FLOAT colours outside [0, 1] are clamped, as glTF viewers do: the positions accessor
+/// (x = 2 at vertex 1) read as VEC3 colours.
+#[test]
+fn out_of_range_float_colors_are_clamped() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut json, b) = synthetic();
+    json["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(0);
+    let f = write(dir.path(), &json, &b);
+    let d = load_mesh_primitive(&f, 0, 0).unwrap();
+    let want: Vec<[f32; 4]> = (0..3)
+        .map(|i| {
+            let c = |k: usize| f32_at(&b, 12 * i + 4 * k).clamp(0.0, 1.0);
+            [c(0), c(1), c(2), 1.0]
+        })
+        .collect();
+    assert_eq!(d.colors.unwrap(), want);
+    assert_eq!(want[1][0], 1.0, "x = 2 is clamped to 1");
 }

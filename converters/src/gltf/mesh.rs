@@ -30,10 +30,10 @@ pub struct MeshData {
     /// Per-vertex colours `[r, g, b, a]` from `COLOR_0`, linear, each in [0, 1]: glTF
     /// materials multiply their base colour (and alpha) by them. VEC3 (alpha 1) or VEC4, of
     /// FLOAT or of normalized UNSIGNED_BYTE (c / 255) or UNSIGNED_SHORT (c / 65535), as glTF
-    /// 2.0 (§3.7.2.1) allows. FLOAT components that are not finite or lie outside [0, 1] are
-    /// an error, not clamped: the Khronos glTF-Validator reports them as the error
-    /// `ACCESSOR_NON_CLAMPED`, and a silent clamp would hide a broken export. `None` when the
-    /// primitive has no `COLOR_0`.
+    /// 2.0 (§3.7.2.1) allows. FLOAT components outside [0, 1] are clamped, as glTF viewers
+    /// and Blender's importer do (the Khronos glTF-Validator flags them, `ACCESSOR_NON_CLAMPED`,
+    /// but refusing a whole model for a colour of 1.0000001 would help nobody); components
+    /// that are not finite are an error. `None` when the primitive has no `COLOR_0`.
     pub colors: Option<Vec<[f32; 4]>>,
     /// Per-vertex tangents `[x, y, z, w]` for normal mapping: xyz unit length, w = ±1 the
     /// bitangent's handedness, B = cross(N, T.xyz) · w, in glTF's sense (B points up the
@@ -425,7 +425,7 @@ fn check_normalized_type(
 }
 
 /// The COLOR_0 attribute as linear RGBA (see [`MeshData::colors`]): VEC3 or VEC4, an allowed
-/// component type, one per vertex, every component finite and in [0, 1].
+/// component type, one per vertex, every component finite (clamped to [0, 1]).
 fn vertex_colors(
     loaded: &Loaded,
     acc: &gltf::Accessor,
@@ -460,13 +460,14 @@ fn vertex_colors(
     let mut out = Vec::with_capacity(n);
     for (i, c) in raw.chunks_exact(k).enumerate() {
         // Normalized integers are in [0, 1] by construction; only FLOAT can fail here.
-        if let Some(x) = c.iter().find(|x| !(0.0..=1.0).contains(*x)) {
+        if let Some(x) = c.iter().find(|x| !x.is_finite()) {
             return Err(located(format!(
-                "vertex {i} is {c:?}: component {x} is not in [0, 1] (glTF vertex colours are linear multipliers in 0..1); re-export the model with clamped colours"
+                "vertex {i} is {c:?}: component {x} is not a finite number; re-export the model"
             )));
         }
-        let a = if k == 4 { c[3] as f32 } else { 1.0 };
-        out.push([c[0] as f32, c[1] as f32, c[2] as f32, a]);
+        let unit = |x: f64| x.clamp(0.0, 1.0) as f32;
+        let a = if k == 4 { unit(c[3]) } else { 1.0 };
+        out.push([unit(c[0]), unit(c[1]), unit(c[2]), a]);
     }
     Ok(out)
 }
