@@ -306,18 +306,9 @@ impl ThinDielectric {
 #[cfg(test)]
 mod tests {
     use super::super::chi2;
+    use super::super::testing::{dir, u3};
     use super::*;
     use crate::sampler::Pcg32;
-
-    /// Direction at polar angle `theta_deg` from +z (beyond 90° it is below the surface).
-    fn dir(theta_deg: f32, phi: f32) -> Vec3 {
-        let t = theta_deg.to_radians();
-        Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
-    }
-
-    fn u3(rng: &mut Pcg32) -> (f32, Vec2) {
-        (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()))
-    }
 
     #[test]
     fn rough_dielectric_chi2() {

@@ -440,17 +440,9 @@ impl MetallicRoughness {
 #[cfg(test)]
 mod tests {
     use super::super::chi2;
+    use super::super::testing::{dir, hemisphere_integral, u3};
     use super::*;
     use crate::sampler::Pcg32;
-
-    fn dir(theta_deg: f32, phi: f32) -> Vec3 {
-        let t = theta_deg.to_radians();
-        Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
-    }
-
-    fn u3(rng: &mut Pcg32) -> (f32, Vec2) {
-        (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()))
-    }
 
     /// A material from (base, metallic, roughness, ior, transmission).
     fn mat(
@@ -710,22 +702,13 @@ mod tests {
         use super::super::fresnel::fresnel_mix;
         let alpha = 0.09;
         let o = dir(85.0, 0.0);
-        let n = 600;
-        let mut sum = 0.0f64;
-        for i in 0..n {
-            let z = (i as f32 + 0.5) / n as f32;
-            let r = (1.0 - z * z).sqrt();
-            for j in 0..n {
-                let phi = std::f32::consts::TAU * (j as f32 + 0.5) / n as f32;
-                let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-                let wm = (o + wi).normalize();
-                let spec = ggx_d(wm, alpha) * ggx_g2(o, wi, alpha) / (4.0 * o.z * wi.z);
-                let diffuse = Vec3::splat(FRAC_1_PI);
-                let f = fresnel_mix(1.5, 1.0, Vec3::ONE, o.dot(wm), diffuse, Vec3::splat(spec));
-                sum += (f.x * wi.z) as f64;
-            }
-        }
-        let literal = sum * std::f64::consts::TAU / (n * n) as f64;
+        let literal = hemisphere_integral(600, |wi| {
+            let wm = (o + wi).normalize();
+            let spec = ggx_d(wm, alpha) * ggx_g2(o, wi, alpha) / (4.0 * o.z * wi.z);
+            let diffuse = Vec3::splat(FRAC_1_PI);
+            let f = fresnel_mix(1.5, 1.0, Vec3::ONE, o.dot(wm), diffuse, Vec3::splat(spec));
+            (f.x * wi.z) as f64
+        });
         assert!(literal > 1.2, "literal glTF albedo {literal}");
         let ours = albedo(&mat(Vec3::ONE, 0.0, 0.3, 1.5, 0.0), o, 40_000, 4).x;
         assert!((ours - 1.0).abs() < 0.01, "albedo-scaled {ours}");

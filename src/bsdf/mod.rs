@@ -23,6 +23,8 @@ pub mod fresnel;
 pub mod metallic_roughness;
 pub mod microfacet;
 pub mod multiple_scattering;
+#[cfg(test)]
+mod testing;
 
 pub use fresnel::fresnel_dielectric;
 use fresnel::fresnel_schlick;

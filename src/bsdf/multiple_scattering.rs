@@ -239,24 +239,15 @@ mod tests {
     #[test]
     fn tabulated_albedo_matches_independent_integration() {
         use super::super::microfacet::ggx_d;
+        use super::super::testing::hemisphere_integral;
         // Midpoint quadrature of the evaluated BRDF D G2 / (4 μo μi) · μi over (μi, φi): no
         // sampling routine involved.
         for (mu, alpha) in [(0.3f32, 0.25f32), (0.8, 0.6), (0.55, 1.0), (0.9, 0.09)] {
             let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-            let n = 600;
-            let mut sum = 0.0f64;
-            for a in 0..n {
-                let z = (a as f32 + 0.5) / n as f32;
-                let r = (1.0 - z * z).sqrt();
-                for b in 0..n {
-                    let phi = 2.0 * std::f32::consts::PI * (b as f32 + 0.5) / n as f32;
-                    let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-                    let wm = (wo + wi).normalize();
-                    let f = ggx_d(wm, alpha) * ggx_g2(wo, wi, alpha) / (4.0 * wo.z);
-                    sum += f as f64;
-                }
-            }
-            let e = (sum * 2.0 * std::f64::consts::PI / (n * n) as f64) as f32;
+            let e = hemisphere_integral(600, |wi| {
+                let wm = (wo + wi).normalize();
+                (ggx_d(wm, alpha) * ggx_g2(wo, wi, alpha) / (4.0 * wo.z)) as f64
+            }) as f32;
             assert!(
                 (e - albedo(mu, alpha)).abs() < 0.003,
                 "μ {mu} α {alpha}: {e} vs table {}",
