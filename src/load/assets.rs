@@ -83,7 +83,7 @@ impl Assets {
             };
             let bytes = match t.gltf_image {
                 Some(i) => {
-                    let file = gltf.open(&path, &mut assets.files).map_err(fail)?;
+                    let file = gltf.open(&path, &mut assets).map_err(fail)?;
                     let bytes = file.image(i).map_err(|e| fail(e.to_string()))?.0;
                     if let Some(image_file) = file.image_file(i) {
                         assets.note_file(image_file);
@@ -129,7 +129,7 @@ impl Assets {
                         json_path: format!("{json_path}.source.gltf"),
                         message,
                     };
-                    let file = gltf.open(&path, &mut assets.files).map_err(fail)?;
+                    let file = gltf.open(&path, &mut assets).map_err(fail)?;
                     super::gltf::mesh_data(&file, g.mesh, g.primitive).map_err(fail)?
                 }
                 schema::MeshSource::Inline(_) => continue,
@@ -156,7 +156,8 @@ impl Assets {
         &self.files
     }
 
-    fn note_file(&mut self, file: PathBuf) {
+    /// Records a file as read (once, in the order first read).
+    pub(super) fn note_file(&mut self, file: PathBuf) {
         if !self.files.contains(&file) {
             self.files.push(file);
         }

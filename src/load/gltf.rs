@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use lumo_converters::gltf::GltfFile;
 
+use super::assets::Assets;
 use super::obj::MeshData;
 use crate::math::{Vec2, Vec3};
 
@@ -17,20 +18,18 @@ pub(super) struct GltfCache {
 }
 
 impl GltfCache {
-    /// Opens `file` (once), noting it and its buffer files in `read`.
+    /// Opens `file` (once), noting it and its buffer files among the files `assets` read.
     pub(super) fn open(
         &mut self,
         file: &Path,
-        read: &mut Vec<PathBuf>,
+        assets: &mut Assets,
     ) -> Result<Arc<GltfFile>, String> {
         if let Some(f) = self.files.get(file) {
             return Ok(f.clone());
         }
         let f = Arc::new(GltfFile::open(file).map_err(|e| e.to_string())?);
         for path in f.files() {
-            if !read.contains(&path) {
-                read.push(path);
-            }
+            assets.note_file(path);
         }
         self.files.insert(file.to_path_buf(), f.clone());
         Ok(f)
