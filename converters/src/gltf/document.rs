@@ -397,7 +397,7 @@ impl Loaded {
                 match decode_data_uri(&self.file, &element, uri) {
                     Some(r) => r.map(|(b, m)| (b, m.or(mime_type.map(str::to_string)))),
                     None => {
-                        let path = self.dir().join(percent_decode(uri));
+                        let path = self.resolve_uri(uri);
                         if !path.is_file() {
                             return Err(GltfError::invalid(
                             &self.file,
@@ -420,10 +420,15 @@ impl Loaded {
     pub fn image_file(&self, image: &gltf::Image) -> Option<PathBuf> {
         match image.source() {
             gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
-                Some(self.dir().join(percent_decode(uri)))
+                Some(self.resolve_uri(uri))
             }
             _ => None,
         }
+    }
+
+    /// The file a relative (non-data) URI names: percent-decoded, against [`Loaded::dir`].
+    pub fn resolve_uri(&self, uri: &str) -> PathBuf {
+        self.dir().join(percent_decode(uri))
     }
 
     /// The folder relative URIs resolve against.

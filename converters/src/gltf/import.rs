@@ -15,7 +15,7 @@ use lumo_schema::{
 };
 use serde::de::DeserializeOwned;
 
-use super::document::{decode_data_uri, percent_decode, Loaded};
+use super::document::{decode_data_uri, Loaded};
 use super::error::GltfError;
 use super::extras::{
     CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
@@ -737,7 +737,7 @@ impl Importer<'_> {
                 let iel = format!("images[{}]", img.index());
                 let file = match img.source() {
                     gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
-                        let full = self.l.dir().join(percent_decode(uri));
+                        let full = self.l.resolve_uri(uri);
                         if !full.is_file() {
                             return Err(GltfError::invalid(
                                 self.file(),
