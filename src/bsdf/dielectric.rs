@@ -306,7 +306,7 @@ impl ThinDielectric {
 #[cfg(test)]
 mod tests {
     use super::super::chi2;
-    use super::super::testing::{dir, u3};
+    use super::super::testing::{dir, random_dir, u3};
     use super::*;
     use crate::sampler::Pcg32;
 
@@ -401,14 +401,8 @@ mod tests {
             let b = RoughDielectric { eta, alpha };
             let thin = ThinDielectric { eta, alpha };
             for _ in 0..5000 {
-                let wo = dir(
-                    rng.next_f32() * 180.0,
-                    rng.next_f32() * std::f32::consts::TAU,
-                );
-                let wi = dir(
-                    rng.next_f32() * 180.0,
-                    rng.next_f32() * std::f32::consts::TAU,
-                );
+                let wo = random_dir(&mut rng);
+                let wi = random_dir(&mut rng);
                 // f without the cosine, both ways.
                 let f = |a: Vec3, c: Vec3| b.eval(a, c).0 / c.z.abs();
                 let (f_oi, f_io) = (f(wo, wi), f(wi, wo));

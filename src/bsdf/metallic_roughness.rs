@@ -440,7 +440,7 @@ impl MetallicRoughness {
 #[cfg(test)]
 mod tests {
     use super::super::chi2;
-    use super::super::testing::{dir, hemisphere_integral, u3};
+    use super::super::testing::{dir, hemisphere_integral, random_dir, u3};
     use super::*;
     use crate::sampler::Pcg32;
 
@@ -577,14 +577,8 @@ mod tests {
         let (mut refl, mut trans) = (0, 0);
         for (name, m, _) in rough_settings() {
             for _ in 0..3000 {
-                let wo = dir(
-                    rng.next_f32() * 180.0,
-                    rng.next_f32() * std::f32::consts::TAU,
-                );
-                let wi = dir(
-                    rng.next_f32() * 180.0,
-                    rng.next_f32() * std::f32::consts::TAU,
-                );
+                let wo = random_dir(&mut rng);
+                let wi = random_dir(&mut rng);
                 let f = |a: Vec3, b: Vec3| m.eval(a, b).0 / b.z.abs();
                 let (f_oi, f_io) = (f(wo, wi), f(wi, wo));
                 if f_oi.max_element() < 1e-4 {

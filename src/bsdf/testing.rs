@@ -11,6 +11,15 @@ pub fn dir(theta_deg: f32, phi: f32) -> Vec3 {
     Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
 }
 
+/// A direction with θ uniform in [0°, 180°) and φ uniform in [0, 2π): both sides of the
+/// surface, grazing angles well represented.
+pub fn random_dir(rng: &mut Pcg32) -> Vec3 {
+    dir(
+        rng.next_f32() * 180.0,
+        rng.next_f32() * std::f32::consts::TAU,
+    )
+}
+
 /// One lobe-choice number and one 2D sample.
 pub fn u3(rng: &mut Pcg32) -> (f32, Vec2) {
     (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()))
