@@ -8,6 +8,8 @@ use std::sync::Arc;
 use lumo_schema as schema;
 use lumo_schema::Validated;
 
+use lumo_converters::gltf::GltfFile;
+
 use super::gltf::GltfCache;
 pub use super::obj::MeshData;
 use crate::math::Vec3;
@@ -68,8 +70,22 @@ impl Assets {
     /// Reads every texture and mesh file `scene` references; relative paths resolve against
     /// `base_dir`. The first file that fails is the error.
     pub fn read(scene: &Validated<schema::Scene>, base_dir: &Path) -> Result<Assets, AssetError> {
+        Self::read_with(scene, base_dir, None)
+    }
+
+    /// [`Assets::read`], starting from a glTF file that is already open (the input itself, when
+    /// the scene was imported from glTF): its meshes and images are read from it without
+    /// opening it again.
+    pub(super) fn read_with(
+        scene: &Validated<schema::Scene>,
+        base_dir: &Path,
+        opened: Option<Arc<GltfFile>>,
+    ) -> Result<Assets, AssetError> {
         let mut assets = Assets::default();
         let mut gltf = GltfCache::default();
+        if let Some(file) = opened {
+            gltf.insert(file, &mut assets);
+        }
         for (name, t) in &scene.textures {
             let key = (t.file.clone(), t.gltf_image);
             if assets.textures.contains_key(&key) {

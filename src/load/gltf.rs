@@ -24,16 +24,31 @@ impl GltfCache {
         file: &Path,
         assets: &mut Assets,
     ) -> Result<Arc<GltfFile>, String> {
-        if let Some(f) = self.files.get(file) {
+        if let Some(f) = self.files.get(&key(file)) {
             return Ok(f.clone());
         }
         let f = Arc::new(GltfFile::open(file).map_err(|e| e.to_string())?);
-        for path in f.files() {
-            assets.note_file(path);
-        }
-        self.files.insert(file.to_path_buf(), f.clone());
+        self.insert(f.clone(), assets);
         Ok(f)
     }
+
+    /// Adds a file opened elsewhere, noting it and its buffer files among the files `assets`
+    /// read.
+    pub(super) fn insert(&mut self, file: Arc<GltfFile>, assets: &mut Assets) {
+        let paths = file.files();
+        if let Some(path) = paths.first() {
+            self.files.insert(key(path), file.clone());
+        }
+        for path in paths {
+            assets.note_file(path);
+        }
+    }
+}
+
+/// The cache key of a path: the same file however the scene spells it (`a/../b.glb`,
+/// relative or absolute), else the path as given.
+fn key(path: &Path) -> PathBuf {
+    std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
 }
 
 /// One primitive of one mesh as the renderer's mesh arrays.

@@ -22,7 +22,9 @@ mod obj;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use lumo_converters::gltf::{CameraChoice, ImportOptions};
+use std::sync::Arc;
+
+use lumo_converters::gltf::{CameraChoice, GltfFile, ImportOptions};
 use lumo_converters::legacy;
 use lumo_schema as schema;
 use lumo_schema::Validated;
@@ -165,8 +167,8 @@ pub fn kind_of(path: &Path) -> Result<InputKind, LoadError> {
 /// Reads and validates the scene at `path` and reads every asset it references.
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, LoadError> {
     let path = path.as_ref();
-    let description = read_scene(path, options)?;
-    let assets = Assets::read(&description.scene, &description.base_dir)
+    let (description, opened) = read_scene_keeping_gltf(path, options)?;
+    let assets = Assets::read_with(&description.scene, &description.base_dir, opened)
         .map_err(|e| LoadError::Invalid(format!("{}: {e}", path.display())))?;
     Ok(Loaded {
         description,
@@ -177,7 +179,17 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Loa
 /// Reads and validates the scene description at `path` without reading its assets (for
 /// converting and validating).
 pub fn read_scene(path: &Path, options: &LoadOptions) -> Result<SceneFile, LoadError> {
+    read_scene_keeping_gltf(path, options).map(|(scene, _)| scene)
+}
+
+/// [`read_scene`], also returning the glTF file it opened (parsed, buffers loaded) so that
+/// reading the assets does not open and parse it a second time.
+fn read_scene_keeping_gltf(
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<(SceneFile, Option<Arc<GltfFile>>), LoadError> {
     let kind = kind_of(path)?;
+    let mut opened = None;
     let (scene, base_dir, warnings) = match kind {
         InputKind::Gltf => {
             use lumo_converters::gltf as g;
@@ -185,10 +197,13 @@ pub fn read_scene(path: &Path, options: &LoadOptions) -> Result<SceneFile, LoadE
                 camera: options.camera.clone(),
                 scene_dir: options.scene_dir.clone(),
             };
-            let imported = g::import(path, &opts).map_err(|e| match e {
+            let gltf_error = |e: g::GltfError| match e {
                 g::GltfError::Io { .. } => LoadError::Io(e.to_string()),
                 _ => LoadError::Invalid(e.to_string()),
-            })?;
+            };
+            let file = Arc::new(GltfFile::open(path).map_err(gltf_error)?);
+            let imported = file.import(&opts).map_err(gltf_error)?;
+            opened = Some(file);
             let base_dir = match &options.scene_dir {
                 Some(d) => d.clone(),
                 None => schema::base_dir_of(path),
@@ -242,13 +257,14 @@ pub fn read_scene(path: &Path, options: &LoadOptions) -> Result<SceneFile, LoadE
             (scene, base_dir, warnings)
         }
     };
-    Ok(SceneFile {
+    let description = SceneFile {
         scene,
         base_dir,
         warnings,
         file: path.to_path_buf(),
         kind,
-    })
+    };
+    Ok((description, opened))
 }
 
 fn invalid_report(file: &Path, diagnostics: Vec<schema::Diagnostic>) -> LoadError {

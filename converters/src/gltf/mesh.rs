@@ -73,6 +73,12 @@ impl GltfFile {
         })
     }
 
+    /// Imports this already opened file as a lumo scene (see [`super::import()`]), so a loader
+    /// that also reads its meshes and images parses the file once.
+    pub fn import(&self, options: &super::ImportOptions) -> Result<super::Imported, GltfError> {
+        super::import::import_loaded(&self.loaded, options)
+    }
+
     /// See [`load_mesh_primitive`].
     pub fn mesh_primitive(&self, mesh: u32, primitive: u32) -> Result<MeshData, GltfError> {
         read_primitive(&self.loaded, mesh as usize, primitive as usize)
