@@ -1,7 +1,7 @@
-//! Materials of the scene graph: lobe weights and parameters, optionally textured, turned into
-//! a [`Bsdf`] at each hit.
+//! Materials of the scene graph: glTF's metallic-roughness parameters, optionally textured,
+//! turned into a [`Bsdf`] at each hit.
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Lobes, MetallicRoughness};
 use crate::geometry::SurfaceHit;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::texture::{Texture, TextureRef};
@@ -9,22 +9,33 @@ use crate::texture::{Texture, TextureRef};
 /// A surface material (see the scene format's `Material` for the meaning of each field).
 #[derive(Debug, Clone)]
 pub struct Material {
-    /// Diffuse reflectance / metal tint.
+    /// Diffuse albedo, metal F0 and transmission tint.
     pub base_color: Rgb,
     /// Multiplies `base_color`.
     pub base_color_texture: Option<TextureRef>,
-    /// Diffuse weight; `None` means the rest after specular and transmission.
-    pub diffuse: Option<f32>,
-    /// Metal lobe weight.
-    pub specular: f32,
-    /// Dielectric lobe weight.
-    pub transmission: f32,
-    /// Metal roughness in [0, 1] (α = roughness²).
+    /// Metalness in [0, 1].
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1] (α = roughness²).
     pub roughness: f32,
-    /// Green scales roughness, blue scales `specular`.
-    pub roughness_specular_texture: Option<TextureRef>,
+    /// Green scales roughness, blue scales metallic.
+    pub metallic_roughness_texture: Option<TextureRef>,
     /// Index of refraction.
     pub ior: f32,
+    /// Strength of the dielectric specular reflection.
+    pub specular: f32,
+    /// Alpha scales `specular`.
+    pub specular_texture: Option<TextureRef>,
+    /// Tint of the dielectric F0.
+    pub specular_color: Rgb,
+    /// Multiplies `specular_color`.
+    pub specular_color_texture: Option<TextureRef>,
+    /// Transmitted fraction of the dielectric base.
+    pub transmission: f32,
+    /// Red scales `transmission`.
+    pub transmission_texture: Option<TextureRef>,
+    /// The absorption coefficient σa (per scene unit) of the medium the surface bounds, when
+    /// it bounds one (`None`: thin-walled).
+    pub absorption: Option<Rgb>,
     /// Emitted radiance.
     pub emission: Rgb,
     /// Multiplies `emission`.
@@ -56,35 +67,67 @@ impl Material {
         }
     }
 
+    /// Whether the material can only ever reflect diffusely (no texture can change that), so
+    /// its BSDF is the plain Lambertian lobe.
+    fn is_lambertian(&self) -> bool {
+        self.metallic == 0.0
+            && self.transmission == 0.0
+            && (self.specular == 0.0 || self.specular_color == Vec3::ZERO)
+    }
+
     /// The scattering function at a hit.
     pub fn bsdf(&self, textures: &[Texture], hit: &SurfaceHit) -> Bsdf {
         let mut base = self.base_color;
         if let Some(t) = lookup(textures, &self.base_color_texture, hit.uv) {
             base *= t;
         }
-        let (mut specular, mut roughness) = (self.specular, self.roughness);
-        if let Some(t) = lookup(textures, &self.roughness_specular_texture, hit.uv) {
-            roughness *= t.y.clamp(0.0, 1.0);
-            specular *= t.z.clamp(0.0, 1.0);
-        }
-        let diffuse = self
-            .diffuse
-            .unwrap_or((1.0 - specular - self.transmission).max(0.0));
         // The shading normal must lie on the geometric normal's side.
         let ns = if hit.ns.dot(hit.ng) < 0.0 {
             -hit.ns
         } else {
             hit.ns
         };
+        let frame = Frame::from_normal(ns);
+        if self.is_lambertian() {
+            return Bsdf {
+                frame,
+                ng: hit.ng,
+                lobes: Lobes::Lambert(base),
+            };
+        }
+        let (mut metallic, mut roughness) = (self.metallic, self.roughness);
+        if let Some(t) = lookup(textures, &self.metallic_roughness_texture, hit.uv) {
+            roughness *= t.y.clamp(0.0, 1.0);
+            metallic *= t.z.clamp(0.0, 1.0);
+        }
+        let mut specular = self.specular;
+        if let Some(t) = self.specular_texture.as_ref() {
+            specular *= textures[t.texture as usize]
+                .lookup_alpha(t.transform.transform_point2(hit.uv))
+                .clamp(0.0, 1.0);
+        }
+        let mut specular_color = self.specular_color;
+        if let Some(t) = lookup(textures, &self.specular_color_texture, hit.uv) {
+            specular_color *= t;
+        }
+        let mut transmission = self.transmission;
+        if let Some(t) = lookup(textures, &self.transmission_texture, hit.uv) {
+            transmission *= t.x.clamp(0.0, 1.0);
+        }
         Bsdf {
-            frame: Frame::from_normal(ns),
+            frame,
             ng: hit.ng,
-            base,
-            w_diffuse: diffuse,
-            w_specular: specular,
-            w_transmission: self.transmission,
-            alpha: roughness * roughness,
-            ior: self.ior,
+            lobes: Lobes::MetallicRoughness(MetallicRoughness {
+                base_color: base,
+                metallic,
+                roughness,
+                ior: self.ior,
+                specular_factor: specular,
+                specular_color,
+                transmission,
+                thin_walled: self.absorption.is_none(),
+                energy_compensation: true,
+            }),
         }
     }
 }

@@ -23,6 +23,8 @@ pub struct Texture {
     pub height: u32,
     /// Texels, row-major, top row first.
     pub texels: Vec<Rgb>,
+    /// Alpha of each texel (same layout), when the image has an alpha channel; 1 otherwise.
+    pub alpha: Option<Vec<f32>>,
     /// Wrap mode.
     pub wrap: Wrap,
 }
@@ -54,24 +56,50 @@ impl Texture {
         k as usize
     }
 
-    fn texel(&self, x: i64, y: i64) -> Rgb {
-        let x = self.wrap_index(x, self.width);
-        let y = self.wrap_index(y, self.height);
-        self.texels[y * self.width as usize + x]
-    }
-
-    /// Bilinear lookup at texture coordinates `uv` ((0, 0) = bottom-left of the image).
-    pub fn lookup(&self, uv: Vec2) -> Rgb {
+    /// The four texels around `uv` (row-major indices) and the bilinear weights of the
+    /// right column and bottom row; `None` for non-finite coordinates.
+    fn footprint(&self, uv: Vec2) -> Option<([usize; 4], f32, f32)> {
         if !uv.is_finite() {
-            return Vec3::ZERO;
+            return None;
         }
         let x = uv.x * self.width as f32 - 0.5;
         let y = (1.0 - uv.y) * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = self.texel(x0, y0) * (1.0 - fx) + self.texel(x0 + 1, y0) * fx;
-        let bottom = self.texel(x0, y0 + 1) * (1.0 - fx) + self.texel(x0 + 1, y0 + 1) * fx;
+        let w = self.width as usize;
+        let (xa, xb) = (
+            self.wrap_index(x0, self.width),
+            self.wrap_index(x0 + 1, self.width),
+        );
+        let (ya, yb) = (
+            self.wrap_index(y0, self.height),
+            self.wrap_index(y0 + 1, self.height),
+        );
+        Some(([ya * w + xa, ya * w + xb, yb * w + xa, yb * w + xb], fx, fy))
+    }
+
+    /// Bilinear lookup at texture coordinates `uv` ((0, 0) = bottom-left of the image).
+    pub fn lookup(&self, uv: Vec2) -> Rgb {
+        let Some(([a, b, c, d], fx, fy)) = self.footprint(uv) else {
+            return Vec3::ZERO;
+        };
+        let t = &self.texels;
+        let top = t[a] * (1.0 - fx) + t[b] * fx;
+        let bottom = t[c] * (1.0 - fx) + t[d] * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// Bilinear lookup of the alpha channel (1 for images without one).
+    pub fn lookup_alpha(&self, uv: Vec2) -> f32 {
+        let Some(alpha) = &self.alpha else {
+            return 1.0;
+        };
+        let Some(([a, b, c, d], fx, fy)) = self.footprint(uv) else {
+            return 0.0;
+        };
+        let top = alpha[a] * (1.0 - fx) + alpha[b] * fx;
+        let bottom = alpha[c] * (1.0 - fx) + alpha[d] * fx;
         top * (1.0 - fy) + bottom * fy
     }
 }
@@ -86,8 +114,18 @@ mod tests {
             width: 2,
             height: 2,
             texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
+            alpha: None,
             wrap,
         }
+    }
+
+    #[test]
+    fn alpha_is_bilinear_and_one_without_a_channel() {
+        let mut t = two_by_two(Wrap::Clamp);
+        assert_eq!(t.lookup_alpha(Vec2::new(0.3, 0.3)), 1.0);
+        t.alpha = Some(vec![0.0, 1.0, 0.0, 1.0]);
+        assert_eq!(t.lookup_alpha(Vec2::new(0.25, 0.75)), 0.0);
+        assert!((t.lookup_alpha(Vec2::new(0.5, 0.5)) - 0.5).abs() < 1e-6);
     }
 
     #[test]

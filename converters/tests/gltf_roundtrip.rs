@@ -88,11 +88,13 @@ fn textures_round_trip_through_embedded_images() {
         dir.path().join("tex/uv.png"),
     )
     .unwrap();
-    let text = r#"{"format_version": 1, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y_deg": 40},
+    let text = r#"{"format_version": 2, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y_deg": 40},
       "textures": {"uv": {"file": "tex/uv.png", "wrap": "mirror"}, "rough": {"file": "tex/uv.png", "color_space": "linear", "wrap": "clamp"},
                    "duck": {"file": "duck.glb", "gltf_image": 0}},
       "materials": {"m": {"base_color_texture": {"texture": "uv", "offset": [0.25, 0.5], "rotation_deg": 30, "scale": [2, 3]},
-                          "roughness_specular_texture": {"texture": "rough"}, "specular": 0.5, "roughness": 0.4,
+                          "metallic_roughness_texture": {"texture": "rough"}, "metallic": 0.5, "roughness": 0.4,
+                          "specular": 0.7, "specular_texture": {"texture": "rough"}, "specular_color": [1, 0.5, 0.25],
+                          "specular_color_texture": {"texture": "uv"}, "transmission": 0.5, "transmission_texture": {"texture": "rough"},
                           "emission": [2, 1, 0], "emission_texture": {"texture": "duck", "scale": [1, -1]}}},
       "objects": [{"sphere": {"material": "m", "radius": 1}}]}"#;
     std::fs::copy(
@@ -119,7 +121,10 @@ fn textures_round_trip_through_embedded_images() {
             "{r:?}"
         );
         assert_eq!(r.scale, [2.0, 3.0]);
-        assert!((m.specular - 0.5).abs() < 1e-6 && (m.emission[0] - 2.0).abs() < 1e-6);
+        assert!((m.metallic - 0.5).abs() < 1e-6 && (m.emission[0] - 2.0).abs() < 1e-6);
+        assert!((m.specular - 0.7).abs() < 1e-6 && m.specular_color == [1.0, 0.5, 0.25]);
+        assert!(m.specular_texture.is_some() && m.specular_color_texture.is_some());
+        assert!(m.transmission == 0.5 && m.transmission_texture.is_some());
     }
 }
 

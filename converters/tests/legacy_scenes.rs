@@ -133,7 +133,8 @@ fn mapping_rules_on_real_scenes() {
     assert_eq!(s.objects.len(), 6);
     assert_eq!(s.lights.len(), 1);
     let m0 = &s.materials["material0"];
-    assert_eq!((m0.diffuse, m0.specular), (Some(0.5), 0.5)); // (1, ks = 1) normalised
+    // (1, ks = 1) normalised: half metal, half Lambertian (no specular coat).
+    assert_eq!((m0.metallic, m0.specular, m0.transmission), (0.5, 0.0, 0.0));
     let expect_r = (2.0f64 / 22.0).powf(0.25) as f32;
     assert_eq!(m0.roughness, expect_r);
     assert_eq!(s.camera.look_at, [0.0, 0.0, 9.0]);
@@ -177,9 +178,16 @@ fn mapping_rules_on_real_scenes() {
     );
     let glass = &imp.scene.materials["material5"];
     assert_eq!(
-        (glass.transmission, glass.ior, glass.diffuse),
-        (1.0, 1.5, Some(0.0))
+        (
+            glass.transmission,
+            glass.ior,
+            glass.metallic,
+            glass.roughness
+        ),
+        (1.0, 1.5, 0.0, 0.0)
     );
+    // Legacy glass refracts: a clear volume, not a thin wall.
+    assert_eq!(glass.volume, Some(lumo_schema::Volume::default()));
     assert!(imp.scene.materials["material6"].two_sided_emission);
 
     // ... unless asked to keep them.
@@ -252,7 +260,7 @@ fn mapping_rules_on_real_scenes() {
     // `reflective` (jefflyy) is a mirror weight.
     let s = get("scene11_diamond.txt").scene;
     let m = &s.materials["material1"];
-    assert_eq!((m.specular, m.diffuse), (0.7, Some(1.0 - 0.7)));
+    assert_eq!((m.metallic, m.specular, m.transmission), (0.7, 0.0, 0.0));
 }
 
 #[test]

@@ -12,13 +12,17 @@ pub mod geometry;
 mod keyword;
 mod load;
 pub mod locate;
+pub mod migrate;
 mod scene;
 mod validate;
 mod validated;
 
 pub use diagnostic::{did_you_mean, edit_distance, Diagnostic, LoadError, Report};
 pub use keyword::{Keyword, UnknownKeyword};
-pub use load::{base_dir_of, load_scene_file, load_scene_str, parse_scene, MAX_SCENE_BYTES};
+pub use load::{
+    base_dir_of, load_scene_file, load_scene_file_noted, load_scene_str, load_scene_str_noted,
+    parse_scene, parse_scene_noted, MAX_SCENE_BYTES,
+};
 pub use scene::*;
 pub use validate::{validate, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
 pub use validated::Validated;

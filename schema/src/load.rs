@@ -11,13 +11,47 @@ use crate::validated::Validated;
 pub const MAX_SCENE_BYTES: u64 = 1 << 30;
 
 /// Parses scene JSON text into a typed [`Scene`] without semantic checks. On failure the single
-/// diagnostic names the JSON path, the line and column, and what was expected.
+/// diagnostic names the JSON path, the line and column, and what was expected. A file of an
+/// older format version is migrated (see [`parse_scene_noted`] for the notes).
 pub fn parse_scene(text: &str) -> Result<Scene, Diagnostic> {
+    parse_scene_noted(text).map(|(scene, _)| scene)
+}
+
+/// [`parse_scene`], also returning the migration notes of a file of an older format version
+/// (empty for a current file).
+pub fn parse_scene_noted(text: &str) -> Result<(Scene, Vec<String>), Diagnostic> {
+    /// Only the version, read without building the document.
+    #[derive(serde::Deserialize)]
+    struct Version {
+        format_version: Option<serde_json::Value>,
+    }
+    let old = serde_json::from_str::<Version>(text)
+        .ok()
+        .and_then(|v| v.format_version)
+        .and_then(|v| v.as_u64())
+        .is_some_and(|v| v < u64::from(crate::FORMAT_VERSION));
+    if old {
+        if let Ok(mut value) = serde_json::from_str::<serde_json::Value>(text) {
+            let notes = crate::migrate::migrate(&mut value);
+            let result: Result<Scene, _> = serde_path_to_error::deserialize(value);
+            return match result {
+                Ok(scene) => Ok((scene, notes)),
+                Err(err) => {
+                    let path = JsonPath::parse(&err.path().to_string());
+                    let (message, help) = explain(&err.into_inner().to_string());
+                    let mut d = Diagnostic::new(path.clone(), message);
+                    d.location = locate(text, &path);
+                    d.help = help;
+                    Err(d)
+                }
+            };
+        }
+    }
     let mut de = serde_json::Deserializer::from_str(text);
     let result: Result<Scene, _> = serde_path_to_error::deserialize(&mut de);
     let (path, inner) = match result {
         Ok(scene) => match de.end() {
-            Ok(()) => return Ok(scene),
+            Ok(()) => return Ok((scene, Vec::new())),
             // Trailing characters after the document.
             Err(e) => (JsonPath::root(), e),
         },
@@ -45,13 +79,22 @@ pub fn load_scene_str(
     file: &Path,
     base_dir: Option<&Path>,
 ) -> Result<Validated<Scene>, LoadError> {
+    load_scene_str_noted(text, file, base_dir).map(|(scene, _)| scene)
+}
+
+/// [`load_scene_str`], also returning the migration notes of an older format version.
+pub fn load_scene_str_noted(
+    text: &str,
+    file: &Path,
+    base_dir: Option<&Path>,
+) -> Result<(Validated<Scene>, Vec<String>), LoadError> {
     let invalid = |diagnostics| LoadError::Invalid {
         file: file.to_path_buf(),
         diagnostics,
     };
-    let scene = parse_scene(text).map_err(|d| invalid(vec![d]))?;
+    let (scene, notes) = parse_scene_noted(text).map_err(|d| invalid(vec![d]))?;
     let mut diagnostics = match Validated::new(scene, base_dir) {
-        Ok(valid) => return Ok(valid),
+        Ok(valid) => return Ok((valid, notes)),
         Err(diagnostics) => diagnostics,
     };
     for d in &mut diagnostics {
@@ -63,6 +106,11 @@ pub fn load_scene_str(
 
 /// Reads, parses and validates a scene file; relative paths inside resolve against its folder.
 pub fn load_scene_file(path: &Path) -> Result<Validated<Scene>, LoadError> {
+    load_scene_file_noted(path).map(|(scene, _)| scene)
+}
+
+/// [`load_scene_file`], also returning the migration notes of an older format version.
+pub fn load_scene_file_noted(path: &Path) -> Result<(Validated<Scene>, Vec<String>), LoadError> {
     let io = |source| LoadError::Io {
         path: path.to_path_buf(),
         source,
@@ -96,7 +144,7 @@ pub fn load_scene_file(path: &Path) -> Result<Validated<Scene>, LoadError> {
         }
     };
     let base = base_dir_of(path);
-    load_scene_str(&text, path, Some(&base))
+    load_scene_str_noted(&text, path, Some(&base))
 }
 
 /// The folder relative paths in the scene file at `path` resolve against.

@@ -21,7 +21,7 @@ pub type Vec2 = [f32; 2];
 pub type Rgb = [f32; 3];
 
 /// The format version this crate reads and writes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// A complete lumo scene: what to render and how.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -31,8 +31,9 @@ pub struct Scene {
     /// (`"../schema/scene.schema.json"` in lumo's examples). Not used by the renderer.
     #[serde(rename = "$schema", default, skip_serializing_if = "Option::is_none")]
     pub schema: Option<String>,
-    /// Version of the scene format. Must be 1.
-    #[schemars(range(min = 1, max = 1))]
+    /// Version of the scene format: 2. Files of version 1 (lobe-weight materials) are still
+    /// read, migrated on load with a warning; `lumo convert old.json -o new.json` upgrades them.
+    #[schemars(range(min = 1, max = 2))]
     pub format_version: u32,
     /// Output image size.
     #[serde(default)]
@@ -276,52 +277,91 @@ fn is_one2(v: &Vec2) -> bool {
     *v == [1.0, 1.0]
 }
 
-/// A surface's appearance: a mix of lobes chosen by weight, plus emission.
+/// A surface's appearance: glTF 2.0's metallic-roughness material (glTF 2.0 specification,
+/// Appendix B) with the parameters of its ratified material extensions, plus emission.
 ///
-/// The weights of the lobes are fractions of the incoming light each lobe scatters:
-/// `diffuse + specular + transmission ≤ 1`; whatever is left is absorbed.
+/// ```text
+/// metal      = GGX reflection with Schlick Fresnel, F0 = base_color
+/// dielectric = GGX reflection, F0 from ior × specular_color, weighted by specular,
+///              over mix(Lambert(base_color), transmission tinted by base_color, transmission)
+/// material   = mix(dielectric, metal, metallic)                  α = roughness²
+/// ```
+///
+/// Every factor is multiplied by its texture where one is given. The defaults are those of
+/// Blender's Principled BSDF (a grey, slightly glossy plastic); `specular: 0` removes the
+/// reflection over the diffuse base (a pure Lambertian surface, as the legacy format's diffuse
+/// materials are), while transmission keeps the exact Fresnel reflection of its `ior`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
-    /// Reflectance of the diffuse lobe and tint of the specular lobe (linear RGB, each in [0, 1]).
-    /// Default (0.8, 0.8, 0.8).
+    /// Diffuse reflectance, metal F0 and transmission tint (linear RGB, each in [0, 1]).
+    /// Default (0.8, 0.8, 0.8). glTF `baseColorFactor` (RGB).
     #[serde(default = "default_base_color")]
     pub base_color: Rgb,
-    /// Multiplies `base_color` by this texture (its RGB channels).
+    /// Multiplies `base_color` by this texture (its RGB channels). glTF `baseColorTexture`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base_color_texture: Option<TextureRef>,
-    /// Weight of the Lambertian diffuse lobe, in [0, 1].
-    /// Default: the rest, `1 − specular − transmission`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schemars(range(min = 0, max = 1))]
-    pub diffuse: Option<f32>,
-    /// Weight of the specular (metal) lobe, tinted by the base colour, in [0, 1]. Default 0.
+    /// Metalness in [0, 1]: 0 is a dielectric, 1 a metal whose F0 is `base_color`. Default 0.
+    /// glTF `metallicFactor`.
     #[serde(default, skip_serializing_if = "is_zero")]
     #[schemars(range(min = 0, max = 1))]
-    pub specular: f32,
-    /// Weight of the dielectric lobe (Fresnel-weighted reflection and refraction), in [0, 1].
-    /// Default 0.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    #[schemars(range(min = 0, max = 1))]
-    pub transmission: f32,
-    /// Roughness of the specular lobe, in [0, 1]: 0 is a perfect mirror, otherwise a GGX
-    /// microfacet lobe with α = roughness². Default 0.
-    #[serde(default, skip_serializing_if = "is_zero")]
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1] of the metal, the specular reflection and the
+    /// transmission: GGX microfacets with α = roughness², a perfect mirror (and smooth glass)
+    /// below α = 10⁻³. Default 0.5. glTF `roughnessFactor`.
+    #[serde(
+        default = "default_roughness",
+        skip_serializing_if = "is_default_roughness"
+    )]
     #[schemars(range(min = 0, max = 1))]
     pub roughness: f32,
-    /// Per-texel factors in glTF's layout: the green channel multiplies `roughness`, the blue
-    /// channel multiplies `specular` (and the diffuse weight becomes the rest). Linear data.
+    /// Per-texel factors in glTF's layout: green multiplies `roughness`, blue multiplies
+    /// `metallic`. Linear data. glTF `metallicRoughnessTexture`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub roughness_specular_texture: Option<TextureRef>,
-    /// Index of refraction of the dielectric lobe (inside over outside). Default 1.5.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Index of refraction of the dielectric (inside over outside, > 0): sets the specular F0 =
+    /// ((ior − 1)/(ior + 1))² and the refraction of transmission. Default 1.5.
+    /// `KHR_materials_ior`.
     #[serde(default = "default_ior", skip_serializing_if = "is_default_ior")]
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub ior: f32,
+    /// Strength of the dielectric's specular reflection over its diffuse base, in [0, 1]: 0
+    /// leaves a pure Lambertian base. Default 1. `KHR_materials_specular` `specularFactor`.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    #[schemars(range(min = 0, max = 1))]
+    pub specular: f32,
+    /// Multiplies `specular` by this texture's alpha channel. Linear data.
+    /// `KHR_materials_specular` `specularTexture`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specular_texture: Option<TextureRef>,
+    /// Tints the dielectric's F0 at normal incidence (linear RGB, each ≥ 0; F0 is capped at 1).
+    /// Default white. `KHR_materials_specular` `specularColorFactor`.
+    #[serde(default = "white", skip_serializing_if = "is_white")]
+    pub specular_color: Rgb,
+    /// Multiplies `specular_color` by this texture (its RGB channels).
+    /// `KHR_materials_specular` `specularColorTexture`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specular_color_texture: Option<TextureRef>,
+    /// Fraction of the dielectric base that is transmitted instead of diffusely reflected, in
+    /// [0, 1]: a rough dielectric interface (Walter et al. 2007) with the specular roughness,
+    /// tinted by `base_color`. Default 0. `KHR_materials_transmission` `transmissionFactor`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0, max = 1))]
+    pub transmission: f32,
+    /// Multiplies `transmission` by this texture's red channel. Linear data.
+    /// `KHR_materials_transmission` `transmissionTexture`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmission_texture: Option<TextureRef>,
+    /// The object is a solid whose surface bounds a medium: transmitted light refracts into it
+    /// and is absorbed along its path inside (`KHR_materials_volume`). Absent: the surface is
+    /// thin-walled (a soap bubble, a window pane), and light passes through without bending.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume: Option<Volume>,
     /// Emitted radiance (linear RGB, W·sr⁻¹·m⁻², each ≥ 0): a surface with emission is an area
-    /// light. Default black.
+    /// light. Default black. glTF `emissiveFactor` × `KHR_materials_emissive_strength`.
     #[serde(default, skip_serializing_if = "is_black")]
     pub emission: Rgb,
-    /// Multiplies `emission` by this texture (its RGB channels).
+    /// Multiplies `emission` by this texture (its RGB channels). glTF `emissiveTexture`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emission_texture: Option<TextureRef>,
     /// Emit from both faces. By default a surface emits only from its front face (the side its
@@ -331,14 +371,70 @@ pub struct Material {
     pub two_sided_emission: bool,
 }
 
+/// The medium inside a closed transmissive object (`KHR_materials_volume`): Beer–Lambert
+/// absorption, so that light travelling a distance d inside keeps
+/// `attenuation_color^(d / attenuation_distance)` of its radiance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Volume {
+    /// Colour that white light becomes after travelling `attenuation_distance` inside (linear
+    /// RGB, each in (0, 1]). Default white (no absorption). `attenuationColor`.
+    #[serde(default = "white", skip_serializing_if = "is_white")]
+    pub attenuation_color: Rgb,
+    /// Distance in scene units over which light takes `attenuation_color` (> 0). Absent: no
+    /// absorption (glTF's +∞). `attenuationDistance`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0))]
+    pub attenuation_distance: Option<f32>,
+}
+
+impl Default for Volume {
+    /// A clear medium (no absorption).
+    fn default() -> Self {
+        Volume {
+            attenuation_color: white(),
+            attenuation_distance: None,
+        }
+    }
+}
+
+impl Volume {
+    /// The absorption coefficient σa per scene unit, per channel: −ln(colour) / distance
+    /// (zero without a distance).
+    pub fn absorption(&self) -> Rgb {
+        match self.attenuation_distance {
+            Some(d) if d > 0.0 => self.attenuation_color.map(|c| -c.max(1e-30).ln() / d),
+            _ => [0.0; 3],
+        }
+    }
+}
+
 fn default_base_color() -> Rgb {
     [0.8, 0.8, 0.8]
+}
+fn default_roughness() -> f32 {
+    0.5
+}
+fn is_default_roughness(x: &f32) -> bool {
+    *x == 0.5
 }
 fn default_ior() -> f32 {
     1.5
 }
 fn is_default_ior(x: &f32) -> bool {
     *x == 1.5
+}
+fn one() -> f32 {
+    1.0
+}
+fn is_one(x: &f32) -> bool {
+    *x == 1.0
+}
+fn white() -> Rgb {
+    [1.0; 3]
+}
+fn is_white(c: &Rgb) -> bool {
+    *c == [1.0; 3]
 }
 fn is_black(c: &Rgb) -> bool {
     *c == [0.0, 0.0, 0.0]
@@ -352,12 +448,17 @@ impl Default for Material {
         Material {
             base_color: default_base_color(),
             base_color_texture: None,
-            diffuse: None,
-            specular: 0.0,
-            transmission: 0.0,
-            roughness: 0.0,
-            roughness_specular_texture: None,
+            metallic: 0.0,
+            roughness: default_roughness(),
+            metallic_roughness_texture: None,
             ior: default_ior(),
+            specular: 1.0,
+            specular_texture: None,
+            specular_color: white(),
+            specular_color_texture: None,
+            transmission: 0.0,
+            transmission_texture: None,
+            volume: None,
             emission: [0.0; 3],
             emission_texture: None,
             two_sided_emission: false,
@@ -366,10 +467,31 @@ impl Default for Material {
 }
 
 impl Material {
-    /// The diffuse weight with its default applied: `1 − specular − transmission` when absent.
-    pub fn diffuse_weight(&self) -> f32 {
-        self.diffuse
-            .unwrap_or((1.0 - self.specular - self.transmission).max(0.0))
+    /// A Lambertian (pure diffuse) material of reflectance `color`: no specular reflection.
+    pub fn lambert(color: Rgb) -> Material {
+        Material {
+            base_color: color,
+            specular: 0.0,
+            ..Material::default()
+        }
+    }
+
+    /// The texture uses of this material with their JSON keys, in declaration order.
+    pub fn texture_refs(&self) -> [(&'static str, Option<&TextureRef>); 6] {
+        [
+            ("base_color_texture", self.base_color_texture.as_ref()),
+            (
+                "metallic_roughness_texture",
+                self.metallic_roughness_texture.as_ref(),
+            ),
+            ("specular_texture", self.specular_texture.as_ref()),
+            (
+                "specular_color_texture",
+                self.specular_color_texture.as_ref(),
+            ),
+            ("transmission_texture", self.transmission_texture.as_ref()),
+            ("emission_texture", self.emission_texture.as_ref()),
+        ]
     }
 }
 

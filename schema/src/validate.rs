@@ -287,12 +287,12 @@ impl Validator<'_> {
     fn material(&mut self, p: &JsonPath, m: &Material) {
         self.color(&p.key("base_color"), m.base_color, Some(1.0));
         self.color(&p.key("emission"), m.emission, None);
-        let mut weights_ok = true;
+        self.color(&p.key("specular_color"), m.specular_color, None);
         for (key, w) in [
-            ("diffuse", m.diffuse.unwrap_or(0.0)),
+            ("metallic", m.metallic),
+            ("roughness", m.roughness),
             ("specular", m.specular),
             ("transmission", m.transmission),
-            ("roughness", m.roughness),
         ] {
             if !(0.0..=1.0).contains(&w) {
                 self.err_help(
@@ -300,16 +300,7 @@ impl Validator<'_> {
                     format!("{key} {w} is outside [0, 1]"),
                     "use a fraction between 0 and 1",
                 );
-                weights_ok &= key == "roughness";
             }
-        }
-        let sum = m.diffuse.unwrap_or(0.0) + m.specular + m.transmission;
-        if weights_ok && sum > 1.0 + 1e-5 {
-            self.err_help(
-                p.clone(),
-                format!("lobe weights diffuse + specular + transmission = {sum} exceed 1"),
-                "scale the weights down so they sum to at most 1 (the rest is absorbed)",
-            );
         }
         if !(m.ior > 0.0 && m.ior.is_finite()) {
             self.err_help(
@@ -318,11 +309,29 @@ impl Validator<'_> {
                 "glass is about 1.5, water 1.33",
             );
         }
-        for (key, r) in [
-            ("base_color_texture", &m.base_color_texture),
-            ("emission_texture", &m.emission_texture),
-            ("roughness_specular_texture", &m.roughness_specular_texture),
-        ] {
+        if let Some(v) = &m.volume {
+            let q = p.key("volume");
+            if v.attenuation_color.iter().any(|&c| !(c > 0.0 && c <= 1.0)) {
+                self.err_help(
+                    q.key("attenuation_color"),
+                    format!(
+                        "attenuation colour {:?} must have each channel in (0, 1]",
+                        v.attenuation_color
+                    ),
+                    "it is the colour white light takes after `attenuation_distance` inside",
+                );
+            }
+            if let Some(d) = v.attenuation_distance {
+                if !(d > 0.0 && d.is_finite()) {
+                    self.err_help(
+                        q.key("attenuation_distance"),
+                        format!("attenuation distance {d} must be > 0"),
+                        "leave it out for a clear medium",
+                    );
+                }
+            }
+        }
+        for (key, r) in m.texture_refs() {
             if let Some(r) = r {
                 self.texture_ref(&p.key(key), r);
             }

@@ -44,37 +44,42 @@ fn texture_ref() -> impl Strategy<Value = Option<TextureRef>> {
 }
 
 fn material() -> impl Strategy<Value = Material> {
+    let volume = prop::option::of(([unit(), unit(), unit()], prop::option::of(0.01f32..100.0)));
     (
-        [unit(), unit(), unit()],
-        texture_ref(),
-        prop::option::of(unit()),
-        (unit(), unit(), unit()),
-        texture_ref(),
-        0.5f32..3.0,
-        [num(), num(), num()],
-        texture_ref(),
-        any::<bool>(),
+        (
+            [unit(), unit(), unit()],
+            texture_ref(),
+            (unit(), unit()),
+            texture_ref(),
+            0.5f32..3.0,
+        ),
+        (unit(), texture_ref(), [num(), num(), num()], texture_ref()),
+        (unit(), texture_ref(), volume),
+        ([num(), num(), num()], texture_ref(), any::<bool>()),
     )
         .prop_map(
             |(
-                base_color,
-                base_color_texture,
-                diffuse,
-                (specular, transmission, roughness),
-                roughness_specular_texture,
-                ior,
-                emission,
-                emission_texture,
-                two_sided_emission,
+                (base_color, base_color_texture, (metallic, roughness), mr_texture, ior),
+                (specular, specular_texture, specular_color, specular_color_texture),
+                (transmission, transmission_texture, volume),
+                (emission, emission_texture, two_sided_emission),
             )| Material {
                 base_color,
                 base_color_texture,
-                diffuse,
-                specular,
-                transmission,
+                metallic,
                 roughness,
-                roughness_specular_texture,
+                metallic_roughness_texture: mr_texture,
                 ior,
+                specular,
+                specular_texture,
+                specular_color: specular_color.map(f32::abs),
+                specular_color_texture,
+                transmission,
+                transmission_texture,
+                volume: volume.map(|(c, d): ([f32; 3], Option<f32>)| Volume {
+                    attenuation_color: c.map(|x| x.max(0.01)),
+                    attenuation_distance: d,
+                }),
                 emission,
                 emission_texture,
                 two_sided_emission,
@@ -283,7 +288,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                     .collect();
                 Scene {
                     schema: Some("../schema/scene.schema.json".into()),
-                    format_version: 1,
+                    format_version: FORMAT_VERSION,
                     image: Image { width, height },
                     render: RenderSettings {
                         integrator,

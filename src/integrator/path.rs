@@ -23,12 +23,18 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
     let mut prev_pdf = 0.0f32;
     let mut prev_delta = true;
     let mut prev_p = ray.o;
+    // Absorption coefficient of the medium the path is in (inside a `volume` material).
+    let mut medium: Option<Vec3> = None;
     for depth in 1..=max_depth {
         stats.rays += 1;
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
             l += beta * scene.background;
             break;
         };
+        if let Some(sigma) = medium {
+            // Beer–Lambert along the segment travelled inside.
+            beta *= transmittance(sigma, hit.t * ray.d.length());
+        }
         let wo = -ray.d.normalize();
         let material = scene.material(&hit);
         let le = material.emitted(&scene.textures, hit.ng, hit.uv, wo);
@@ -78,7 +84,9 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
                                 } else {
                                     power_heuristic(pdf_light, pdf_bsdf)
                                 };
-                                l += beta * f * li * (weight / pdf_light);
+                                let tr = medium
+                                    .map_or(Vec3::ONE, |sigma| transmittance(sigma, ls.distance));
+                                l += beta * f * li * tr * (weight / pdf_light);
                             }
                         }
                     }
@@ -93,6 +101,12 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             break;
         };
         beta *= s.weight;
+        if s.transmitted {
+            if let Some(sigma) = material.absorption {
+                // Entering the solid (towards the back of the surface) or leaving it.
+                medium = (s.wi.dot(hit.ng) < 0.0).then_some(sigma);
+            }
+        }
         prev_pdf = s.pdf;
         prev_delta = s.delta;
         prev_p = hit.p;
@@ -109,4 +123,13 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
     }
     l
+}
+
+/// exp(−σ·d) per channel: the fraction of light that crosses a distance `d` of a medium with
+/// absorption coefficient `sigma` (1 for a clear medium, without evaluating exp).
+fn transmittance(sigma: Vec3, d: f32) -> Rgb {
+    if sigma == Vec3::ZERO {
+        return Vec3::ONE;
+    }
+    (-sigma * d).exp()
 }

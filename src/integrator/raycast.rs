@@ -26,29 +26,15 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         if bsdf.has_smooth_lobe() {
             l += beta * direct(scene, &bsdf, &hit, wo, sampler, stats);
         }
-        // Follow only the delta lobes (mirror, glass): pick one by weight.
-        let smooth_weight = bsdf.w_diffuse
-            + if bsdf.alpha >= crate::bsdf::DELTA_ALPHA {
-                bsdf.w_specular
-            } else {
-                0.0
-            };
-        let delta_bsdf = Bsdf {
-            w_diffuse: 0.0,
-            w_specular: bsdf.w_specular
-                - if bsdf.alpha >= crate::bsdf::DELTA_ALPHA {
-                    bsdf.w_specular
-                } else {
-                    0.0
-                },
-            ..bsdf
+        // Follow only the delta lobes (mirror, smooth glass): a BSDF sample that lands on a
+        // smooth lobe ends the path, its light already counted by `direct`; a delta sample's
+        // weight carries its lobe's selection probability, so the delta part stays unbiased.
+        let Some(s) = bsdf.sample(wo, sampler.get_1d(), sampler.get_2d()) else {
+            break;
         };
-        if delta_bsdf.w_specular + delta_bsdf.w_transmission <= 0.0 || smooth_weight >= 1.0 {
+        if !s.delta {
             break;
         }
-        let Some(s) = delta_bsdf.sample(wo, sampler.get_1d(), sampler.get_2d()) else {
-            break;
-        };
         beta *= s.weight;
         ray = spawn(&hit, s.wi);
     }

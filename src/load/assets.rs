@@ -23,6 +23,8 @@ pub struct TextureImage {
     pub height: u32,
     /// Texels, row-major, top row first, as the file stores them.
     pub texels: Vec<Vec3>,
+    /// The alpha channel (always linear), when the file has one that is not everywhere 1.
+    pub alpha: Option<Vec<f32>>,
     /// Whether the file holds linear floating-point values (EXR, HDR), which are never
     /// sRGB-decoded.
     pub is_float: bool,
@@ -187,11 +189,19 @@ fn decode_image(bytes: &[u8]) -> Result<TextureImage, String> {
         img,
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
     );
+    let alpha = if img.color().has_alpha() {
+        let rgba = img.to_rgba32f();
+        let a: Vec<f32> = rgba.pixels().map(|p| p[3]).collect();
+        a.iter().any(|&x| x != 1.0).then_some(a)
+    } else {
+        None
+    };
     let rgb = img.to_rgb32f();
     Ok(TextureImage {
         width: rgb.width(),
         height: rgb.height(),
         texels: rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
+        alpha,
         is_float,
     })
 }

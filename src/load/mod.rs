@@ -219,13 +219,13 @@ fn read_scene_keeping_gltf(
             (scene, base_dir, imported.warnings)
         }
         InputKind::Json => {
-            let scene = schema::load_scene_file(path).map_err(|e| match e {
+            let (scene, notes) = schema::load_scene_file_noted(path).map_err(|e| match e {
                 schema::LoadError::Io { .. } => LoadError::Io(e.to_string()),
                 schema::LoadError::Invalid { .. } => {
                     LoadError::Invalid(e.to_string().trim_end().to_string())
                 }
             })?;
-            (scene, schema::base_dir_of(path), Vec::new())
+            (scene, schema::base_dir_of(path), notes)
         }
         InputKind::Legacy => {
             // Paths in the converted scene stay relative to the legacy file's folder.

@@ -16,7 +16,7 @@ use super::extras::{
 use super::math::{self, Mat4};
 use super::mesh::{load_image, load_mesh_primitive, MeshData};
 use super::nodes::{camera_node_trs, camera_values, light_node_trs};
-use super::pbr::{light_values, pbr_of_material, Pbr, TexInfo};
+use super::pbr::{light_values, pbr_of_material, Pbr, TexInfo, EXPORTED_THICKNESS};
 use super::tessellate;
 use lumo_schema::geometry::glam::DVec3;
 use lumo_schema::geometry::normals;
@@ -569,6 +569,8 @@ impl Builder {
 
 /// The JSON of a material's glTF values (extensions only where they differ from the default).
 fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
+    // Collected separately so `tex` does not hold `used` while the extensions are written.
+    let mut transformed = false;
     let mut tex = |t: &TexInfo| {
         let mut v = json!({"index": t.index});
         if t.tex_coord != 0 {
@@ -577,7 +579,7 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
         if let Some((o, r, s)) = t.transform {
             v["extensions"] =
                 json!({"KHR_texture_transform": {"offset": o, "rotation": r, "scale": s}});
-            used.insert("KHR_texture_transform");
+            transformed = true;
         }
         v
     };
@@ -603,16 +605,43 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
         );
         used.insert("KHR_materials_emissive_strength");
     }
-    if p.transmission != 0.0 {
-        exts.insert(
-            "KHR_materials_transmission".into(),
-            json!({"transmissionFactor": p.transmission}),
-        );
+    if p.transmission != 0.0 || p.transmission_texture.is_some() {
+        let mut t = json!({"transmissionFactor": p.transmission});
+        if let Some(x) = &p.transmission_texture {
+            t["transmissionTexture"] = tex(x);
+        }
+        exts.insert("KHR_materials_transmission".into(), t);
         used.insert("KHR_materials_transmission");
     }
     if p.ior != 1.5 {
         exts.insert("KHR_materials_ior".into(), json!({"ior": p.ior}));
         used.insert("KHR_materials_ior");
+    }
+    if p.specular != 1.0
+        || p.specular_color != [1.0; 3]
+        || p.specular_texture.is_some()
+        || p.specular_color_texture.is_some()
+    {
+        let mut sp = json!({"specularFactor": p.specular, "specularColorFactor": p.specular_color});
+        if let Some(x) = &p.specular_texture {
+            sp["specularTexture"] = tex(x);
+        }
+        if let Some(x) = &p.specular_color_texture {
+            sp["specularColorTexture"] = tex(x);
+        }
+        exts.insert("KHR_materials_specular".into(), sp);
+        used.insert("KHR_materials_specular");
+    }
+    if let Some((color, distance)) = p.volume {
+        let mut v = json!({"thicknessFactor": EXPORTED_THICKNESS, "attenuationColor": color});
+        if let Some(d) = distance {
+            v["attenuationDistance"] = json!(d);
+        }
+        exts.insert("KHR_materials_volume".into(), v);
+        used.insert("KHR_materials_volume");
+    }
+    if transformed {
+        used.insert("KHR_texture_transform");
     }
     if !exts.is_empty() {
         m["extensions"] = Value::Object(exts);

@@ -72,6 +72,8 @@ const HANDLED_EXTENSIONS: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_ior",
     "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_materials_volume",
     "KHR_texture_transform",
 ];
 
@@ -83,6 +85,17 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, GltfErro
 
 /// Imports an already loaded document (used by [`import`] and the fuzz target).
 pub fn import_loaded(loaded: &Loaded, options: &ImportOptions) -> Result<Imported, GltfError> {
+    // The gltf crate parses some extensions lumo does not render (it would accept a file that
+    // requires them); a required extension must be one the importer maps.
+    for (index, ext) in loaded.doc.extensions_required().enumerate() {
+        if !HANDLED_EXTENSIONS.contains(&ext) {
+            return Err(GltfError::UnsupportedExtension {
+                file: loaded.file.clone(),
+                index,
+                extension: ext.to_string(),
+            });
+        }
+    }
     let scene_dir = options
         .scene_dir
         .clone()
@@ -570,16 +583,16 @@ impl Importer<'_> {
             }
             _ => {
                 let names: Vec<(usize, bool, String)> = {
-                    let mut uses = Vec::new();
-                    for t in [&pbr.base_color_texture, &pbr.emissive_texture]
-                        .into_iter()
-                        .flatten()
-                    {
-                        uses.push((t.index, true));
-                    }
-                    if let Some(t) = &pbr.metallic_roughness_texture {
-                        uses.push((t.index, false));
-                    }
+                    let uses = [
+                        (&pbr.base_color_texture, true),
+                        (&pbr.emissive_texture, true),
+                        (&pbr.specular_color_texture, true),
+                        (&pbr.metallic_roughness_texture, false),
+                        (&pbr.specular_texture, false),
+                        (&pbr.transmission_texture, false),
+                    ]
+                    .into_iter()
+                    .filter_map(|(t, srgb)| t.as_ref().map(|t| (t.index, srgb)));
                     let mut out = Vec::new();
                     for (i, srgb) in uses {
                         let n = self.texture(i, srgb)?;
@@ -607,12 +620,12 @@ impl Importer<'_> {
         m: &Material,
         index_of: &dyn Fn(&str) -> Option<usize>,
     ) -> Result<bool, GltfError> {
-        for (r, srgb) in [
-            (&m.base_color_texture, true),
-            (&m.emission_texture, true),
-            (&m.roughness_specular_texture, false),
-        ] {
+        for (key, r) in m.texture_refs() {
             let Some(r) = r else { continue };
+            let srgb = matches!(
+                key,
+                "base_color_texture" | "emission_texture" | "specular_color_texture"
+            );
             let Some(i) = index_of(&r.texture) else {
                 return Ok(false);
             };
@@ -640,6 +653,8 @@ impl Importer<'_> {
             })
         };
         let p = m.pbr_metallic_roughness();
+        let specular = m.specular();
+        let transmission = m.transmission();
         if m.normal_texture().is_some() {
             self.ignored.insert("normal textures".into());
         }
@@ -650,11 +665,6 @@ impl Importer<'_> {
             self.ignored
                 .insert(format!("alphaMode {:?} ({el})", m.alpha_mode()));
         }
-        if m.transmission()
-            .is_some_and(|t| t.transmission_texture().is_some())
-        {
-            self.ignored.insert("transmission textures".into());
-        }
         let pbr = Pbr {
             base_color: p.base_color_factor(),
             base_color_texture: info(p.base_color_texture()),
@@ -664,17 +674,37 @@ impl Importer<'_> {
             emissive: m.emissive_factor(),
             emissive_texture: info(m.emissive_texture()),
             emissive_strength: m.emissive_strength().unwrap_or(1.0),
-            transmission: m
-                .transmission()
-                .map(|t| t.transmission_factor())
-                .unwrap_or(0.0),
             ior: m.ior().unwrap_or(1.5),
+            specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
+            specular_texture: info(specular.as_ref().and_then(|s| s.specular_texture())),
+            specular_color: specular
+                .as_ref()
+                .map_or([1.0; 3], |s| s.specular_color_factor()),
+            specular_color_texture: info(
+                specular.as_ref().and_then(|s| s.specular_color_texture()),
+            ),
+            transmission: transmission
+                .as_ref()
+                .map_or(0.0, |t| t.transmission_factor()),
+            transmission_texture: info(
+                transmission.as_ref().and_then(|t| t.transmission_texture()),
+            ),
+            volume: m
+                .volume()
+                .filter(|v| v.thickness_factor() > 0.0 || v.thickness_texture().is_some())
+                .map(|v| {
+                    let d = v.attenuation_distance();
+                    (v.attenuation_color(), d.is_finite().then_some(d))
+                }),
             double_sided: m.double_sided(),
         };
         for t in [
             &pbr.base_color_texture,
             &pbr.metallic_roughness_texture,
             &pbr.emissive_texture,
+            &pbr.specular_texture,
+            &pbr.specular_color_texture,
+            &pbr.transmission_texture,
         ]
         .into_iter()
         .flatten()

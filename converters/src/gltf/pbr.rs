@@ -3,7 +3,7 @@
 //! output, read back, gives exactly the values the exporter computed: that equality is how the
 //! importer decides whether lumo's exact description in `extras` is still current.
 
-use lumo_schema::{Light, Material, TextureRef};
+use lumo_schema::{Light, Material, TextureRef, Volume};
 
 /// Luminous efficacy used to convert glTF's photometric light units to lumo's radiometric
 /// ones: 683 lm/W, the peak of the photopic curve (555 nm) that defines the candela. So
@@ -41,13 +41,31 @@ pub struct Pbr {
     pub emissive_texture: Option<TexInfo>,
     /// KHR_materials_emissive_strength (1 when absent).
     pub emissive_strength: f32,
-    /// KHR_materials_transmission factor (0 when absent).
-    pub transmission: f32,
     /// KHR_materials_ior (1.5 when absent).
     pub ior: f32,
+    /// KHR_materials_specular specularFactor (1 when absent).
+    pub specular: f32,
+    /// KHR_materials_specular specularTexture (alpha channel).
+    pub specular_texture: Option<TexInfo>,
+    /// KHR_materials_specular specularColorFactor (white when absent).
+    pub specular_color: [f32; 3],
+    /// KHR_materials_specular specularColorTexture (sRGB).
+    pub specular_color_texture: Option<TexInfo>,
+    /// KHR_materials_transmission factor (0 when absent).
+    pub transmission: f32,
+    /// KHR_materials_transmission texture (red channel).
+    pub transmission_texture: Option<TexInfo>,
+    /// KHR_materials_volume, when present with a non-zero thickness (glTF's thickness 0 means
+    /// thin-walled): (attenuationColor, attenuationDistance; `None` for +∞).
+    pub volume: Option<([f32; 3], Option<f32>)>,
     /// doubleSided.
     pub double_sided: bool,
 }
+
+/// The thicknessFactor lumo writes with KHR_materials_volume. A path tracer follows the real
+/// geometry, so lumo keeps no thickness; glTF only needs it non-zero to mean "not thin-walled"
+/// (rasterizers use it to approximate refraction; 1 scene unit is their default scale).
+pub const EXPORTED_THICKNESS: f32 = 1.0;
 
 /// lumo → glTF texture transform. lumo maps uv_l' = T(o_l) R(r) S(s) uv_l with bottom-left
 /// coordinates and a counter-clockwise rotation; glTF maps uv_g' = T(o_g) R_g(r) S(s) uv_g with
@@ -82,11 +100,11 @@ pub fn transform_from_gltf(t: Option<([f32; 2], f32, [f32; 2])>) -> ([f32; 2], f
 /// The glTF values for a lumo material. `index_of` maps a lumo texture name to a glTF texture
 /// index (`None`: the texture is not exported, so the use is dropped).
 ///
-/// Mapping (the inverse of [`material_from_pbr`]): metallic = specular weight; transmission
-/// factor = transmission / (1 − specular) (glTF's transmission applies to the non-metal part);
-/// emissive = emission / max(1, largest channel) with the largest channel as
-/// KHR_materials_emissive_strength when above 1; doubleSided = `two_sided_emission` for
-/// emitters, true otherwise (lumo renders both faces of every surface).
+/// lumo's material is glTF's, so the mapping is one to one (the inverse of
+/// [`material_from_pbr`]), except: emissive = emission / max(1, largest channel) with the
+/// largest channel as KHR_materials_emissive_strength when above 1; doubleSided =
+/// `two_sided_emission` for emitters, true otherwise (lumo renders both faces of every
+/// surface).
 pub fn pbr_of_material(m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -> Pbr {
     let info = |r: &Option<TextureRef>| {
         r.as_ref().and_then(|r| {
@@ -103,36 +121,38 @@ pub fn pbr_of_material(m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -
     } else {
         (m.emission, 1.0)
     };
-    let transmission = if m.specular < 1.0 {
-        (m.transmission / (1.0 - m.specular)).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
     let emitter = m.emission != [0.0; 3];
     Pbr {
         base_color: [m.base_color[0], m.base_color[1], m.base_color[2], 1.0],
         base_color_texture: info(&m.base_color_texture),
-        metallic: m.specular,
+        metallic: m.metallic,
         roughness: m.roughness,
-        metallic_roughness_texture: info(&m.roughness_specular_texture),
+        metallic_roughness_texture: info(&m.metallic_roughness_texture),
         emissive,
         emissive_texture: info(&m.emission_texture),
         emissive_strength: strength,
-        transmission,
         ior: m.ior,
+        specular: m.specular,
+        specular_texture: info(&m.specular_texture),
+        specular_color: m.specular_color,
+        specular_color_texture: info(&m.specular_color_texture),
+        transmission: m.transmission,
+        transmission_texture: info(&m.transmission_texture),
+        volume: m
+            .volume
+            .as_ref()
+            .map(|v| (v.attenuation_color, v.attenuation_distance)),
         double_sided: if emitter { m.two_sided_emission } else { true },
     }
 }
 
-/// The lumo material for glTF values. `name_of` maps a texture use to a lumo texture name.
+/// The lumo material for glTF values. `name_of` maps a texture use (and whether it holds
+/// colour, sRGB-encoded) to a lumo texture name.
 ///
-/// glTF's metal-rough model is a metal layer (weight `metallic`) over a dielectric base; the
-/// base is transmissive with weight `transmission`, otherwise diffuse. In lumo's lobe weights:
-/// specular = metallic, transmission = (1 − metallic) · transmission, diffuse = the rest
-/// (left implicit). The dielectric's own specular coat over the diffuse base (F0 = 0.04) has no
-/// lumo lobe and is dropped. roughness = roughnessFactor; the metallicRoughness texture's green
-/// (roughness) and blue (metallic) channels scale roughness and specular. emission =
-/// emissiveFactor × emissive strength. doubleSided → two-sided emission for emitters.
+/// One to one: each glTF factor and texture becomes the lumo field of the same name
+/// (`emissiveFactor` × emissive strength → `emission`, KHR_materials_volume with a non-zero
+/// thickness → `volume`); factors are clamped into their ranges; doubleSided → two-sided
+/// emission for emitters.
 pub fn material_from_pbr(
     p: &Pbr,
     name_of: &mut dyn FnMut(&TexInfo, bool) -> Option<String>,
@@ -149,31 +169,31 @@ pub fn material_from_pbr(
             })
         })
     };
-    let t = p.transmission.clamp(0.0, 1.0);
-    // With a metallicRoughness texture the metal weight varies per texel (factor × blue), but
-    // lumo's transmission weight is one number. Files that combine them (e.g. Khronos'
-    // TransmissionRoughnessTest: metallicFactor 1 by default, a texture with blue = 0) mean
-    // glass where transmission is set, so then: transmission = t, specular = factor × (1 − t).
-    let (metallic, transmission) = if p.metallic_roughness_texture.is_some() && t > 0.0 {
-        (p.metallic.clamp(0.0, 1.0) * (1.0 - t), t)
-    } else {
-        let m = p.metallic.clamp(0.0, 1.0);
-        (m, (1.0 - m) * t)
-    };
+    let unit = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
     let emission = p.emissive.map(|c| (c * p.emissive_strength).max(0.0));
     Material {
-        base_color: [0, 1, 2].map(|k| p.base_color[k].clamp(0.0, 1.0)),
+        base_color: [0, 1, 2].map(|k| unit(p.base_color[k])),
         base_color_texture: r(&p.base_color_texture, true),
-        diffuse: None,
-        specular: metallic,
-        transmission: transmission.clamp(0.0, 1.0 - metallic),
-        roughness: p.roughness.clamp(0.0, 1.0),
-        roughness_specular_texture: r(&p.metallic_roughness_texture, false),
+        metallic: unit(p.metallic),
+        roughness: unit(p.roughness),
+        metallic_roughness_texture: r(&p.metallic_roughness_texture, false),
         ior: if p.ior > 0.0 && p.ior.is_finite() {
             p.ior
         } else {
             1.5
         },
+        specular: unit(p.specular),
+        specular_texture: r(&p.specular_texture, false),
+        specular_color: p
+            .specular_color
+            .map(|c| if c.is_finite() { c.max(0.0) } else { 1.0 }),
+        specular_color_texture: r(&p.specular_color_texture, true),
+        transmission: unit(p.transmission),
+        transmission_texture: r(&p.transmission_texture, false),
+        volume: p.volume.map(|(color, distance)| Volume {
+            attenuation_color: color.map(|c| if c > 0.0 { c.min(1.0) } else { 1e-6 }),
+            attenuation_distance: distance.filter(|d| *d > 0.0 && d.is_finite()),
+        }),
         emission,
         emission_texture: r(&p.emissive_texture, true),
         two_sided_emission: p.double_sided && emission != [0.0; 3],

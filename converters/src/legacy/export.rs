@@ -181,10 +181,29 @@ impl Writer {
     fn material(&mut self, name: &str, m: &Material, scene: &Scene) -> Vec<String> {
         let at = format!("materials.{name}");
         let mut lines = vec![format!("color {}", v3(m.base_color))];
-        let (d, s, t) = (m.diffuse_weight(), m.specular, m.transmission);
-        let sum = d + s + t;
-        if (sum - 1.0).abs() > 1e-5 {
-            self.problem(format!("{at}: lobe weights sum to {sum}: legacy `type` weights are normalised to 1, so absorption cannot be written (scale base_color instead)"));
+        // The inverse of the importer's mapping: lobe weights metal s, glass t, diffuse d.
+        let s = m.metallic;
+        let t = (1.0 - s) * m.transmission;
+        let d = (1.0 - s) * (1.0 - m.transmission);
+        if d > 0.0 && m.specular != 0.0 && m.specular_color != [0.0; 3] {
+            self.problem(format!("{at}: a specular reflection over the diffuse base cannot be written (legacy diffuse is Lambertian: set specular 0)"));
+        }
+        if m.specular_color != [1.0; 3] && m.specular != 0.0 {
+            self.problem(format!(
+                "{at}.specular_color: a tinted specular reflection cannot be written"
+            ));
+        }
+        if t > 0.0 {
+            match &m.volume {
+                None => self.problem(format!("{at}: thin-walled transmission cannot be written (legacy glass refracts: add `volume`)")),
+                Some(v) if v.absorption() != [0.0; 3] => self.problem(format!("{at}.volume: absorption cannot be written")),
+                Some(_) => {}
+            }
+            if m.roughness > 0.0 {
+                self.problem(format!(
+                    "{at}: rough transmission cannot be written (legacy glass is smooth)"
+                ));
+            }
         }
         lines.push(format!("type {} {} {}", f(d), f(s), f(t)));
         if s > 0.0 && m.roughness > 0.0 {
@@ -235,10 +254,10 @@ impl Writer {
                 "{at}.emission_texture: emission textures cannot be written"
             ));
         }
-        if m.roughness_specular_texture.is_some() {
-            self.problem(format!(
-                "{at}.roughness_specular_texture: roughness/specular textures cannot be written"
-            ));
+        for (key, r) in m.texture_refs() {
+            if r.is_some() && !matches!(key, "base_color_texture" | "emission_texture") {
+                self.problem(format!("{at}.{key}: this texture cannot be written"));
+            }
         }
         lines
     }

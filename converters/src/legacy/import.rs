@@ -141,13 +141,7 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
     }
     if let Some(name) = &default_material {
         // The legacy defaults of a Material block with no fields: white diffuse.
-        materials.insert(
-            name.clone(),
-            Material {
-                base_color: [1.0; 3],
-                ..Material::default()
-            },
-        );
+        materials.insert(name.clone(), Material::lambert([1.0; 3]));
     }
 
     let mut scene = Scene {

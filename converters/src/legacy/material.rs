@@ -22,7 +22,10 @@ pub(super) fn material(
     ctx: &mut Context<'_>,
     textures: &mut BTreeMap<String, Texture>,
 ) -> Result<Material, Problem> {
-    let mut out = Material::default();
+    let mut out = Material {
+        roughness: 0.0,
+        ..Material::lambert([1.0; 3])
+    };
     if let Some(c) = &m.color {
         check_color(c, "colour", Some(1.0))?;
     }
@@ -36,14 +39,27 @@ pub(super) fn material(
 
     let lobes = lobe_weights(m, out.base_color, ctx)?;
     let (Lobes { d, s, t, .. }, roughness) = specular_roughness(m, lobes, ctx)?;
+    // The legacy renderers pick one lobe by weight: a metal (mirror or glossy) of weight s,
+    // refracting glass of weight t, and a Lambertian diffuse of weight d with no specular
+    // coat. In glTF's model: metallic s; the dielectric rest transmits t / (1 − s) through a
+    // volume (glass refracts) and reflects the remainder diffusely; `specular` 0 removes the
+    // coat (the glass keeps its own Fresnel reflection).
     out.roughness = roughness;
-    out.specular = s;
-    out.transmission = t;
-    out.diffuse = if s == 0.0 && t == 0.0 && d == 1.0 {
-        None
-    } else {
-        Some(d)
-    };
+    out.metallic = s;
+    out.specular = 0.0;
+    if t > 0.0 {
+        out.transmission = if s < 1.0 {
+            (t / (1.0 - s)).min(1.0)
+        } else {
+            0.0
+        };
+        out.volume = Some(schema::Volume::default());
+    }
+    let rest = 1.0 - s - t;
+    if d < rest - 1e-6 && s == 0.0 && t == 0.0 {
+        // Absorbing diffuse: the weight becomes a darker albedo.
+        out.base_color = out.base_color.map(|c| c * d);
+    }
     if let Some(ior) = ior(m, t, ctx)? {
         out.ior = ior;
     }
