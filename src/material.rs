@@ -6,13 +6,32 @@ use crate::geometry::SurfaceHit;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::texture::{Texture, TextureRef};
 
+/// How a material's alpha makes it transparent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AlphaMode {
+    /// Always opaque.
+    Opaque,
+    /// Cut away where alpha is below this cutoff.
+    Mask(f32),
+    /// Transparent with probability 1 − alpha.
+    Blend,
+}
+
 /// A surface material (see the scene format's `Material` for the meaning of each field).
 #[derive(Debug, Clone)]
 pub struct Material {
     /// Diffuse albedo, metal F0 and transmission tint.
     pub base_color: Rgb,
-    /// Multiplies `base_color`.
+    /// Multiplies `base_color` (and its alpha `alpha`).
     pub base_color_texture: Option<TextureRef>,
+    /// Coverage.
+    pub alpha: f32,
+    /// How `alpha` is used.
+    pub alpha_mode: AlphaMode,
+    /// Tangent-space normal map.
+    pub normal_texture: Option<TextureRef>,
+    /// Scales the normal map's x and y.
+    pub normal_scale: f32,
     /// Metalness in [0, 1].
     pub metallic: f32,
     /// Perceptual roughness in [0, 1] (α = roughness²).
@@ -44,9 +63,9 @@ pub struct Material {
     pub two_sided_emission: bool,
 }
 
-fn lookup(textures: &[Texture], r: &Option<TextureRef>, uv: Vec2) -> Option<Rgb> {
+fn lookup(textures: &[Texture], r: &Option<TextureRef>, uv: Vec2, uv1: Vec2) -> Option<Rgb> {
     r.as_ref()
-        .map(|r| textures[r.texture as usize].lookup(r.transform.transform_point2(uv)))
+        .map(|r| textures[r.texture as usize].lookup(r.coords(uv, uv1)))
 }
 
 impl Material {
@@ -56,12 +75,12 @@ impl Material {
     }
 
     /// Radiance leaving the surface towards `wo` (unit, pointing away from the surface) at a
-    /// point with geometric normal `ng` and texture coordinates `uv`.
-    pub fn emitted(&self, textures: &[Texture], ng: Vec3, uv: Vec2, wo: Vec3) -> Rgb {
+    /// point with geometric normal `ng` and texture coordinate sets `uv`, `uv1`.
+    pub fn emitted(&self, textures: &[Texture], ng: Vec3, uv: Vec2, uv1: Vec2, wo: Vec3) -> Rgb {
         if !self.is_emissive() || (!self.two_sided_emission && ng.dot(wo) <= 0.0) {
             return Vec3::ZERO;
         }
-        match lookup(textures, &self.emission_texture, uv) {
+        match lookup(textures, &self.emission_texture, uv, uv1) {
             Some(t) => self.emission * t,
             None => self.emission,
         }
@@ -75,19 +94,73 @@ impl Material {
             && (self.specular == 0.0 || self.specular_color == Vec3::ZERO)
     }
 
-    /// The scattering function at a hit.
-    pub fn bsdf(&self, textures: &[Texture], hit: &SurfaceHit) -> Bsdf {
-        let mut base = self.base_color;
-        if let Some(t) = lookup(textures, &self.base_color_texture, hit.uv) {
-            base *= t;
+    /// Whether the material is ever transparent.
+    pub fn has_alpha(&self) -> bool {
+        self.alpha_mode != AlphaMode::Opaque
+    }
+
+    /// The probability in [0, 1] that a ray meeting the surface at `hit` stops there (1 for
+    /// opaque materials): alpha × texture alpha × vertex alpha, thresholded for `Mask`.
+    pub fn opacity(&self, textures: &[Texture], hit: &SurfaceHit) -> f32 {
+        if self.alpha_mode == AlphaMode::Opaque {
+            return 1.0;
         }
-        // The shading normal must lie on the geometric normal's side.
-        let ns = if hit.ns.dot(hit.ng) < 0.0 {
+        let mut alpha = self.alpha * hit.color.w;
+        if let Some(r) = &self.base_color_texture {
+            alpha *= textures[r.texture as usize].lookup_alpha(r.coords(hit.uv, hit.uv1));
+        }
+        match self.alpha_mode {
+            AlphaMode::Mask(cutoff) => {
+                if alpha >= cutoff {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            _ => alpha.clamp(0.0, 1.0),
+        }
+    }
+
+    /// The shading normal at a hit, on the geometric normal's side: the interpolated normal,
+    /// perturbed by the normal map (glTF: n = normalize(T·x + B·y + N·z) with (x, y) scaled,
+    /// B = cross(N, T)·w), then bent towards the geometric normal where needed so that the
+    /// mirror reflection of `wo` stays above the surface (as Cycles does): a normal tilted so
+    /// far that the view is reflected into the surface would leave black fringes.
+    fn shading_normal(&self, textures: &[Texture], hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+        let mut n = if hit.ns.dot(hit.ng) < 0.0 {
             -hit.ns
         } else {
             hit.ns
         };
-        let frame = Frame::from_normal(ns);
+        if let (Some(r), true) = (&self.normal_texture, hit.tangent.w != 0.0) {
+            let c = textures[r.texture as usize].lookup(r.coords(hit.uv, hit.uv1));
+            let m = Vec3::new(
+                (2.0 * c.x - 1.0) * self.normal_scale,
+                (2.0 * c.y - 1.0) * self.normal_scale,
+                2.0 * c.z - 1.0,
+            );
+            // Gram–Schmidt: the tangent perpendicular to the interpolated normal.
+            let t =
+                (hit.tangent.truncate() - n * n.dot(hit.tangent.truncate())).normalize_or_zero();
+            if t != Vec3::ZERO {
+                let b = n.cross(t) * hit.tangent.w;
+                let mapped = (t * m.x + b * m.y + n * m.z).normalize_or_zero();
+                if mapped != Vec3::ZERO {
+                    n = mapped;
+                }
+            }
+        }
+        valid_reflection_normal(n, hit.ng, wo)
+    }
+
+    /// The scattering function at a hit seen from direction `wo` (unit, away from the surface).
+    pub fn bsdf(&self, textures: &[Texture], hit: &SurfaceHit, wo: Vec3) -> Bsdf {
+        let (uv, uv1) = (hit.uv, hit.uv1);
+        let mut base = self.base_color * hit.color.truncate();
+        if let Some(t) = lookup(textures, &self.base_color_texture, uv, uv1) {
+            base *= t;
+        }
+        let frame = Frame::from_normal(self.shading_normal(textures, hit, wo));
         if self.is_lambertian() {
             return Bsdf {
                 frame,
@@ -96,22 +169,22 @@ impl Material {
             };
         }
         let (mut metallic, mut roughness) = (self.metallic, self.roughness);
-        if let Some(t) = lookup(textures, &self.metallic_roughness_texture, hit.uv) {
+        if let Some(t) = lookup(textures, &self.metallic_roughness_texture, uv, uv1) {
             roughness *= t.y.clamp(0.0, 1.0);
             metallic *= t.z.clamp(0.0, 1.0);
         }
         let mut specular = self.specular;
         if let Some(t) = self.specular_texture.as_ref() {
             specular *= textures[t.texture as usize]
-                .lookup_alpha(t.transform.transform_point2(hit.uv))
+                .lookup_alpha(t.coords(uv, uv1))
                 .clamp(0.0, 1.0);
         }
         let mut specular_color = self.specular_color;
-        if let Some(t) = lookup(textures, &self.specular_color_texture, hit.uv) {
+        if let Some(t) = lookup(textures, &self.specular_color_texture, uv, uv1) {
             specular_color *= t;
         }
         let mut transmission = self.transmission;
-        if let Some(t) = lookup(textures, &self.transmission_texture, hit.uv) {
+        if let Some(t) = lookup(textures, &self.transmission_texture, uv, uv1) {
             transmission *= t.x.clamp(0.0, 1.0);
         }
         Bsdf {
@@ -129,5 +202,73 @@ impl Material {
                 energy_compensation: true,
             }),
         }
+    }
+}
+
+/// `n` (unit, on `ng`'s side of the surface), or if the mirror reflection of `wo` about it
+/// dips below a small elevation above the geometric surface, the normal closest to `n` in the
+/// plane of `n` and `ng` whose reflection reaches that elevation. The elevation is that of
+/// Cycles' `ensure_valid_reflection`: min(0.9·(wo·ng), 0.01). Found by bisection on the angle
+/// between `ng` and `n`, which moves the reflection monotonically up.
+fn valid_reflection_normal(n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
+    // Seen from the back, the surface is mirrored: work on wo's side.
+    let (ng, n, flip) = if wo.dot(ng) < 0.0 {
+        (-ng, -n, true)
+    } else {
+        (ng, n, false)
+    };
+    let threshold = (0.9 * wo.dot(ng)).min(0.01);
+    let reflect_height = |m: Vec3| (2.0 * m.dot(wo) * m - wo).dot(ng);
+    if reflect_height(n) >= threshold {
+        return if flip { -n } else { n };
+    }
+    // n = cos θ·ng + sin θ·x; search θ in [0, θn] for the largest one that is valid.
+    let x = (n - ng * n.dot(ng)).normalize_or_zero();
+    let theta_n = n.dot(ng).clamp(-1.0, 1.0).acos();
+    let at = |theta: f32| ng * theta.cos() + x * theta.sin();
+    let (mut lo, mut hi) = (0.0f32, theta_n);
+    for _ in 0..16 {
+        let mid = 0.5 * (lo + hi);
+        if reflect_height(at(mid)) >= threshold {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let m = at(lo);
+    if flip {
+        -m
+    } else {
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bent_normals_reflect_the_view_above_the_surface() {
+        let ng = Vec3::Z;
+        for (n, wo) in [
+            (Vec3::new(0.8, 0.0, 0.6), Vec3::new(-0.9, 0.0, 0.1)),
+            (Vec3::new(0.0, 0.7, 0.3), Vec3::new(0.0, -0.99, 0.02)),
+            (Vec3::new(0.5, 0.5, 0.2), Vec3::new(-0.6, -0.6, -0.2)),
+        ] {
+            let (n, wo) = (n.normalize(), wo.normalize());
+            let m = valid_reflection_normal(n, ng, wo);
+            let side = wo.dot(ng).signum();
+            let r = 2.0 * m.dot(wo) * m - wo;
+            assert!((m.length() - 1.0).abs() < 1e-5);
+            assert!(
+                r.dot(ng) * side >= (0.9 * wo.dot(ng).abs()).min(0.01) - 1e-4,
+                "{m:?}"
+            );
+            // Still in the plane of n and ng, and not bent further than needed.
+            assert!(m.dot(ng.cross(n)).abs() < 1e-4);
+        }
+        // A valid normal is kept exactly.
+        let n = Vec3::new(0.1, 0.0, 1.0).normalize();
+        assert_eq!(valid_reflection_normal(n, ng, Vec3::Z), n);
     }
 }

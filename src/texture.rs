@@ -25,8 +25,10 @@ pub struct Texture {
     pub texels: Vec<Rgb>,
     /// Alpha of each texel (same layout), when the image has an alpha channel; 1 otherwise.
     pub alpha: Option<Vec<f32>>,
-    /// Wrap mode.
-    pub wrap: Wrap,
+    /// Wrap mode along u.
+    pub wrap_s: Wrap,
+    /// Wrap mode along v.
+    pub wrap_t: Wrap,
 }
 
 /// A material's use of a texture: which one, and the affine map applied to the coordinates.
@@ -36,12 +38,23 @@ pub struct TextureRef {
     pub texture: u32,
     /// uv' = transform · uv.
     pub transform: Affine2,
+    /// Which texture coordinates of the hit: 0 or 1.
+    pub tex_coord: u8,
+}
+
+impl TextureRef {
+    /// The texture coordinates this use samples at a hit with coordinate sets `uv`, `uv1`.
+    #[inline]
+    pub fn coords(&self, uv: Vec2, uv1: Vec2) -> Vec2 {
+        let uv = if self.tex_coord == 1 { uv1 } else { uv };
+        self.transform.transform_point2(uv)
+    }
 }
 
 impl Texture {
-    fn wrap_index(&self, i: i64, n: u32) -> usize {
+    fn wrap_index(wrap: Wrap, i: i64, n: u32) -> usize {
         let n = i64::from(n);
-        let k = match self.wrap {
+        let k = match wrap {
             Wrap::Repeat => i.rem_euclid(n),
             Wrap::Clamp => i.clamp(0, n - 1),
             Wrap::Mirror => {
@@ -68,13 +81,14 @@ impl Texture {
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
         let w = self.width as usize;
+        let (ws, wt) = (self.wrap_s, self.wrap_t);
         let (xa, xb) = (
-            self.wrap_index(x0, self.width),
-            self.wrap_index(x0 + 1, self.width),
+            Self::wrap_index(ws, x0, self.width),
+            Self::wrap_index(ws, x0 + 1, self.width),
         );
         let (ya, yb) = (
-            self.wrap_index(y0, self.height),
-            self.wrap_index(y0 + 1, self.height),
+            Self::wrap_index(wt, y0, self.height),
+            Self::wrap_index(wt, y0 + 1, self.height),
         );
         Some(([ya * w + xa, ya * w + xb, yb * w + xa, yb * w + xb], fx, fy))
     }
@@ -115,7 +129,8 @@ mod tests {
             height: 2,
             texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
             alpha: None,
-            wrap,
+            wrap_s: wrap,
+            wrap_t: wrap,
         }
     }
 
@@ -145,5 +160,19 @@ mod tests {
         assert!((m.lookup(Vec2::new(1.25, 0.75)) - Vec3::Y).length() < 1e-6);
         let c = two_by_two(Wrap::Clamp);
         assert!((c.lookup(Vec2::new(5.0, 0.75)) - Vec3::Y).length() < 1e-6);
+    }
+
+    #[test]
+    fn wrap_modes_apply_per_axis() {
+        // Clamp along u, repeat along v: past the right edge stays in the right column, past
+        // the top wraps to the bottom row.
+        let t = Texture {
+            wrap_t: Wrap::Repeat,
+            ..two_by_two(Wrap::Clamp)
+        };
+        assert!((t.lookup(Vec2::new(5.0, 0.75)) - Vec3::Y).length() < 1e-6);
+        assert!((t.lookup(Vec2::new(0.25, 1.25)) - Vec3::Z).length() < 1e-6);
+        let c = two_by_two(Wrap::Clamp);
+        assert!((c.lookup(Vec2::new(0.25, 1.25)) - Vec3::X).length() < 1e-6);
     }
 }

@@ -89,9 +89,11 @@ fn textures_round_trip_through_embedded_images() {
     )
     .unwrap();
     let text = r#"{"format_version": 2, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y_deg": 40},
-      "textures": {"uv": {"file": "tex/uv.png", "wrap": "mirror"}, "rough": {"file": "tex/uv.png", "color_space": "linear", "wrap": "clamp"},
+      "textures": {"uv": {"file": "tex/uv.png", "wrap_s": "mirror", "wrap_t": "clamp"}, "rough": {"file": "tex/uv.png", "color_space": "linear", "wrap_s": "clamp", "wrap_t": "clamp"},
                    "duck": {"file": "duck.glb", "gltf_image": 0}},
       "materials": {"m": {"base_color_texture": {"texture": "uv", "offset": [0.25, 0.5], "rotation_deg": 30, "scale": [2, 3]},
+                          "alpha": 0.5, "alpha_mode": "mask", "alpha_cutoff": 0.3,
+                          "normal_texture": {"texture": "rough", "tex_coord": 1}, "normal_scale": 0.5,
                           "metallic_roughness_texture": {"texture": "rough"}, "metallic": 0.5, "roughness": 0.4,
                           "specular": 0.7, "specular_texture": {"texture": "rough"}, "specular_color": [1, 0.5, 0.25],
                           "specular_color_texture": {"texture": "uv"}, "transmission": 0.5, "transmission_texture": {"texture": "rough"},
@@ -125,6 +127,22 @@ fn textures_round_trip_through_embedded_images() {
         assert!((m.specular - 0.7).abs() < 1e-6 && m.specular_color == [1.0, 0.5, 0.25]);
         assert!(m.specular_texture.is_some() && m.specular_color_texture.is_some());
         assert!(m.transmission == 0.5 && m.transmission_texture.is_some());
+        assert_eq!(
+            (m.alpha, m.alpha_mode, m.alpha_cutoff),
+            (0.5, lumo_schema::AlphaMode::Mask, 0.3)
+        );
+        assert_eq!(
+            (
+                m.normal_texture.as_ref().map(|t| t.tex_coord),
+                m.normal_scale
+            ),
+            (Some(1), 0.5)
+        );
+        let uv = &stripped.textures["uv"];
+        assert_eq!(
+            (uv.wrap_s, uv.wrap_t),
+            (lumo_schema::Wrap::Mirror, lumo_schema::Wrap::Clamp)
+        );
     }
 }
 

@@ -14,6 +14,7 @@
 //! | explicit `diffuse` d below the rest | `base_color` × d when the material is only diffuse |
 //! | `roughness` (default 0) | `roughness` (written out: version 2's default is 0.5) |
 //! | `roughness_specular_texture` | `metallic_roughness_texture` (same channels) |
+//! | texture `wrap` | `wrap_s` and `wrap_t` |
 //!
 //! What version 2 cannot say (version 1's glass was always smooth, its diffuse weight could
 //! absorb beside a metal or glass lobe) is approximated, and the note says how.
@@ -38,6 +39,17 @@ pub fn migrate(value: &mut Value) -> Vec<String> {
         "format_version 1 read and migrated to {FORMAT_VERSION} (materials are now glTF's \
          metallic-roughness model); upgrade the file with `lumo convert FILE -o NEW.json`"
     )];
+    if let Some(Value::Object(textures)) = value.get_mut("textures") {
+        for t in textures.values_mut() {
+            if let Value::Object(t) = t {
+                // Version 1's one wrap mode applied along both axes.
+                if let Some(w) = t.remove("wrap") {
+                    t.insert("wrap_s".into(), w.clone());
+                    t.insert("wrap_t".into(), w);
+                }
+            }
+        }
+    }
     if let Some(Value::Object(materials)) = value.get_mut("materials") {
         for (name, m) in materials.iter_mut() {
             if let Value::Object(m) = m {

@@ -244,9 +244,16 @@ pub struct Texture {
     /// How the stored values are encoded. Default `srgb`.
     #[serde(default)]
     pub color_space: ColorSpace,
-    /// Behaviour outside [0, 1]. Default `repeat`.
-    #[serde(default)]
-    pub wrap: Wrap,
+    /// Behaviour outside [0, 1] along u (glTF `wrapS`). Default `repeat`.
+    #[serde(default, skip_serializing_if = "is_repeat")]
+    pub wrap_s: Wrap,
+    /// Behaviour outside [0, 1] along v (glTF `wrapT`). Default `repeat`.
+    #[serde(default, skip_serializing_if = "is_repeat")]
+    pub wrap_t: Wrap,
+}
+
+fn is_repeat(w: &Wrap) -> bool {
+    *w == Wrap::Repeat
 }
 
 /// A use of a named texture, with an optional affine map of the texture coordinates
@@ -265,6 +272,15 @@ pub struct TextureRef {
     /// Multiplies the texture coordinates first. Default (1, 1).
     #[serde(default = "one2", skip_serializing_if = "is_one2")]
     pub scale: Vec2,
+    /// Which texture coordinate set of the mesh to use: 0 or 1 (glTF `texCoord`: TEXCOORD_0
+    /// or TEXCOORD_1). Default 0. Shapes other than glTF meshes have one set.
+    #[serde(default, skip_serializing_if = "is_zero_u32")]
+    #[schemars(range(min = 0, max = 1))]
+    pub tex_coord: u32,
+}
+
+fn is_zero_u32(x: &u32) -> bool {
+    *x == 0
 }
 
 fn is_zero2(v: &Vec2) -> bool {
@@ -298,9 +314,34 @@ pub struct Material {
     /// Default (0.8, 0.8, 0.8). glTF `baseColorFactor` (RGB).
     #[serde(default = "default_base_color")]
     pub base_color: Rgb,
-    /// Multiplies `base_color` by this texture (its RGB channels). glTF `baseColorTexture`.
+    /// Multiplies `base_color` by this texture (its RGB channels; its alpha channel multiplies
+    /// `alpha`). glTF `baseColorTexture`. A mesh's vertex colours (glTF `COLOR_0`) multiply
+    /// both as well.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base_color_texture: Option<TextureRef>,
+    /// Coverage in [0, 1], used as `alpha_mode` says. Default 1. glTF `baseColorFactor` (A).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    #[schemars(range(min = 0, max = 1))]
+    pub alpha: f32,
+    /// How `alpha` (× texture alpha × vertex alpha) makes the surface transparent: `opaque`
+    /// ignores it, `mask` cuts away where it is below `alpha_cutoff`, `blend` lets a fraction
+    /// 1 − alpha of the light through unchanged (stochastic transparency, for camera and shadow
+    /// rays alike). Default `opaque`. glTF `alphaMode`.
+    #[serde(default, skip_serializing_if = "is_opaque")]
+    pub alpha_mode: AlphaMode,
+    /// The `mask` threshold in [0, 1]: alpha below it is cut away. Default 0.5. glTF
+    /// `alphaCutoff`.
+    #[serde(default = "half", skip_serializing_if = "is_half")]
+    #[schemars(range(min = 0, max = 1))]
+    pub alpha_cutoff: f32,
+    /// A tangent-space normal map (linear RGB = (x, y, z) · 0.5 + 0.5, +y towards +v),
+    /// perturbing the shading normal with the mesh's tangents (glTF `TANGENT`, or MikkTSpace
+    /// tangents when the file has none). glTF `normalTexture`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal_texture: Option<TextureRef>,
+    /// Scales the normal map's x and y (glTF `normalTexture.scale`). Default 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub normal_scale: f32,
     /// Metalness in [0, 1]: 0 is a dielectric, 1 a metal whose F0 is `base_color`. Default 0.
     /// glTF `metallicFactor`.
     #[serde(default, skip_serializing_if = "is_zero")]
@@ -427,6 +468,28 @@ fn is_default_ior(x: &f32) -> bool {
 fn one() -> f32 {
     1.0
 }
+fn half() -> f32 {
+    0.5
+}
+fn is_half(x: &f32) -> bool {
+    *x == 0.5
+}
+fn is_opaque(m: &AlphaMode) -> bool {
+    *m == AlphaMode::Opaque
+}
+
+/// How a material's alpha makes it transparent (glTF `alphaMode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum AlphaMode {
+    /// Alpha is ignored: the surface is opaque.
+    #[default]
+    Opaque,
+    /// Alpha below `alpha_cutoff` cuts the surface away; above it the surface is opaque.
+    Mask,
+    /// A fraction 1 − alpha of the light passes through the surface unchanged.
+    Blend,
+}
 fn is_one(x: &f32) -> bool {
     *x == 1.0
 }
@@ -448,6 +511,11 @@ impl Default for Material {
         Material {
             base_color: default_base_color(),
             base_color_texture: None,
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            normal_texture: None,
+            normal_scale: 1.0,
             metallic: 0.0,
             roughness: default_roughness(),
             metallic_roughness_texture: None,
@@ -477,9 +545,10 @@ impl Material {
     }
 
     /// The texture uses of this material with their JSON keys, in declaration order.
-    pub fn texture_refs(&self) -> [(&'static str, Option<&TextureRef>); 6] {
+    pub fn texture_refs(&self) -> [(&'static str, Option<&TextureRef>); 7] {
         [
             ("base_color_texture", self.base_color_texture.as_ref()),
+            ("normal_texture", self.normal_texture.as_ref()),
             (
                 "metallic_roughness_texture",
                 self.metallic_roughness_texture.as_ref(),

@@ -282,6 +282,13 @@ impl Validator<'_> {
         if !finite(&r.offset) || !finite(&r.scale) || !r.rotation_deg.is_finite() {
             self.err(p.clone(), "texture transform contains NaN or infinity");
         }
+        if r.tex_coord > 1 {
+            self.err_help(
+                p.key("tex_coord"),
+                format!("texture coordinate set {} does not exist", r.tex_coord),
+                "meshes have sets 0 and 1 (glTF TEXCOORD_0 and TEXCOORD_1)",
+            );
+        }
     }
 
     fn material(&mut self, p: &JsonPath, m: &Material) {
@@ -289,6 +296,8 @@ impl Validator<'_> {
         self.color(&p.key("emission"), m.emission, None);
         self.color(&p.key("specular_color"), m.specular_color, None);
         for (key, w) in [
+            ("alpha", m.alpha),
+            ("alpha_cutoff", m.alpha_cutoff),
             ("metallic", m.metallic),
             ("roughness", m.roughness),
             ("specular", m.specular),
@@ -301,6 +310,23 @@ impl Validator<'_> {
                     "use a fraction between 0 and 1",
                 );
             }
+        }
+        if !m.normal_scale.is_finite() {
+            self.err(p.key("normal_scale"), "normal_scale must be finite");
+        }
+        if m.normal_texture.is_none() && m.normal_scale != 1.0 {
+            self.err_help(
+                p.key("normal_scale"),
+                "normal_scale without a normal_texture has no effect",
+                "add a normal_texture or remove normal_scale",
+            );
+        }
+        if m.alpha_mode != AlphaMode::Mask && m.alpha_cutoff != 0.5 {
+            self.err_help(
+                p.key("alpha_cutoff"),
+                "alpha_cutoff only applies to alpha_mode `mask`",
+                "set \"alpha_mode\": \"mask\" or remove alpha_cutoff",
+            );
         }
         if !(m.ior > 0.0 && m.ior.is_finite()) {
             self.err_help(

@@ -33,12 +33,13 @@ fn transform() -> impl Strategy<Value = Transform> {
 }
 
 fn texture_ref() -> impl Strategy<Value = Option<TextureRef>> {
-    prop::option::of(("[a-z]{1,6}", vec2(), num(), vec2()).prop_map(
-        |(texture, offset, rotation_deg, scale)| TextureRef {
+    prop::option::of(("[a-z]{1,6}", vec2(), num(), vec2(), 0u32..2).prop_map(
+        |(texture, offset, rotation_deg, scale, tex_coord)| TextureRef {
             texture,
             offset,
             rotation_deg,
             scale,
+            tex_coord,
         },
     ))
 }
@@ -56,6 +57,7 @@ fn material() -> impl Strategy<Value = Material> {
         (unit(), texture_ref(), [num(), num(), num()], texture_ref()),
         (unit(), texture_ref(), volume),
         ([num(), num(), num()], texture_ref(), any::<bool>()),
+        (unit(), 0u32..3, unit(), texture_ref(), num()),
     )
         .prop_map(
             |(
@@ -63,9 +65,16 @@ fn material() -> impl Strategy<Value = Material> {
                 (specular, specular_texture, specular_color, specular_color_texture),
                 (transmission, transmission_texture, volume),
                 (emission, emission_texture, two_sided_emission),
+                (alpha, alpha_mode, alpha_cutoff, normal_texture, normal_scale),
             )| Material {
                 base_color,
                 base_color_texture,
+                alpha,
+                alpha_mode: [AlphaMode::Opaque, AlphaMode::Mask, AlphaMode::Blend]
+                    [alpha_mode as usize],
+                alpha_cutoff,
+                normal_texture,
+                normal_scale,
                 metallic,
                 roughness,
                 metallic_roughness_texture: mr_texture,
@@ -270,7 +279,10 @@ fn scene() -> impl Strategy<Value = Scene> {
                 let textures: BTreeMap<String, Texture> = textures
                     .into_iter()
                     .map(|(k, (file, gltf_image, linear, wrap))| {
-                        let wrap = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp][wrap as usize];
+                        let modes = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp];
+                        // Both axes from one number: s = wrap % 3, t = wrap / 3.
+                        let (wrap_s, wrap_t) =
+                            (modes[wrap as usize % 3], modes[wrap as usize / 3 % 3]);
                         (
                             k,
                             Texture {
@@ -281,7 +293,8 @@ fn scene() -> impl Strategy<Value = Scene> {
                                 } else {
                                     ColorSpace::Srgb
                                 },
-                                wrap,
+                                wrap_s,
+                                wrap_t,
                             },
                         )
                     })

@@ -2,7 +2,7 @@
 
 use std::sync::OnceLock;
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 
 use crate::geometry::triangle_bvh::{TriRay, TriangleBvh};
 use crate::math::{Aabb, Vec2, Vec3};
@@ -18,6 +18,12 @@ pub struct Mesh {
     pub normals: Option<Vec<Vec3>>,
     /// Vertex texture coordinates, when present.
     pub uvs: Option<Vec<Vec2>>,
+    /// The second set of vertex texture coordinates (glTF `TEXCOORD_1`), when present.
+    pub uvs1: Option<Vec<Vec2>>,
+    /// Vertex tangents (xyz) and bitangent handedness (w = ±1), when present.
+    pub tangents: Option<Vec<Vec4>>,
+    /// Linear RGBA vertex colours, when present.
+    pub colors: Option<Vec<Vec4>>,
     bounds: Aabb,
     /// Built on first use: a mesh whose only instances are flattened into the scene's
     /// world-space triangle set never needs its own.
@@ -65,6 +71,9 @@ impl Mesh {
                 triangles,
                 normals,
                 uvs,
+                uvs1: None,
+                tangents: None,
+                colors: None,
                 bounds,
                 bvh: OnceLock::new(),
             },
@@ -109,6 +118,42 @@ impl Mesh {
     /// Whether anything is hit within (t_min, t_max).
     pub fn occluded(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
         self.bvh().occluded(&TriRay::new(o, d), t_min, t_max)
+    }
+
+    /// Sets the optional vertex attributes (each must have one entry per vertex; an array of
+    /// another length is ignored, as the loaders check lengths).
+    pub fn with_attributes(
+        mut self,
+        uvs1: Option<Vec<Vec2>>,
+        tangents: Option<Vec<Vec4>>,
+        colors: Option<Vec<Vec4>>,
+    ) -> Mesh {
+        let n = self.positions.len();
+        self.uvs1 = uvs1.filter(|a| a.len() == n);
+        self.tangents = tangents.filter(|a| a.len() == n);
+        self.colors = colors.filter(|a| a.len() == n);
+        self
+    }
+
+    /// The vertex attributes of a hit beyond [`Mesh::surface`]'s: second texture coordinates,
+    /// tangent (xyz, object space, not normalised; w = handedness) and colour, interpolated;
+    /// defaults (0, zero tangent, white) where the mesh has none.
+    pub fn attributes(&self, h: &MeshHit) -> (Vec2, Vec4, Vec4) {
+        let tri = self.triangles[h.prim as usize];
+        let b0 = 1.0 - h.b1 - h.b2;
+        let lerp2 = |a: &Vec<Vec2>| {
+            a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
+        };
+        let lerp4 = |a: &Vec<Vec4>| {
+            a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
+        };
+        let uv1 = self.uvs1.as_ref().map_or(Vec2::ZERO, lerp2);
+        let tangent = self.tangents.as_ref().map_or(Vec4::ZERO, |t| {
+            // The handedness is per vertex; take the first corner's rather than a blend.
+            lerp4(t).truncate().extend(t[tri[0] as usize].w.signum())
+        });
+        let color = self.colors.as_ref().map_or(Vec4::ONE, lerp4);
+        (uv1, tangent, color)
     }
 
     /// Interpolated point, geometric normal, shading normal and texture coordinates of a hit.

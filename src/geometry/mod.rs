@@ -8,7 +8,7 @@ pub mod triangle_bvh;
 
 use std::sync::Arc;
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 
 use crate::bvh::{Bvh, TraversalRay};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
@@ -143,6 +143,7 @@ impl Instance {
     /// The full surface description of a hit.
     pub fn surface(&self, ray: &Ray, raw: &RawHit, instance: u32) -> SurfaceHit {
         let r = self.local_ray(ray);
+        let (mut uv1, mut tangent, mut color) = (Vec2::ZERO, Vec4::ZERO, Vec4::ONE);
         let (p, ng, ns, uv) = match &self.shape {
             Shape::Sphere(s) => {
                 let (p, n, uv) = s.surface(r.at(raw.t));
@@ -152,12 +153,16 @@ impl Instance {
                 let p = pl.project(r.at(raw.t));
                 (p, pl.normal, pl.normal, pl.uv(p))
             }
-            Shape::Mesh(m) => m.surface(&mesh::MeshHit {
-                t: raw.t,
-                prim: raw.prim,
-                b1: raw.coords[0],
-                b2: raw.coords[1],
-            }),
+            Shape::Mesh(m) => {
+                let h = mesh::MeshHit {
+                    t: raw.t,
+                    prim: raw.prim,
+                    b1: raw.coords[0],
+                    b2: raw.coords[1],
+                };
+                (uv1, tangent, color) = m.attributes(&h);
+                m.surface(&h)
+            }
             Shape::Lathe(l) => {
                 let p = r.at(raw.t);
                 let [u, v] = raw.coords;
@@ -168,6 +173,19 @@ impl Instance {
         let (p, ng, ns) = if self.identity {
             (p, ng, ns)
         } else {
+            if tangent != Vec4::ZERO {
+                // Tangents are directions on the surface: they transform as vectors. A mirroring
+                // transform flips cross(N, T), so the handedness flips with it.
+                let w = if self.to_world.matrix3.determinant() < 0.0 {
+                    -tangent.w
+                } else {
+                    tangent.w
+                };
+                tangent = self
+                    .to_world
+                    .transform_vector3(tangent.truncate())
+                    .extend(w);
+            }
             (
                 self.to_world.transform_point3(p),
                 (self.normal_to_world * ng).normalize(),
@@ -180,6 +198,9 @@ impl Instance {
             ng,
             ns,
             uv,
+            uv1,
+            tangent,
+            color,
             instance,
             prim: raw.prim,
         }
@@ -212,6 +233,13 @@ pub struct SurfaceHit {
     pub ns: Vec3,
     /// Texture coordinates.
     pub uv: Vec2,
+    /// The second set of texture coordinates (glTF `TEXCOORD_1`); zero where there is none.
+    pub uv1: Vec2,
+    /// World-space tangent (xyz, along +u of the normal map, not normalised) and bitangent
+    /// handedness (w); zero where the mesh has no tangents.
+    pub tangent: Vec4,
+    /// Linear RGBA vertex colour; white where the mesh has none.
+    pub color: Vec4,
     /// Instance index.
     pub instance: u32,
     /// Primitive index within the instance's shape.

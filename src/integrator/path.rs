@@ -37,7 +37,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
         let wo = -ray.d.normalize();
         let material = scene.material(&hit);
-        let le = material.emitted(&scene.textures, hit.ng, hit.uv, wo);
+        let le = material.emitted(&scene.textures, hit.ng, hit.uv, hit.uv1, wo);
         if le != Vec3::ZERO {
             let weight = match scene.light_of(&hit) {
                 Some(li) if !prev_delta => {
@@ -52,7 +52,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         if depth == max_depth {
             break;
         }
-        let bsdf = material.bsdf(&scene.textures, &hit);
+        let bsdf = material.bsdf(&scene.textures, &hit, wo);
 
         // Next-event estimation: one light, chosen by power with the first coordinate of the
         // light's 2D sample, which is then remapped to sample a point on it.
@@ -65,7 +65,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
                         ls.li
                     } else {
                         scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
-                            m.emitted(&scene.textures, ls.normal, ls.uv, -ls.wi)
+                            m.emitted(&scene.textures, ls.normal, ls.uv, ls.uv, -ls.wi)
                         })
                     };
                     if li != Vec3::ZERO {

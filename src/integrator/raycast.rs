@@ -21,8 +21,8 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         };
         let wo = -ray.d.normalize();
         let material = scene.material(&hit);
-        l += beta * material.emitted(&scene.textures, hit.ng, hit.uv, wo);
-        let bsdf = material.bsdf(&scene.textures, &hit);
+        l += beta * material.emitted(&scene.textures, hit.ng, hit.uv, hit.uv1, wo);
+        let bsdf = material.bsdf(&scene.textures, &hit, wo);
         if bsdf.has_smooth_lobe() {
             l += beta * direct(scene, &bsdf, &hit, wo, sampler, stats);
         }
@@ -78,7 +78,7 @@ fn direct(
         if matches!(light, Light::Triangle { .. } | Light::Sphere { .. }) {
             if let Some(ls) = light.sample(hit.p, u) {
                 let li = scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
-                    m.emitted(&scene.textures, ls.normal, ls.uv, -ls.wi)
+                    m.emitted(&scene.textures, ls.normal, ls.uv, ls.uv, -ls.wi)
                 });
                 let (f, _) = bsdf.eval(wo, ls.wi);
                 if li != Vec3::ZERO

@@ -62,7 +62,14 @@ pub(super) fn mesh_data(file: &GltfFile, mesh: u32, primitive: u32) -> Result<Me
         normals: d.normals.map(|n| n.into_iter().map(Vec3::from).collect()),
         // Already in lumo's bottom-left convention.
         uvs: d.uvs.map(|t| t.into_iter().map(Vec2::from).collect()),
-        // `d.tangents` (normal mapping), `d.colors` (COLOR_0) and `d.texcoords_1` (TEXCOORD_1)
-        // are issue 12's; the renderer does not use them yet, so renders are unchanged.
+        uvs1: d
+            .texcoords_1
+            .map(|t| t.into_iter().map(Vec2::from).collect()),
+        tangents: d
+            .tangents
+            .map(|t| t.into_iter().map(glam::Vec4::from).collect()),
+        colors: d
+            .colors
+            .map(|c| c.into_iter().map(glam::Vec4::from).collect()),
     })
 }

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use crate::math::{Vec2, Vec3};
+use glam::Vec4;
 
 /// Mesh arrays read from a file.
 #[derive(Debug, Clone, Default)]
@@ -16,6 +17,12 @@ pub struct MeshData {
     pub normals: Option<Vec<Vec3>>,
     /// Per-vertex texture coordinates, if the file has them for every vertex.
     pub uvs: Option<Vec<Vec2>>,
+    /// The second set of texture coordinates (glTF `TEXCOORD_1`).
+    pub uvs1: Option<Vec<Vec2>>,
+    /// Tangents (xyz) with the bitangent's handedness (w), as glTF's `TANGENT`.
+    pub tangents: Option<Vec<Vec4>>,
+    /// Linear RGBA vertex colours (glTF `COLOR_0`).
+    pub colors: Option<Vec<Vec4>>,
 }
 
 /// Reads an OBJ file through the one OBJ reader ([`lumo_converters::obj::load`]) into the
@@ -35,5 +42,6 @@ pub fn load_obj(path: &Path) -> Result<MeshData, String> {
                 .collect()
         }),
         uvs: mesh.uvs.map(|t| t.into_iter().map(Vec2::from).collect()),
+        ..MeshData::default()
     })
 }

@@ -13,7 +13,7 @@ use crate::camera::Camera;
 use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
 use crate::light::{Light, LightSampler};
 use crate::load::{Assets, MeshData};
-use crate::material::Material;
+use crate::material::{AlphaMode, Material};
 use crate::math::{srgb_to_linear, Affine3A, Vec2, Vec3};
 use crate::texture::{Texture, TextureRef, Wrap};
 
@@ -94,7 +94,7 @@ pub fn build(
                 }
             })
             .collect();
-        let wrap = match t.wrap {
+        let wrap = |w: schema::Wrap| match w {
             schema::Wrap::Repeat => Wrap::Repeat,
             schema::Wrap::Mirror => Wrap::Mirror,
             schema::Wrap::Clamp => Wrap::Clamp,
@@ -105,7 +105,8 @@ pub fn build(
             height: image.height,
             texels,
             alpha: image.alpha.clone(),
-            wrap,
+            wrap_s: wrap(t.wrap_s),
+            wrap_t: wrap(t.wrap_t),
         });
     }
     let tex_ref = |r: &Option<schema::TextureRef>| {
@@ -117,6 +118,7 @@ pub fn build(
                     transform: Affine2::from_translation(Vec2::from(r.offset))
                         * Affine2::from_angle(r.rotation_deg.to_radians())
                         * Affine2::from_scale(Vec2::from(r.scale)),
+                    tex_coord: r.tex_coord.min(1) as u8,
                 })
         })
     };
@@ -128,6 +130,14 @@ pub fn build(
         materials.push(Material {
             base_color: Vec3::from(m.base_color),
             base_color_texture: tex_ref(&m.base_color_texture),
+            alpha: m.alpha,
+            alpha_mode: match m.alpha_mode {
+                schema::AlphaMode::Opaque => AlphaMode::Opaque,
+                schema::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff),
+                schema::AlphaMode::Blend => AlphaMode::Blend,
+            },
+            normal_texture: tex_ref(&m.normal_texture),
+            normal_scale: m.normal_scale,
             metallic: m.metallic,
             roughness: m.roughness,
             metallic_roughness_texture: tex_ref(&m.metallic_roughness_texture),
@@ -202,6 +212,7 @@ pub fn build(
                         };
                         let (mesh, dropped) =
                             Mesh::new(data.positions, data.triangles, normals, data.uvs);
+                        let mesh = mesh.with_attributes(data.uvs1, data.tangents, data.colors);
                         degenerate += dropped;
                         let mesh = Arc::new(mesh);
                         mesh_cache.insert(key, mesh.clone());
@@ -238,9 +249,15 @@ pub fn build(
                         .corners(prim)
                         .map(|p| inst.to_world.transform_point3(p));
                     let tri = mesh.triangles[prim as usize];
-                    let uv = match &mesh.uvs {
-                        Some(uvs) => tri.map(|i| uvs[i as usize]),
-                        None => [Vec2::ZERO, Vec2::X, Vec2::Y],
+                    // The corners' coordinates in the set the emission texture samples (hits
+                    // without coordinates use the barycentrics, or zero for set 1).
+                    let set1 = m.emission_texture.is_some_and(|t| t.tex_coord == 1);
+                    let uv = match (set1, &mesh.uvs, &mesh.uvs1) {
+                        (false, Some(uvs), _) | (true, _, Some(uvs)) => {
+                            tri.map(|i| uvs[i as usize])
+                        }
+                        (false, None, _) => [Vec2::ZERO, Vec2::X, Vec2::Y],
+                        (true, _, None) => [Vec2::ZERO; 3],
                     };
                     let c = (v[1] - v[0]).cross(v[2] - v[0]);
                     lights.push(Light::Triangle {
@@ -332,6 +349,7 @@ pub fn build(
         },
         time_budget_s: r.time_budget_s,
     };
+    let has_alpha = materials.iter().any(Material::has_alpha);
     let scene = Scene {
         camera,
         background: Vec3::from(desc.background.color),
@@ -341,6 +359,7 @@ pub fn build(
         lights,
         light_sampler,
         settings,
+        has_alpha,
     };
     Ok((scene, warnings))
 }
@@ -401,6 +420,7 @@ fn mesh_data(
                 .uvs
                 .as_ref()
                 .map(|t| t.iter().map(|v| Vec2::from(*v)).collect()),
+            ..MeshData::default()
         });
     }
     match assets.mesh(source) {

@@ -7,7 +7,7 @@ use crate::camera::Camera;
 use crate::geometry::{Accel, Geometry, SurfaceHit};
 use crate::light::{Light, LightSampler};
 use crate::material::Material;
-use crate::math::{Ray, Rgb};
+use crate::math::{Ray, Rgb, Vec3};
 use crate::texture::Texture;
 
 pub use build::{build, BuildError};
@@ -61,19 +61,58 @@ pub struct Scene {
     pub light_sampler: LightSampler,
     /// Settings.
     pub settings: Settings,
+    /// Whether any material is transparent (alpha mask or blend): only then do rays look past
+    /// the surfaces they meet.
+    pub has_alpha: bool,
 }
 
+/// Most transparent surfaces a ray passes through before the next one counts as opaque (as
+/// Cycles' "transparent max bounces", 64 in lumo's Cycles comparisons).
+pub const MAX_ALPHA_LAYERS: u32 = 64;
+
 impl Scene {
-    /// Closest hit along a ray.
+    /// Closest hit along a ray, looking past the cut-away parts of alpha-masked surfaces and,
+    /// with probability 1 − alpha, past alpha-blended ones (stochastic transparency).
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
-        self.geometry.intersect(ray, t_min, t_max)
+        let hit = self.geometry.intersect(ray, t_min, t_max)?;
+        if !self.has_alpha {
+            return Some(hit);
+        }
+        self.past_transparent(ray, hit, t_max)
     }
 
-    /// Whether anything blocks the ray within (t_min, t_max).
+    /// Whether anything blocks the ray within (t_min, t_max); transparent parts let it through
+    /// as they do for [`Scene::intersect`].
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        self.geometry.occluded(ray, t_min, t_max)
+        if !self.has_alpha {
+            return self.geometry.occluded(ray, t_min, t_max);
+        }
+        self.geometry
+            .intersect(ray, t_min, t_max)
+            .and_then(|hit| self.past_transparent(ray, hit, t_max))
+            .is_some()
+    }
+
+    /// The first hit from `hit` on (inclusive) along the ray that stops it.
+    fn past_transparent(&self, ray: &Ray, mut hit: SurfaceHit, t_max: f32) -> Option<SurfaceHit> {
+        for _ in 0..MAX_ALPHA_LAYERS {
+            let material = self.material(&hit);
+            if !material.has_alpha() {
+                return Some(hit);
+            }
+            let opacity = material.opacity(&self.textures, &hit);
+            // The decision for a blended surface is a hash of the ray and the hit (as pbrt-v4
+            // does), so it consumes no sampler dimension and a shadow ray decides like the
+            // camera ray along the same line; distinct layers get independent numbers.
+            if opacity >= 1.0 || (opacity > 0.0 && alpha_hash(ray, &hit) < opacity) {
+                return Some(hit);
+            }
+            // Triangles and shapes hit at exactly `hit.t` are excluded (the interval is open).
+            hit = self.geometry.intersect(ray, hit.t, t_max)?;
+        }
+        Some(hit)
     }
 
     /// The material of a hit.
@@ -107,4 +146,19 @@ impl Scene {
         let material = self.geometry.instances.get(instance as usize)?.material;
         self.materials.get(material as usize)
     }
+}
+
+/// A uniform number in [0, 1) from a ray and a hit on it.
+fn alpha_hash(ray: &Ray, hit: &SurfaceHit) -> f32 {
+    let bits = |v: Vec3| {
+        (u64::from(v.x.to_bits()) << 32 | u64::from(v.y.to_bits()))
+            ^ u64::from(v.z.to_bits()).rotate_left(17)
+    };
+    let mut h = crate::sampler::mix64(bits(ray.o) ^ 0x9e37_79b9_7f4a_7c15);
+    h = crate::sampler::mix64(h ^ bits(ray.d));
+    h = crate::sampler::mix64(
+        h ^ (u64::from(hit.t.to_bits()) << 32 | u64::from(hit.prim))
+            ^ u64::from(hit.instance).rotate_left(40),
+    );
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }

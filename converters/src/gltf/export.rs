@@ -4,7 +4,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use lumo_schema::{GltfMeshRef, MeshSource, Object, Scene, Texture, Wrap};
+use lumo_schema::{AlphaMode, GltfMeshRef, MeshSource, Object, Scene, Texture, Wrap};
 use serde_json::{json, Value};
 
 use super::document::{mime_of_bytes, percent_encode, read_file};
@@ -131,7 +131,7 @@ struct Builder {
     texture_index: BTreeMap<String, usize>,
     images: Vec<Value>,
     samplers: Vec<Value>,
-    sampler_index: BTreeMap<&'static str, usize>,
+    sampler_index: BTreeMap<(u32, u32), usize>,
     cameras: Vec<Value>,
     lights: Vec<Value>,
     used: BTreeSet<&'static str>,
@@ -298,15 +298,16 @@ impl Builder {
         let view = self.view(&bytes, None);
         self.images
             .push(json!({"bufferView": view, "mimeType": mime, "name": name}));
-        let (key, mode) = match tex.wrap {
-            Wrap::Repeat => ("repeat", 10497),
-            Wrap::Mirror => ("mirror", 33648),
-            Wrap::Clamp => ("clamp", 33071),
+        let mode = |w: Wrap| match w {
+            Wrap::Repeat => 10497,
+            Wrap::Mirror => 33648,
+            Wrap::Clamp => 33071,
         };
-        let sampler = match self.sampler_index.get(key) {
+        let key = (mode(tex.wrap_s), mode(tex.wrap_t));
+        let sampler = match self.sampler_index.get(&key) {
             Some(s) => *s,
             None => {
-                self.samplers.push(json!({"wrapS": mode, "wrapT": mode}));
+                self.samplers.push(json!({"wrapS": key.0, "wrapT": key.1}));
                 self.sampler_index.insert(key, self.samplers.len() - 1);
                 self.samplers.len() - 1
             }
@@ -591,6 +592,20 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
         pbr["metallicRoughnessTexture"] = tex(t);
     }
     let mut m = json!({"pbrMetallicRoughness": pbr, "doubleSided": p.double_sided});
+    match p.alpha_mode {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask => {
+            m["alphaMode"] = json!("MASK");
+            m["alphaCutoff"] = json!(p.alpha_cutoff);
+        }
+        AlphaMode::Blend => m["alphaMode"] = json!("BLEND"),
+    }
+    if let Some((t, scale)) = &p.normal_texture {
+        m["normalTexture"] = tex(t);
+        if *scale != 1.0 {
+            m["normalTexture"]["scale"] = json!(scale);
+        }
+    }
     if p.emissive != [0.0; 3] {
         m["emissiveFactor"] = json!(p.emissive);
     }

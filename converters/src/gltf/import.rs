@@ -9,9 +9,9 @@ use gltf::khr_lights_punctual::Kind;
 use gltf::mesh::Mode;
 use gltf::Semantic;
 use lumo_schema::{
-    Background, Camera, ColorSpace, DirectionalLight, GltfMeshRef, Image, Lathe, Light, Material,
-    Mesh, MeshSource, Object, Plane, PointLight, Scene, Sphere, SpotLight, Texture, Transform,
-    Triangle, Wrap, FORMAT_VERSION,
+    AlphaMode, Background, Camera, ColorSpace, DirectionalLight, GltfMeshRef, Image, Lathe, Light,
+    Material, Mesh, MeshSource, Object, Plane, PointLight, Scene, Sphere, SpotLight, Texture,
+    Transform, Triangle, Wrap, FORMAT_VERSION,
 };
 use serde::de::DeserializeOwned;
 
@@ -64,6 +64,24 @@ pub struct Imported {
     pub scene: Scene,
     /// Things that were not imported or approximated, for the user.
     pub warnings: Vec<String>,
+}
+
+/// KHR_texture_transform as JSON, for texture uses the gltf crate gives no accessor for
+/// (`normalTexture`).
+#[derive(serde::Deserialize)]
+struct RawTransform {
+    #[serde(default)]
+    offset: [f32; 2],
+    #[serde(default)]
+    rotation: f32,
+    #[serde(default = "unit_scale")]
+    scale: [f32; 2],
+    #[serde(rename = "texCoord")]
+    tex_coord: Option<u32>,
+}
+
+fn unit_scale() -> [f32; 2] {
+    [1.0, 1.0]
 }
 
 /// Extensions the importer understands.
@@ -582,6 +600,7 @@ impl Importer<'_> {
                 ex.material
             }
             _ => {
+                let normal = pbr.normal_texture.as_ref().map(|(t, _)| t.clone());
                 let names: Vec<(usize, bool, String)> = {
                     let uses = [
                         (&pbr.base_color_texture, true),
@@ -590,6 +609,7 @@ impl Importer<'_> {
                         (&pbr.metallic_roughness_texture, false),
                         (&pbr.specular_texture, false),
                         (&pbr.transmission_texture, false),
+                        (&normal, false),
                     ]
                     .into_iter()
                     .filter_map(|(t, srgb)| t.as_ref().map(|t| (t.index, srgb)));
@@ -655,19 +675,35 @@ impl Importer<'_> {
         let p = m.pbr_metallic_roughness();
         let specular = m.specular();
         let transmission = m.transmission();
-        if m.normal_texture().is_some() {
-            self.ignored.insert("normal textures".into());
-        }
         if m.occlusion_texture().is_some() {
             self.ignored.insert("occlusion textures".into());
-        }
-        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.ignored
-                .insert(format!("alphaMode {:?} ({el})", m.alpha_mode()));
         }
         let pbr = Pbr {
             base_color: p.base_color_factor(),
             base_color_texture: info(p.base_color_texture()),
+            alpha_mode: match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            },
+            alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
+            normal_texture: m.normal_texture().map(|n| {
+                let tt = n
+                    .extension_value("KHR_texture_transform")
+                    .and_then(|v| serde_json::from_value::<RawTransform>(v.clone()).ok());
+                let transform = tt
+                    .as_ref()
+                    .map(|t| (t.offset, t.rotation, t.scale))
+                    .filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0]));
+                (
+                    TexInfo {
+                        index: n.texture().index(),
+                        tex_coord: tt.and_then(|t| t.tex_coord).unwrap_or(n.tex_coord()),
+                        transform,
+                    },
+                    n.scale(),
+                )
+            }),
             metallic: p.metallic_factor(),
             roughness: p.roughness_factor(),
             metallic_roughness_texture: info(p.metallic_roughness_texture()),
@@ -705,13 +741,14 @@ impl Importer<'_> {
             &pbr.specular_texture,
             &pbr.specular_color_texture,
             &pbr.transmission_texture,
+            &pbr.normal_texture.as_ref().map(|(t, _)| t.clone()),
         ]
         .into_iter()
         .flatten()
         {
-            if t.tex_coord != 0 {
+            if t.tex_coord > 1 {
                 self.ignored.insert(format!(
-                    "TEXCOORD_{} on some textures ({el}; meshes use one set)",
+                    "TEXCOORD_{} on some textures ({el}; lumo reads sets 0 and 1, set 0 used)",
                     t.tex_coord
                 ));
             }
@@ -745,15 +782,12 @@ impl Importer<'_> {
         } else {
             ColorSpace::Linear
         };
-        let wrap = match t.sampler().wrap_s() {
+        let wrap = |m| match m {
             gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
             gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
             gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
         };
-        if t.sampler().wrap_s() != t.sampler().wrap_t() {
-            self.ignored
-                .insert(format!("different wrapS and wrapT ({el}; wrapS used)"));
-        }
+        let (wrap_s, wrap_t) = (wrap(t.sampler().wrap_s()), wrap(t.sampler().wrap_t()));
         let exact = ex.and_then(|ex| {
             let full = self.l.dir().join(&ex.texture.file);
             full.is_file().then(|| Texture {
@@ -793,13 +827,15 @@ impl Importer<'_> {
                         file,
                         gltf_image: None,
                         color_space,
-                        wrap,
+                        wrap_s,
+                        wrap_t,
                     },
                     None => Texture {
                         file: self.file_ref.clone(),
                         gltf_image: Some(img.index() as u32),
                         color_space,
-                        wrap,
+                        wrap_s,
+                        wrap_t,
                     },
                 }
             }

@@ -17,9 +17,8 @@ pub struct MeshData {
     /// Vertex normals (unit length) when the primitive has a NORMAL attribute. When absent,
     /// glTF asks for flat shading: the importer sets the object's `smooth` to false.
     pub normals: Option<Vec<[f32; 3]>>,
-    /// Texture coordinates in lumo's convention: (0, 0) is the bottom-left of the image, so
-    /// v = 1 − v_glTF. From the set `TEXCOORD_n` that the material's base-colour texture names
-    /// (else its emissive, else its metallic-roughness texture; else set 0).
+    /// Texture coordinates `TEXCOORD_0` in lumo's convention: (0, 0) is the bottom-left of the
+    /// image, so v = 1 − v_glTF (a texture use picks set 0 or 1 by its `tex_coord`).
     pub uvs: Option<Vec<[f32; 2]>>,
     /// The second texture-coordinate set, `TEXCOORD_1`, whatever set [`MeshData::uvs`] holds,
     /// in the same convention (v = 1 − v_glTF), for textures whose `texCoord` (or
@@ -151,22 +150,6 @@ impl GltfFile {
     }
 }
 
-/// The TEXCOORD set a primitive's material samples (see [`MeshData::uvs`]).
-pub fn texcoord_set(material: &gltf::Material) -> u32 {
-    let pbr = material.pbr_metallic_roughness();
-    let set = |info: Option<gltf::texture::Info>| {
-        info.map(|i| {
-            i.texture_transform()
-                .and_then(|t| t.tex_coord())
-                .unwrap_or(i.tex_coord())
-        })
-    };
-    set(pbr.base_color_texture())
-        .or_else(|| set(material.emissive_texture()))
-        .or_else(|| set(pbr.metallic_roughness_texture()))
-        .unwrap_or(0)
-}
-
 /// Reads a primitive of a loaded document.
 pub fn read_primitive(
     loaded: &Loaded,
@@ -244,9 +227,8 @@ pub fn read_primitive(
         }
         None => None,
     };
-    let set = texcoord_set(&p.material());
     // glTF's (0, 0) is the image's top-left corner, lumo's the bottom-left: v' = 1 − v.
-    let uvs = texcoords(loaded, &p, &el, set, n)?
+    let uvs = texcoords(loaded, &p, &el, 0, n)?
         .map(|t| t.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
     let texcoords_1 = match p.get(&Semantic::TexCoords(1)) {
         Some(acc) => {

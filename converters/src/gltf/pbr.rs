@@ -3,7 +3,7 @@
 //! output, read back, gives exactly the values the exporter computed: that equality is how the
 //! importer decides whether lumo's exact description in `extras` is still current.
 
-use lumo_schema::{Light, Material, TextureRef, Volume};
+use lumo_schema::{AlphaMode, Light, Material, TextureRef, Volume};
 
 /// Luminous efficacy used to convert glTF's photometric light units to lumo's radiometric
 /// ones: 683 lm/W, the peak of the photopic curve (555 nm) that defines the candela. So
@@ -29,6 +29,12 @@ pub struct Pbr {
     pub base_color: [f32; 4],
     /// baseColorTexture.
     pub base_color_texture: Option<TexInfo>,
+    /// alphaMode.
+    pub alpha_mode: AlphaMode,
+    /// alphaCutoff (0.5 when absent).
+    pub alpha_cutoff: f32,
+    /// normalTexture and its scale.
+    pub normal_texture: Option<(TexInfo, f32)>,
     /// metallicFactor.
     pub metallic: f32,
     /// roughnessFactor.
@@ -110,7 +116,7 @@ pub fn pbr_of_material(m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -
         r.as_ref().and_then(|r| {
             index_of(&r.texture).map(|index| TexInfo {
                 index,
-                tex_coord: 0,
+                tex_coord: r.tex_coord,
                 transform: transform_to_gltf(r),
             })
         })
@@ -123,8 +129,11 @@ pub fn pbr_of_material(m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -
     };
     let emitter = m.emission != [0.0; 3];
     Pbr {
-        base_color: [m.base_color[0], m.base_color[1], m.base_color[2], 1.0],
+        base_color: [m.base_color[0], m.base_color[1], m.base_color[2], m.alpha],
         base_color_texture: info(&m.base_color_texture),
+        alpha_mode: m.alpha_mode,
+        alpha_cutoff: m.alpha_cutoff,
+        normal_texture: info(&m.normal_texture).map(|t| (t, m.normal_scale)),
         metallic: m.metallic,
         roughness: m.roughness,
         metallic_roughness_texture: info(&m.metallic_roughness_texture),
@@ -166,14 +175,28 @@ pub fn material_from_pbr(
                 offset,
                 rotation_deg,
                 scale,
+                tex_coord: t.tex_coord.min(1),
             })
         })
     };
     let unit = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+    let normal = p.normal_texture.as_ref().and_then(|(t, scale)| {
+        let scale = if scale.is_finite() { *scale } else { 1.0 };
+        r(&Some(t.clone()), false).map(|t| (t, scale))
+    });
     let emission = p.emissive.map(|c| (c * p.emissive_strength).max(0.0));
     Material {
         base_color: [0, 1, 2].map(|k| unit(p.base_color[k])),
         base_color_texture: r(&p.base_color_texture, true),
+        alpha: unit(p.base_color[3]),
+        alpha_mode: p.alpha_mode,
+        alpha_cutoff: if p.alpha_mode == AlphaMode::Mask {
+            unit(p.alpha_cutoff)
+        } else {
+            0.5
+        },
+        normal_texture: normal.as_ref().map(|(t, _)| t.clone()),
+        normal_scale: normal.map_or(1.0, |(_, s)| s),
         metallic: unit(p.metallic),
         roughness: unit(p.roughness),
         metallic_roughness_texture: r(&p.metallic_roughness_texture, false),

@@ -235,8 +235,10 @@ impl Writer {
                     if tex.color_space != lumo_schema::ColorSpace::Srgb {
                         self.problem(format!("textures.{}: linear colour space cannot be written (legacy textures are colour images)", r.texture));
                     }
-                    if tex.wrap != lumo_schema::Wrap::Repeat {
-                        self.problem(format!("textures.{}: wrap mode {:?} cannot be written (legacy textures repeat)", r.texture, tex.wrap));
+                    if (tex.wrap_s, tex.wrap_t)
+                        != (lumo_schema::Wrap::Repeat, lumo_schema::Wrap::Repeat)
+                    {
+                        self.problem(format!("textures.{}: wrap modes {:?}/{:?} cannot be written (legacy textures repeat)", r.texture, tex.wrap_s, tex.wrap_t));
                     }
                     if !is_token(&tex.file) {
                         self.problem(format!("textures.{}: the file name `{}` contains spaces or brackets, which the format cannot hold", r.texture, tex.file));

@@ -274,7 +274,8 @@ fn texture(
                     file,
                     gltf_image: None,
                     color_space: schema::ColorSpace::Srgb,
-                    wrap: schema::Wrap::Repeat,
+                    wrap_s: schema::Wrap::Repeat,
+                    wrap_t: schema::Wrap::Repeat,
                 },
             );
             name
@@ -285,5 +286,6 @@ fn texture(
         offset: [0.0; 2],
         rotation_deg: 0.0,
         scale: [1.0; 2],
+        tex_coord: 0,
     })
 }
