@@ -1,6 +1,7 @@
 //! Materials of the scene graph: glTF's metallic-roughness parameters, optionally textured,
 //! turned into a [`Bsdf`] at each hit.
 
+use crate::bsdf::layered::{Clearcoat, Layered, Sheen};
 use crate::bsdf::{Bsdf, Lobes, MetallicRoughness};
 use crate::geometry::SurfaceHit;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
@@ -55,6 +56,28 @@ pub struct Material {
     /// The absorption coefficient σa (per scene unit) of the medium the surface bounds, when
     /// it bounds one (`None`: thin-walled).
     pub absorption: Option<Rgb>,
+    /// Clear-coat strength.
+    pub clearcoat: f32,
+    /// Red scales `clearcoat`.
+    pub clearcoat_texture: Option<TextureRef>,
+    /// Clear-coat roughness.
+    pub clearcoat_roughness: f32,
+    /// Green scales `clearcoat_roughness`.
+    pub clearcoat_roughness_texture: Option<TextureRef>,
+    /// The clear coat's normal map.
+    pub clearcoat_normal_texture: Option<TextureRef>,
+    /// Scales the clear-coat normal map's x and y.
+    pub clearcoat_normal_scale: f32,
+    /// Sheen colour (black: no sheen).
+    pub sheen_color: Rgb,
+    /// Multiplies `sheen_color`.
+    pub sheen_color_texture: Option<TextureRef>,
+    /// Sheen roughness.
+    pub sheen_roughness: f32,
+    /// Alpha scales `sheen_roughness`.
+    pub sheen_roughness_texture: Option<TextureRef>,
+    /// Shows the base colour without shading.
+    pub unlit: bool,
     /// Emitted radiance.
     pub emission: Rgb,
     /// Multiplies `emission`.
@@ -92,6 +115,106 @@ impl Material {
         self.metallic == 0.0
             && self.transmission == 0.0
             && (self.specular == 0.0 || self.specular_color == Vec3::ZERO)
+            && self.clearcoat == 0.0
+            && self.sheen_color == Vec3::ZERO
+    }
+
+    /// For an unlit material, the colour a ray that reaches `hit` sees: base colour × texture
+    /// × vertex colour. `None` for lit materials.
+    pub fn unlit_radiance(&self, textures: &[Texture], hit: &SurfaceHit) -> Option<Rgb> {
+        if !self.unlit {
+            return None;
+        }
+        let mut c = self.base_color * hit.color.truncate();
+        if let Some(t) = lookup(textures, &self.base_color_texture, hit.uv, hit.uv1) {
+            c *= t;
+        }
+        Some(c)
+    }
+
+    /// A tangent-space normal map applied to the unit normal `n` (on the front side), or `n`
+    /// where the hit has no tangent frame.
+    fn mapped_normal(
+        textures: &[Texture],
+        map: &TextureRef,
+        scale: f32,
+        hit: &SurfaceHit,
+        n: Vec3,
+    ) -> Vec3 {
+        if hit.tangent.w == 0.0 {
+            return n;
+        }
+        let c = textures[map.texture as usize].lookup(map.coords(hit.uv, hit.uv1));
+        let m = Vec3::new(
+            (2.0 * c.x - 1.0) * scale,
+            (2.0 * c.y - 1.0) * scale,
+            2.0 * c.z - 1.0,
+        );
+        // Gram–Schmidt: the tangent perpendicular to the interpolated normal.
+        let t = (hit.tangent.truncate() - n * n.dot(hit.tangent.truncate())).normalize_or_zero();
+        if t == Vec3::ZERO {
+            return n;
+        }
+        let b = n.cross(t) * hit.tangent.w;
+        let mapped = (t * m.x + b * m.y + n * m.z).normalize_or_zero();
+        if mapped == Vec3::ZERO {
+            n
+        } else {
+            mapped
+        }
+    }
+
+    /// The clear coat and sheen at a hit, if the material has them.
+    fn layers(
+        &self,
+        textures: &[Texture],
+        hit: &SurfaceHit,
+        wo: Vec3,
+        front_normal: Vec3,
+    ) -> (Option<Clearcoat>, Option<Sheen>) {
+        let (uv, uv1) = (hit.uv, hit.uv1);
+        let clearcoat = (self.clearcoat > 0.0).then(|| {
+            let mut weight = self.clearcoat;
+            if let Some(t) = lookup(textures, &self.clearcoat_texture, uv, uv1) {
+                weight *= t.x.clamp(0.0, 1.0);
+            }
+            let mut roughness = self.clearcoat_roughness;
+            if let Some(t) = lookup(textures, &self.clearcoat_roughness_texture, uv, uv1) {
+                roughness *= t.y.clamp(0.0, 1.0);
+            }
+            let n = match &self.clearcoat_normal_texture {
+                Some(map) => Self::mapped_normal(
+                    textures,
+                    map,
+                    self.clearcoat_normal_scale,
+                    hit,
+                    front_normal,
+                ),
+                None => front_normal,
+            };
+            Clearcoat {
+                weight,
+                alpha: roughness * roughness,
+                frame: Frame::from_normal(valid_reflection_normal(n, hit.ng, wo)),
+            }
+        });
+        let sheen = (self.sheen_color != Vec3::ZERO).then(|| {
+            let mut color = self.sheen_color;
+            if let Some(t) = lookup(textures, &self.sheen_color_texture, uv, uv1) {
+                color *= t;
+            }
+            let mut roughness = self.sheen_roughness;
+            if let Some(t) = &self.sheen_roughness_texture {
+                roughness *= textures[t.texture as usize]
+                    .lookup_alpha(t.coords(uv, uv1))
+                    .clamp(0.0, 1.0);
+            }
+            Sheen {
+                color,
+                alpha: roughness * roughness,
+            }
+        });
+        (clearcoat, sheen)
     }
 
     /// Whether the material is ever transparent.
@@ -132,23 +255,8 @@ impl Material {
         } else {
             hit.ns
         };
-        if let (Some(r), true) = (&self.normal_texture, hit.tangent.w != 0.0) {
-            let c = textures[r.texture as usize].lookup(r.coords(hit.uv, hit.uv1));
-            let m = Vec3::new(
-                (2.0 * c.x - 1.0) * self.normal_scale,
-                (2.0 * c.y - 1.0) * self.normal_scale,
-                2.0 * c.z - 1.0,
-            );
-            // Gram–Schmidt: the tangent perpendicular to the interpolated normal.
-            let t =
-                (hit.tangent.truncate() - n * n.dot(hit.tangent.truncate())).normalize_or_zero();
-            if t != Vec3::ZERO {
-                let b = n.cross(t) * hit.tangent.w;
-                let mapped = (t * m.x + b * m.y + n * m.z).normalize_or_zero();
-                if mapped != Vec3::ZERO {
-                    n = mapped;
-                }
-            }
+        if let Some(map) = &self.normal_texture {
+            n = Self::mapped_normal(textures, map, self.normal_scale, hit, n);
         }
         valid_reflection_normal(n, hit.ng, wo)
     }
@@ -187,20 +295,34 @@ impl Material {
         if let Some(t) = lookup(textures, &self.transmission_texture, uv, uv1) {
             transmission *= t.x.clamp(0.0, 1.0);
         }
+        let base = MetallicRoughness {
+            base_color: base,
+            metallic,
+            roughness,
+            ior: self.ior,
+            specular_factor: specular,
+            specular_color,
+            transmission,
+            thin_walled: self.absorption.is_none(),
+            energy_compensation: true,
+        };
+        let front = if hit.ns.dot(hit.ng) < 0.0 {
+            -hit.ns
+        } else {
+            hit.ns
+        };
+        let lobes = match self.layers(textures, hit, wo, front) {
+            (None, None) => Lobes::MetallicRoughness(base),
+            (clearcoat, sheen) => Lobes::Layered(Layered {
+                base,
+                clearcoat,
+                sheen,
+            }),
+        };
         Bsdf {
             frame,
             ng: hit.ng,
-            lobes: Lobes::MetallicRoughness(MetallicRoughness {
-                base_color: base,
-                metallic,
-                roughness,
-                ior: self.ior,
-                specular_factor: specular,
-                specular_color,
-                transmission,
-                thin_walled: self.absorption.is_none(),
-                energy_compensation: true,
-            }),
+            lobes,
         }
     }
 }

@@ -398,6 +398,49 @@ pub struct Material {
     /// thin-walled (a soap bubble, a window pane), and light passes through without bending.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub volume: Option<Volume>,
+    /// Strength in [0, 1] of a clear coat over everything else: a GGX layer of ior 1.5 with its
+    /// own roughness and normal. Default 0 (none). `KHR_materials_clearcoat` `clearcoatFactor`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0, max = 1))]
+    pub clearcoat: f32,
+    /// Multiplies `clearcoat` by this texture's red channel. Linear data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clearcoat_texture: Option<TextureRef>,
+    /// Perceptual roughness in [0, 1] of the clear coat (α = roughness²). Default 0.
+    /// `clearcoatRoughnessFactor`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0, max = 1))]
+    pub clearcoat_roughness: f32,
+    /// Multiplies `clearcoat_roughness` by this texture's green channel. Linear data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clearcoat_roughness_texture: Option<TextureRef>,
+    /// The clear coat's own tangent-space normal map (as `normal_texture`); without it the coat
+    /// follows the unperturbed surface normal. `clearcoatNormalTexture`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clearcoat_normal_texture: Option<TextureRef>,
+    /// Scales the clear-coat normal map's x and y. Default 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub clearcoat_normal_scale: f32,
+    /// Colour of a sheen layer (cloth, velvet, dust: retro-reflection at grazing angles), linear
+    /// RGB in [0, 1]. Default black (none). `KHR_materials_sheen` `sheenColorFactor`.
+    #[serde(default, skip_serializing_if = "is_black")]
+    pub sheen_color: Rgb,
+    /// Multiplies `sheen_color` by this texture (its RGB channels). `sheenColorTexture`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sheen_color_texture: Option<TextureRef>,
+    /// Perceptual roughness in [0, 1] of the sheen ("Charlie" distribution, α = roughness²).
+    /// Default 0. `sheenRoughnessFactor`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(min = 0, max = 1))]
+    pub sheen_roughness: f32,
+    /// Multiplies `sheen_roughness` by this texture's alpha channel. Linear data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sheen_roughness_texture: Option<TextureRef>,
+    /// Unlit: the surface shows its base colour (× texture × vertex colour) as is, unaffected
+    /// by light, and reflects nothing (`KHR_materials_unlit`). Rays that reach it see that
+    /// colour as emitted radiance; it is not sampled as a light.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub unlit: bool,
     /// Emitted radiance (linear RGB, W·sr⁻¹·m⁻², each ≥ 0): a surface with emission is an area
     /// light. Default black. glTF `emissiveFactor` × `KHR_materials_emissive_strength`.
     #[serde(default, skip_serializing_if = "is_black")]
@@ -527,6 +570,17 @@ impl Default for Material {
             transmission: 0.0,
             transmission_texture: None,
             volume: None,
+            clearcoat: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness: 0.0,
+            clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
+            clearcoat_normal_scale: 1.0,
+            sheen_color: [0.0; 3],
+            sheen_color_texture: None,
+            sheen_roughness: 0.0,
+            sheen_roughness_texture: None,
+            unlit: false,
             emission: [0.0; 3],
             emission_texture: None,
             two_sided_emission: false,
@@ -545,7 +599,7 @@ impl Material {
     }
 
     /// The texture uses of this material with their JSON keys, in declaration order.
-    pub fn texture_refs(&self) -> [(&'static str, Option<&TextureRef>); 7] {
+    pub fn texture_refs(&self) -> [(&'static str, Option<&TextureRef>); 12] {
         [
             ("base_color_texture", self.base_color_texture.as_ref()),
             ("normal_texture", self.normal_texture.as_ref()),
@@ -559,6 +613,20 @@ impl Material {
                 self.specular_color_texture.as_ref(),
             ),
             ("transmission_texture", self.transmission_texture.as_ref()),
+            ("clearcoat_texture", self.clearcoat_texture.as_ref()),
+            (
+                "clearcoat_roughness_texture",
+                self.clearcoat_roughness_texture.as_ref(),
+            ),
+            (
+                "clearcoat_normal_texture",
+                self.clearcoat_normal_texture.as_ref(),
+            ),
+            ("sheen_color_texture", self.sheen_color_texture.as_ref()),
+            (
+                "sheen_roughness_texture",
+                self.sheen_roughness_texture.as_ref(),
+            ),
             ("emission_texture", self.emission_texture.as_ref()),
         ]
     }

@@ -295,11 +295,15 @@ impl Validator<'_> {
         self.color(&p.key("base_color"), m.base_color, Some(1.0));
         self.color(&p.key("emission"), m.emission, None);
         self.color(&p.key("specular_color"), m.specular_color, None);
+        self.color(&p.key("sheen_color"), m.sheen_color, Some(1.0));
         for (key, w) in [
             ("alpha", m.alpha),
             ("alpha_cutoff", m.alpha_cutoff),
             ("metallic", m.metallic),
             ("roughness", m.roughness),
+            ("clearcoat", m.clearcoat),
+            ("clearcoat_roughness", m.clearcoat_roughness),
+            ("sheen_roughness", m.sheen_roughness),
             ("specular", m.specular),
             ("transmission", m.transmission),
         ] {
@@ -319,6 +323,15 @@ impl Validator<'_> {
                 p.key("normal_scale"),
                 "normal_scale without a normal_texture has no effect",
                 "add a normal_texture or remove normal_scale",
+            );
+        }
+        if !m.clearcoat_normal_scale.is_finite()
+            || (m.clearcoat_normal_texture.is_none() && m.clearcoat_normal_scale != 1.0)
+        {
+            self.err_help(
+                p.key("clearcoat_normal_scale"),
+                "clearcoat_normal_scale must be finite and needs a clearcoat_normal_texture",
+                "add a clearcoat_normal_texture or remove clearcoat_normal_scale",
             );
         }
         if m.alpha_mode != AlphaMode::Mask && m.alpha_cutoff != 0.5 {

@@ -56,6 +56,15 @@ use super::{BsdfSample, LocalSample, DELTA_ALPHA};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::cosine_hemisphere;
 
+/// A direction drawn by [`MetallicRoughness::sample_direction`].
+#[derive(Debug, Clone, Copy)]
+pub enum Sampled {
+    /// From a delta lobe: the complete sample.
+    Delta(LocalSample),
+    /// From a smooth lobe: the local direction, to be evaluated.
+    Smooth(Vec3),
+}
+
 /// The glTF metallic-roughness parameters of one shading point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MetallicRoughness {
@@ -316,6 +325,37 @@ impl MetallicRoughness {
     /// Samples an incident direction: `u_lobe` chooses the strategy (and, rescaled, reflection
     /// or transmission inside the dielectric), `u` the direction.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<LocalSample> {
+        let wi = match self.sample_direction(wo, u_lobe, u)? {
+            Sampled::Delta(s) => return Some(s),
+            Sampled::Smooth(wi) => wi,
+        };
+        let (f, pdf) = self.eval(wo, wi);
+        if pdf <= 0.0 || f == Vec3::ZERO {
+            return None;
+        }
+        let transmitted = wo.z * wi.z < 0.0;
+        let etap = if !transmitted || self.thin_walled {
+            1.0
+        } else if wo.z > 0.0 {
+            self.eta()
+        } else {
+            1.0 / self.eta()
+        };
+        Some(LocalSample {
+            wi,
+            weight: f / pdf,
+            pdf,
+            delta: false,
+            transmitted,
+            etap,
+        })
+    }
+
+    /// The direction [`sample`](Self::sample) draws, before it is evaluated: a complete
+    /// sample for delta lobes, the direction alone for smooth ones (with the density
+    /// [`pdf`](Self::pdf), whatever the BSDF's value there: a layered BSDF evaluates its own
+    /// sum there).
+    pub fn sample_direction(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Sampled> {
         if wo.z == 0.0 {
             return None;
         }
@@ -328,14 +368,14 @@ impl MetallicRoughness {
                 let fr = conductor_fresnel(self.base_color, o.z) * m
                     + schlick_f0_f90(self.f0(), Vec3::ONE, o.z) * (d * self.spec_weight());
                 let p = probs[SPECULAR];
-                return Some(LocalSample {
+                return Some(Sampled::Delta(LocalSample {
                     wi: Vec3::new(-wo.x, -wo.y, wo.z),
                     weight: fr / p,
                     pdf: p,
                     delta: true,
                     transmitted: false,
                     etap: 1.0,
-                });
+                }));
             }
             let wm = ggx_sample_visible(o, self.alpha(), u);
             let i = 2.0 * o.dot(wm) * wm - o;
@@ -367,34 +407,15 @@ impl MetallicRoughness {
                     Vec3::ONE
                 };
                 let p = probs[TRANSMISSION];
-                return Some(LocalSample {
+                return Some(Sampled::Delta(LocalSample {
                     weight: s.weight * tint * (t / p),
                     pdf: s.pdf * p,
                     ..s
-                });
+                }));
             }
             s.wi
         };
-        let (f, pdf) = self.eval(wo, wi);
-        if pdf <= 0.0 || f == Vec3::ZERO {
-            return None;
-        }
-        let transmitted = wo.z * wi.z < 0.0;
-        let etap = if !transmitted || self.thin_walled {
-            1.0
-        } else if wo.z > 0.0 {
-            self.eta()
-        } else {
-            1.0 / self.eta()
-        };
-        Some(LocalSample {
-            wi,
-            weight: f / pdf,
-            pdf,
-            delta: false,
-            transmitted,
-            etap,
-        })
+        Some(Sampled::Smooth(wi))
     }
 }
 

@@ -18,6 +18,7 @@ use crate::sampling::cosine_hemisphere;
 mod chi2;
 pub mod dielectric;
 pub mod fresnel;
+pub mod layered;
 pub mod metallic_roughness;
 pub mod microfacet;
 pub mod multiple_scattering;
@@ -46,6 +47,8 @@ pub enum Lobes {
     Lambert(Rgb),
     /// The full glTF metallic-roughness BSDF.
     MetallicRoughness(MetallicRoughness),
+    /// The metallic-roughness base under sheen and/or clearcoat layers.
+    Layered(layered::Layered),
 }
 
 /// Roughness α below which a GGX lobe is treated as a perfect mirror (or smooth interface).
@@ -106,6 +109,7 @@ impl Bsdf {
         match &self.lobes {
             Lobes::Lambert(_) => true,
             Lobes::MetallicRoughness(m) => m.has_smooth_lobe(),
+            Lobes::Layered(l) => l.has_smooth_lobe(),
         }
     }
 
@@ -123,6 +127,7 @@ impl Bsdf {
                 (*albedo * pdf, pdf)
             }
             Lobes::MetallicRoughness(m) => m.eval_world(&self.frame, self.ng, wo, wi),
+            Lobes::Layered(l) => l.eval(&self.frame, self.ng, wo, wi),
         }
     }
 
@@ -154,6 +159,7 @@ impl Bsdf {
                 })
             }
             Lobes::MetallicRoughness(m) => m.sample_world(&self.frame, self.ng, wo, u_lobe, u),
+            Lobes::Layered(l) => l.sample(&self.frame, self.ng, wo, u_lobe, u),
         }
     }
 }

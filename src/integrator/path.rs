@@ -37,6 +37,11 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
         let wo = -ray.d.normalize();
         let material = scene.material(&hit);
+        if let Some(c) = material.unlit_radiance(&scene.textures, &hit) {
+            // Unlit: the colour as seen, nothing scattered.
+            l += beta * c;
+            break;
+        }
         let le = material.emitted(&scene.textures, hit.ng, hit.uv, hit.uv1, wo);
         if le != Vec3::ZERO {
             let weight = match scene.light_of(&hit) {

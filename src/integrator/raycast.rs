@@ -21,6 +21,10 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         };
         let wo = -ray.d.normalize();
         let material = scene.material(&hit);
+        if let Some(c) = material.unlit_radiance(&scene.textures, &hit) {
+            l += beta * c;
+            break;
+        }
         l += beta * material.emitted(&scene.textures, hit.ng, hit.uv, hit.uv1, wo);
         let bsdf = material.bsdf(&scene.textures, &hit, wo);
         if bsdf.has_smooth_lobe() {

@@ -118,6 +118,44 @@ pub fn decode_data_uri(
     )
 }
 
+/// Extensions lumo implements: a file may require (`extensionsRequired`) only these.
+pub const HANDLED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_materials_unlit",
+    "KHR_texture_transform",
+];
+
+/// Whether every validation error is an `extensionsRequired` entry the gltf crate does not
+/// support but lumo does.
+fn only_handled_required(
+    errors: &[(gltf::json::Path, gltf::json::validation::Error)],
+    bytes: &[u8],
+) -> bool {
+    let Ok(raw) = gltf::Gltf::from_slice_without_validation(bytes) else {
+        return false;
+    };
+    let required: Vec<&str> = raw.document.extensions_required().collect();
+    !errors.is_empty()
+        && errors.iter().all(|(path, err)| {
+            let p = path.to_string();
+            let index = p
+                .strip_prefix("extensionsRequired[")
+                .and_then(|r| r.split(']').next())
+                .and_then(|i| i.parse::<usize>().ok());
+            matches!(err, gltf::json::validation::Error::Unsupported)
+                && index
+                    .and_then(|i| required.get(i))
+                    .is_some_and(|name| HANDLED_EXTENSIONS.contains(name))
+        })
+}
+
 /// Maps the gltf crate's parse error to ours.
 fn parse_error(file: &Path, e: gltf::Error) -> GltfError {
     match e {
@@ -181,7 +219,16 @@ impl Loaded {
     /// With `external` false, external buffer files are not read (an error names them).
     pub fn from_bytes(file: &Path, bytes: &[u8], external: bool) -> Result<Loaded, GltfError> {
         precheck(file, bytes)?;
-        let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| {
+        let parsed = match gltf::Gltf::from_slice(bytes) {
+            // The gltf crate refuses required extensions it does not parse itself (clearcoat,
+            // sheen); when those are the only complaints and lumo implements them, take the
+            // document as parsed (the importer reads those extensions from the raw JSON).
+            Err(gltf::Error::Validation(errors)) if only_handled_required(&errors, bytes) => {
+                gltf::Gltf::from_slice_without_validation(bytes)
+            }
+            other => other,
+        };
+        let gltf = parsed.map_err(|e| {
             let mut err = parse_error(file, e);
             if let GltfError::UnsupportedExtension {
                 index, extension, ..

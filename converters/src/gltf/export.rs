@@ -481,6 +481,20 @@ impl Builder {
                         .map(|x| x as f32);
                 }
             }
+            // Tangents are directions on the surface; a mirroring transform flips handedness.
+            let flip = math::determinant3(w) < 0.0;
+            if let Some(ts) = &mut data.tangents {
+                for t in ts.iter_mut() {
+                    let v = math::normalize(math::vector(w, [t[0], t[1], t[2]].map(f64::from)))
+                        .unwrap_or([1.0, 0.0, 0.0]);
+                    *t = [
+                        v[0] as f32,
+                        v[1] as f32,
+                        v[2] as f32,
+                        if flip { -t[3] } else { t[3] },
+                    ];
+                }
+            }
             ex.baked = true;
             ex.transform = Some(ops);
         }
@@ -509,6 +523,18 @@ impl Builder {
             // lumo's (0, 0) is the image's bottom-left, glTF's the top-left: v_glTF = 1 − v.
             let flat: Vec<f32> = uvs.iter().flat_map(|t| [t[0], 1.0 - t[1]]).collect();
             attributes["TEXCOORD_0"] = json!(self.accessor_f32(&flat, 2, "VEC2", false));
+        }
+        if let (Some(ts), Some(_)) = (&data.tangents, &data.normals) {
+            let flat: Vec<f32> = ts.iter().flatten().copied().collect();
+            attributes["TANGENT"] = json!(self.accessor_f32(&flat, 4, "VEC4", false));
+        }
+        if let Some(uvs) = &data.texcoords_1 {
+            let flat: Vec<f32> = uvs.iter().flat_map(|t| [t[0], 1.0 - t[1]]).collect();
+            attributes["TEXCOORD_1"] = json!(self.accessor_f32(&flat, 2, "VEC2", false));
+        }
+        if let Some(cs) = &data.colors {
+            let flat: Vec<f32> = cs.iter().flatten().copied().collect();
+            attributes["COLOR_0"] = json!(self.accessor_f32(&flat, 4, "VEC4", false));
         }
         let indices = self.accessor_indices(&data.indices);
         let mut mesh = json!({"primitives": [{"attributes": attributes, "indices": indices, "material": material, "mode": 4}]});
@@ -646,6 +672,39 @@ fn material_json(p: &Pbr, used: &mut BTreeSet<&'static str>) -> Value {
         }
         exts.insert("KHR_materials_specular".into(), sp);
         used.insert("KHR_materials_specular");
+    }
+    if p.clearcoat != 0.0 || p.clearcoat_texture.is_some() || p.clearcoat_normal_texture.is_some() {
+        let mut c = json!({"clearcoatFactor": p.clearcoat, "clearcoatRoughnessFactor": p.clearcoat_roughness});
+        if let Some(x) = &p.clearcoat_texture {
+            c["clearcoatTexture"] = tex(x);
+        }
+        if let Some(x) = &p.clearcoat_roughness_texture {
+            c["clearcoatRoughnessTexture"] = tex(x);
+        }
+        if let Some((x, scale)) = &p.clearcoat_normal_texture {
+            c["clearcoatNormalTexture"] = tex(x);
+            if *scale != 1.0 {
+                c["clearcoatNormalTexture"]["scale"] = json!(scale);
+            }
+        }
+        exts.insert("KHR_materials_clearcoat".into(), c);
+        used.insert("KHR_materials_clearcoat");
+    }
+    if p.sheen_color != [0.0; 3] || p.sheen_color_texture.is_some() {
+        let mut sh =
+            json!({"sheenColorFactor": p.sheen_color, "sheenRoughnessFactor": p.sheen_roughness});
+        if let Some(x) = &p.sheen_color_texture {
+            sh["sheenColorTexture"] = tex(x);
+        }
+        if let Some(x) = &p.sheen_roughness_texture {
+            sh["sheenRoughnessTexture"] = tex(x);
+        }
+        exts.insert("KHR_materials_sheen".into(), sh);
+        used.insert("KHR_materials_sheen");
+    }
+    if p.unlit {
+        exts.insert("KHR_materials_unlit".into(), json!({}));
+        used.insert("KHR_materials_unlit");
     }
     if let Some((color, distance)) = p.volume {
         let mut v = json!({"thicknessFactor": EXPORTED_THICKNESS, "attenuationColor": color});

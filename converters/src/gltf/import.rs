@@ -15,6 +15,7 @@ use lumo_schema::{
 };
 use serde::de::DeserializeOwned;
 
+use super::document::HANDLED_EXTENSIONS;
 use super::document::{decode_data_uri, Loaded};
 use super::error::GltfError;
 use super::extras::{
@@ -83,17 +84,6 @@ struct RawTransform {
 fn unit_scale() -> [f32; 2] {
     [1.0, 1.0]
 }
-
-/// Extensions the importer understands.
-const HANDLED_EXTENSIONS: &[&str] = &[
-    "KHR_lights_punctual",
-    "KHR_materials_transmission",
-    "KHR_materials_ior",
-    "KHR_materials_emissive_strength",
-    "KHR_materials_specular",
-    "KHR_materials_volume",
-    "KHR_texture_transform",
-];
 
 /// Imports a .gltf or .glb file as a lumo scene. See `docs/gltf.md` for the mapping.
 pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, GltfError> {
@@ -601,6 +591,10 @@ impl Importer<'_> {
             }
             _ => {
                 let normal = pbr.normal_texture.as_ref().map(|(t, _)| t.clone());
+                let coat_normal = pbr
+                    .clearcoat_normal_texture
+                    .as_ref()
+                    .map(|(t, _)| t.clone());
                 let names: Vec<(usize, bool, String)> = {
                     let uses = [
                         (&pbr.base_color_texture, true),
@@ -610,6 +604,11 @@ impl Importer<'_> {
                         (&pbr.specular_texture, false),
                         (&pbr.transmission_texture, false),
                         (&normal, false),
+                        (&pbr.clearcoat_texture, false),
+                        (&pbr.clearcoat_roughness_texture, false),
+                        (&coat_normal, false),
+                        (&pbr.sheen_color_texture, true),
+                        (&pbr.sheen_roughness_texture, false),
                     ]
                     .into_iter()
                     .filter_map(|(t, srgb)| t.as_ref().map(|t| (t.index, srgb)));
@@ -644,7 +643,10 @@ impl Importer<'_> {
             let Some(r) = r else { continue };
             let srgb = matches!(
                 key,
-                "base_color_texture" | "emission_texture" | "specular_color_texture"
+                "base_color_texture"
+                    | "emission_texture"
+                    | "specular_color_texture"
+                    | "sheen_color_texture"
             );
             let Some(i) = index_of(&r.texture) else {
                 return Ok(false);
@@ -673,6 +675,33 @@ impl Importer<'_> {
             })
         };
         let p = m.pbr_metallic_roughness();
+        // KHR_materials_clearcoat and KHR_materials_sheen, which the gltf crate does not parse.
+        let coat = m.extension_value("KHR_materials_clearcoat");
+        let sheen = m.extension_value("KHR_materials_sheen");
+        let number = |ext: Option<&serde_json::Value>, key: &str, default: f32| {
+            ext.and_then(|e| e.get(key))
+                .and_then(serde_json::Value::as_f64)
+                .map_or(default, |x| x as f32)
+        };
+        let raw_info = |ext: Option<&serde_json::Value>, key: &str| {
+            let v = ext?.get(key)?;
+            let index = usize::try_from(v.get("index")?.as_u64()?).ok()?;
+            let tt = v
+                .get("extensions")
+                .and_then(|e| e.get("KHR_texture_transform"))
+                .and_then(|t| serde_json::from_value::<RawTransform>(t.clone()).ok());
+            let own = v
+                .get("texCoord")
+                .and_then(serde_json::Value::as_u64)
+                .unwrap_or(0) as u32;
+            Some(TexInfo {
+                index,
+                tex_coord: tt.as_ref().and_then(|t| t.tex_coord).unwrap_or(own),
+                transform: tt
+                    .map(|t| (t.offset, t.rotation, t.scale))
+                    .filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0])),
+            })
+        };
         let specular = m.specular();
         let transmission = m.transmission();
         if m.occlusion_texture().is_some() {
@@ -732,6 +761,26 @@ impl Importer<'_> {
                     let d = v.attenuation_distance();
                     (v.attenuation_color(), d.is_finite().then_some(d))
                 }),
+            clearcoat: number(coat, "clearcoatFactor", 0.0),
+            clearcoat_texture: raw_info(coat, "clearcoatTexture"),
+            clearcoat_roughness: number(coat, "clearcoatRoughnessFactor", 0.0),
+            clearcoat_roughness_texture: raw_info(coat, "clearcoatRoughnessTexture"),
+            clearcoat_normal_texture: raw_info(coat, "clearcoatNormalTexture").map(|t| {
+                let scale = coat
+                    .and_then(|c| c.get("clearcoatNormalTexture"))
+                    .and_then(|n| n.get("scale"))
+                    .and_then(serde_json::Value::as_f64)
+                    .unwrap_or(1.0) as f32;
+                (t, scale)
+            }),
+            sheen_color: sheen
+                .and_then(|s| s.get("sheenColorFactor"))
+                .and_then(|c| serde_json::from_value::<[f32; 3]>(c.clone()).ok())
+                .unwrap_or([0.0; 3]),
+            sheen_color_texture: raw_info(sheen, "sheenColorTexture"),
+            sheen_roughness: number(sheen, "sheenRoughnessFactor", 0.0),
+            sheen_roughness_texture: raw_info(sheen, "sheenRoughnessTexture"),
+            unlit: m.unlit(),
             double_sided: m.double_sided(),
         };
         for t in [
@@ -742,6 +791,13 @@ impl Importer<'_> {
             &pbr.specular_color_texture,
             &pbr.transmission_texture,
             &pbr.normal_texture.as_ref().map(|(t, _)| t.clone()),
+            &pbr.clearcoat_texture,
+            &pbr.clearcoat_roughness_texture,
+            &pbr.clearcoat_normal_texture
+                .as_ref()
+                .map(|(t, _)| t.clone()),
+            &pbr.sheen_color_texture,
+            &pbr.sheen_roughness_texture,
         ]
         .into_iter()
         .flatten()

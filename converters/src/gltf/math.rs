@@ -193,6 +193,13 @@ pub fn point(m: &Mat4, p: [f64; 3]) -> [f64; 3] {
     o
 }
 
+/// Determinant of the 3×3 linear block (negative for a mirroring transform).
+pub fn determinant3(m: &Mat4) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
 /// Transforms a direction (ignores the translation).
 pub fn vector(m: &Mat4, v: [f64; 3]) -> [f64; 3] {
     let mut o = [0.0; 3];

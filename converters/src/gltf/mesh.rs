@@ -108,10 +108,7 @@ impl GltfFile {
         else {
             return Ok(None);
         };
-        let set = prim
-            .material()
-            .normal_texture()
-            .map_or(0, |t| t.tex_coord());
+        let set = tangent_set(&prim.material()).unwrap_or(0);
         computed_tangents(
             &self.loaded,
             &prim,
@@ -148,6 +145,25 @@ impl GltfFile {
         };
         self.loaded.image_bytes(&img)
     }
+}
+
+/// The TEXCOORD set a material's tangent space follows: that of its normal texture, else of its
+/// clear-coat normal texture (`KHR_materials_clearcoat`); `None` when it has neither, so needs
+/// no tangents.
+pub fn tangent_set(material: &gltf::Material) -> Option<u32> {
+    if let Some(n) = material.normal_texture() {
+        return Some(n.tex_coord());
+    }
+    let coat = material
+        .extension_value("KHR_materials_clearcoat")?
+        .get("clearcoatNormalTexture")?;
+    let own = coat.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0);
+    let transformed = coat
+        .get("extensions")
+        .and_then(|e| e.get("KHR_texture_transform"))
+        .and_then(|t| t.get("texCoord"))
+        .and_then(|t| t.as_u64());
+    Some(transformed.unwrap_or(own) as u32)
 }
 
 /// Reads a primitive of a loaded document.
@@ -282,16 +298,8 @@ pub fn read_primitive(
         // glTF §3.7.2.1: without normals, given tangents are ignored (shading is flat).
         (None, _) => None,
         (Some(_), Some(acc)) => Some(file_tangents(loaded, &acc, &el, n)?),
-        (Some(normals), None) => match p.material().normal_texture() {
-            Some(nt) => computed_tangents(
-                loaded,
-                &p,
-                &el,
-                nt.tex_coord(),
-                &positions,
-                normals,
-                &indices,
-            )?,
+        (Some(normals), None) => match tangent_set(&p.material()) {
+            Some(set) => computed_tangents(loaded, &p, &el, set, &positions, normals, &indices)?,
             None => None,
         },
     };

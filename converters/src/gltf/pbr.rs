@@ -64,6 +64,27 @@ pub struct Pbr {
     /// KHR_materials_volume, when present with a non-zero thickness (glTF's thickness 0 means
     /// thin-walled): (attenuationColor, attenuationDistance; `None` for +∞).
     pub volume: Option<([f32; 3], Option<f32>)>,
+    /// KHR_materials_clearcoat: factor, texture (R), roughness, roughness texture (G), normal
+    /// texture and scale (zero factor when absent).
+    pub clearcoat: f32,
+    /// clearcoatTexture.
+    pub clearcoat_texture: Option<TexInfo>,
+    /// clearcoatRoughnessFactor.
+    pub clearcoat_roughness: f32,
+    /// clearcoatRoughnessTexture.
+    pub clearcoat_roughness_texture: Option<TexInfo>,
+    /// clearcoatNormalTexture and its scale.
+    pub clearcoat_normal_texture: Option<(TexInfo, f32)>,
+    /// KHR_materials_sheen sheenColorFactor (black when absent).
+    pub sheen_color: [f32; 3],
+    /// sheenColorTexture (sRGB).
+    pub sheen_color_texture: Option<TexInfo>,
+    /// sheenRoughnessFactor.
+    pub sheen_roughness: f32,
+    /// sheenRoughnessTexture (alpha channel).
+    pub sheen_roughness_texture: Option<TexInfo>,
+    /// KHR_materials_unlit.
+    pub unlit: bool,
     /// doubleSided.
     pub double_sided: bool,
 }
@@ -151,6 +172,17 @@ pub fn pbr_of_material(m: &Material, index_of: &dyn Fn(&str) -> Option<usize>) -
             .volume
             .as_ref()
             .map(|v| (v.attenuation_color, v.attenuation_distance)),
+        clearcoat: m.clearcoat,
+        clearcoat_texture: info(&m.clearcoat_texture),
+        clearcoat_roughness: m.clearcoat_roughness,
+        clearcoat_roughness_texture: info(&m.clearcoat_roughness_texture),
+        clearcoat_normal_texture: info(&m.clearcoat_normal_texture)
+            .map(|t| (t, m.clearcoat_normal_scale)),
+        sheen_color: m.sheen_color,
+        sheen_color_texture: info(&m.sheen_color_texture),
+        sheen_roughness: m.sheen_roughness,
+        sheen_roughness_texture: info(&m.sheen_roughness_texture),
+        unlit: m.unlit,
         double_sided: if emitter { m.two_sided_emission } else { true },
     }
 }
@@ -180,10 +212,14 @@ pub fn material_from_pbr(
         })
     };
     let unit = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
-    let normal = p.normal_texture.as_ref().and_then(|(t, scale)| {
-        let scale = if scale.is_finite() { *scale } else { 1.0 };
-        r(&Some(t.clone()), false).map(|t| (t, scale))
-    });
+    let mut normal_map = |n: &Option<(TexInfo, f32)>| {
+        n.as_ref().and_then(|(t, scale)| {
+            let scale = if scale.is_finite() { *scale } else { 1.0 };
+            r(&Some(t.clone()), false).map(|t| (t, scale))
+        })
+    };
+    let normal = normal_map(&p.normal_texture);
+    let coat_normal = normal_map(&p.clearcoat_normal_texture);
     let emission = p.emissive.map(|c| (c * p.emissive_strength).max(0.0));
     Material {
         base_color: [0, 1, 2].map(|k| unit(p.base_color[k])),
@@ -217,6 +253,17 @@ pub fn material_from_pbr(
             attenuation_color: color.map(|c| if c > 0.0 { c.min(1.0) } else { 1e-6 }),
             attenuation_distance: distance.filter(|d| *d > 0.0 && d.is_finite()),
         }),
+        clearcoat: unit(p.clearcoat),
+        clearcoat_texture: r(&p.clearcoat_texture, false),
+        clearcoat_roughness: unit(p.clearcoat_roughness),
+        clearcoat_roughness_texture: r(&p.clearcoat_roughness_texture, false),
+        clearcoat_normal_texture: coat_normal.as_ref().map(|(t, _)| t.clone()),
+        clearcoat_normal_scale: coat_normal.map_or(1.0, |(_, s)| s),
+        sheen_color: p.sheen_color.map(unit),
+        sheen_color_texture: r(&p.sheen_color_texture, true),
+        sheen_roughness: unit(p.sheen_roughness),
+        sheen_roughness_texture: r(&p.sheen_roughness_texture, false),
+        unlit: p.unlit,
         emission,
         emission_texture: r(&p.emissive_texture, true),
         two_sided_emission: p.double_sided && emission != [0.0; 3],

@@ -64,37 +64,10 @@ pub fn own_legacy_scenes() -> Vec<PathBuf> {
     txt_files(&workspace_root().join("scenes").join("legacy"))
 }
 
-/// Sample files that require (`extensionsRequired`) a material extension lumo does not
-/// implement yet, with that extension: the importer must refuse them by name
-/// (`gltf_bad_input.rs`). The glTF-materials issue implements both and empties this list (and
-/// its twin in the renderer's `tests/gltf_render.rs`).
-pub const REFUSED_SAMPLES: [(&str, &str); 2] = [
-    ("ClearCoatCarPaint.glb", "KHR_materials_clearcoat"),
-    ("UnlitTest.glb", "KHR_materials_unlit"),
-];
-
-/// Every glTF sample model file (.gltf and .glb) under shared/gltf that lumo can import, sorted
-/// (all but [`REFUSED_SAMPLES`]).
+/// Every glTF sample model file (.gltf and .glb) under shared/gltf, sorted: lumo imports all
+/// of them (none requires an extension lumo does not implement).
 pub fn sample_files(shared: &Path) -> Vec<PathBuf> {
-    let mut files = files_with_ext(vec![shared.join("gltf")], &["gltf", "glb"]);
-    files.retain(|f| {
-        let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        !REFUSED_SAMPLES.iter().any(|(r, _)| *r == name)
-    });
-    files
-}
-
-/// The files of [`REFUSED_SAMPLES`] under shared/gltf, with the extension each must be refused
-/// for.
-pub fn refused_sample_files(shared: &Path) -> Vec<(PathBuf, &'static str)> {
     files_with_ext(vec![shared.join("gltf")], &["gltf", "glb"])
-        .into_iter()
-        .filter_map(|f| {
-            let name = f.file_name()?.to_str()?.to_string();
-            let (_, ext) = REFUSED_SAMPLES.iter().find(|(r, _)| *r == name)?;
-            Some((f, *ext))
-        })
-        .collect()
 }
 
 /// Scene JSON files to round-trip through glTF: the workspace's `scenes/` folder (recursively)
