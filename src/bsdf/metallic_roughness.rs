@@ -181,6 +181,7 @@ impl MetallicRoughness {
         RoughDielectric {
             eta: self.eta(),
             alpha: self.alpha(),
+            energy_compensation: self.energy_compensation,
         }
     }
 

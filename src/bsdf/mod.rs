@@ -17,6 +17,7 @@ use crate::sampling::cosine_hemisphere;
 #[cfg(test)]
 mod chi2;
 pub mod dielectric;
+mod dielectric_table;
 pub mod fresnel;
 pub mod layered;
 pub mod metallic_roughness;
