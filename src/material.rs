@@ -246,10 +246,26 @@ impl Material {
 
     /// The shading normal at a hit, on the geometric normal's side: the interpolated normal,
     /// perturbed by the normal map (glTF: n = normalize(T·x + B·y + N·z) with (x, y) scaled,
-    /// B = cross(N, T)·w), then bent towards the geometric normal where needed so that the
-    /// mirror reflection of `wo` stays above the surface (as Cycles does): a normal tilted so
-    /// far that the view is reflected into the surface would leave black fringes.
-    fn shading_normal(&self, textures: &[Texture], hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+    /// B = cross(N, T)·w).
+    ///
+    /// Where the mirror reflection of `wo` about it dips under the surface, specular lobes would
+    /// be black (the black fringes of strong normal maps); Cycles bends the normal of its glossy
+    /// closures towards the geometric one until the reflection clears the surface
+    /// ([`valid_reflection_normal`]) but leaves its diffuse closures with the unbent normal, so
+    /// normal-mapped bevels darken where the tilted diffuse lobe reaches under the surface.
+    /// lumo's BSDF has one shading frame, so the bent and unbent normals are blended by
+    /// `specular_share`, the fraction of the surface without a diffuse base (metallic, plus the
+    /// transmissive part of the rest): a diffuse surface keeps the unbent normal (unless it faces
+    /// away from the viewer), a metal gets the bent one. Measured on NormalTangentTest's bevels:
+    /// 0.256 against Cycles' 0.252 (0.283 with the bent normal everywhere, black on its smooth
+    /// metal with the unbent one).
+    fn shading_normal(
+        &self,
+        textures: &[Texture],
+        hit: &SurfaceHit,
+        wo: Vec3,
+        specular_share: f32,
+    ) -> Vec3 {
         let mut n = if hit.ns.dot(hit.ng) < 0.0 {
             -hit.ns
         } else {
@@ -258,7 +274,17 @@ impl Material {
         if let Some(map) = &self.normal_texture {
             n = Self::mapped_normal(textures, map, self.normal_scale, hit, n);
         }
-        valid_reflection_normal(n, hit.ng, wo)
+        let bent = valid_reflection_normal(n, hit.ng, wo);
+        if bent == n {
+            return n;
+        }
+        // The view side of the surface: a normal facing away from the viewer is always bent.
+        let side = if wo.dot(hit.ng) < 0.0 { -1.0 } else { 1.0 };
+        if n.dot(wo) * side <= 0.0 {
+            return bent;
+        }
+        let s = specular_share.clamp(0.0, 1.0);
+        (n * (1.0 - s) + bent * s).normalize_or(bent)
     }
 
     /// The scattering function at a hit seen from direction `wo` (unit, away from the surface).
@@ -268,10 +294,9 @@ impl Material {
         if let Some(t) = lookup(textures, &self.base_color_texture, uv, uv1) {
             base *= t;
         }
-        let frame = Frame::from_normal(self.shading_normal(textures, hit, wo));
         if self.is_lambertian() {
             return Bsdf {
-                frame,
+                frame: Frame::from_normal(self.shading_normal(textures, hit, wo, 0.0)),
                 ng: hit.ng,
                 lobes: Lobes::Lambert(base),
             };
@@ -295,6 +320,12 @@ impl Material {
         if let Some(t) = lookup(textures, &self.transmission_texture, uv, uv1) {
             transmission *= t.x.clamp(0.0, 1.0);
         }
+        let frame = Frame::from_normal(self.shading_normal(
+            textures,
+            hit,
+            wo,
+            metallic + (1.0 - metallic) * transmission,
+        ));
         let base = MetallicRoughness {
             base_color: base,
             metallic,
