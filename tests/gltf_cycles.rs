@@ -23,7 +23,8 @@
 //! TextureSettingsTest, 0.0000 elsewhere); silhouettes are sensitive to sub-pixel differences in
 //! the two cameras. The excluded fraction is printed.
 //!
-//! `LUMO_CYCLES_OUT=dir` writes each lumo mean as `dir/<model>.exr` for inspection.
+//! `LUMO_CYCLES_OUT=dir` writes each lumo mean as `dir/<model>.exr` and `.png` (the contact
+//! sheet in `docs/gltf.md` shows those PNGs beside the references' previews).
 
 mod common;
 
@@ -279,12 +280,14 @@ fn gltf_samples_match_cycles() {
                 ..a.clone()
             };
             std::fs::create_dir_all(dir).unwrap();
-            lumo::output::write_image(
-                &mean,
-                &dir.join(format!("{}.exr", case.name)),
-                lumo::output::ToneMap::Clamp,
-            )
-            .unwrap();
+            for ext in ["exr", "png"] {
+                lumo::output::write_image(
+                    &mean,
+                    &dir.join(format!("{}.{ext}", case.name)),
+                    lumo::output::ToneMap::Clamp,
+                )
+                .unwrap();
+            }
         }
         if ratio > case.max_ratio || mean_diff > case.max_mean_diff {
             failures.push(format!(
