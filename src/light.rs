@@ -374,6 +374,7 @@ impl LightSampler {
     /// `SampleDiscrete`): one 2D sample point then covers the choice of light and a point on it,
     /// so stratification carries over to the union of all lights (the two triangles of a quad
     /// light are sampled like one rectangle).
+    #[inline]
     pub fn pick_remapped(&self, u: f32) -> Option<(usize, f32, f32)> {
         let (i, p) = self.pick(u)?;
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };

@@ -273,6 +273,9 @@ impl Material {
         };
         if let Some(map) = &self.normal_texture {
             n = Self::mapped_normal(textures, map, self.normal_scale, hit, n);
+        } else if n == hit.ng {
+            // Flat shading: the geometric normal reflects every view above the surface.
+            return n;
         }
         let bent = valid_reflection_normal(n, hit.ng, wo);
         if bent == n {
@@ -288,19 +291,27 @@ impl Material {
     }
 
     /// The scattering function at a hit seen from direction `wo` (unit, away from the surface).
+    #[inline]
     pub fn bsdf(&self, textures: &[Texture], hit: &SurfaceHit, wo: Vec3) -> Bsdf {
-        let (uv, uv1) = (hit.uv, hit.uv1);
         let mut base = self.base_color * hit.color.truncate();
-        if let Some(t) = lookup(textures, &self.base_color_texture, uv, uv1) {
+        if let Some(t) = lookup(textures, &self.base_color_texture, hit.uv, hit.uv1) {
             base *= t;
         }
         if self.is_lambertian() {
+            // The common case stays small enough to inline into the integrators.
             return Bsdf {
                 frame: Frame::from_normal(self.shading_normal(textures, hit, wo, 0.0)),
                 ng: hit.ng,
                 lobes: Lobes::Lambert(base),
             };
         }
+        self.glossy_bsdf(textures, hit, wo, base)
+    }
+
+    /// [`Material::bsdf`] for every material that is not purely Lambertian.
+    #[inline(never)]
+    fn glossy_bsdf(&self, textures: &[Texture], hit: &SurfaceHit, wo: Vec3, base: Rgb) -> Bsdf {
+        let (uv, uv1) = (hit.uv, hit.uv1);
         let (mut metallic, mut roughness) = (self.metallic, self.roughness);
         if let Some(t) = lookup(textures, &self.metallic_roughness_texture, uv, uv1) {
             roughness *= t.y.clamp(0.0, 1.0);
@@ -344,11 +355,11 @@ impl Material {
         };
         let lobes = match self.layers(textures, hit, wo, front) {
             (None, None) => Lobes::MetallicRoughness(base),
-            (clearcoat, sheen) => Lobes::Layered(Layered {
+            (clearcoat, sheen) => Lobes::Layered(Box::new(Layered {
                 base,
                 clearcoat,
                 sheen,
-            }),
+            })),
         };
         Bsdf {
             frame,

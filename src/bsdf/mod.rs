@@ -30,7 +30,7 @@ pub use fresnel::fresnel_dielectric;
 pub use metallic_roughness::MetallicRoughness;
 
 /// The scattering function of one surface point (textures already applied).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Bsdf {
     /// Shading frame; `frame.n` is on the front side (that of the geometric normal).
     pub frame: Frame,
@@ -41,15 +41,16 @@ pub struct Bsdf {
 }
 
 /// The lobes a material needs at a point: only those it uses are built.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub enum Lobes {
     /// A Lambertian reflector of this albedo, on both faces (a material with no metal, no
     /// specular reflection and no transmission).
     Lambert(Rgb),
     /// The full glTF metallic-roughness BSDF.
     MetallicRoughness(MetallicRoughness),
-    /// The metallic-roughness base under sheen and/or clearcoat layers.
-    Layered(layered::Layered),
+    /// The metallic-roughness base under sheen and/or clearcoat layers (boxed: it is large, and
+    /// every other hit would pay for copying it).
+    Layered(Box<layered::Layered>),
 }
 
 /// Roughness α below which a GGX lobe is treated as a perfect mirror (or smooth interface).
@@ -117,6 +118,7 @@ impl Bsdf {
     /// f·|cos θi| and the pdf with which [`sample`](Self::sample) returns `wi` (delta lobes
     /// contribute nothing to evaluation). Pairs on the same side by the shading normal but not
     /// by the geometric normal, or the reverse, are not scattered (light would leak).
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
         match &self.lobes {
             Lobes::Lambert(albedo) => {
@@ -134,6 +136,7 @@ impl Bsdf {
 
     /// Samples an incident direction for `wo` (world space). `u_lobe` picks the lobe, `u` the
     /// direction within it.
+    #[inline]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         match &self.lobes {
             Lobes::Lambert(albedo) => {

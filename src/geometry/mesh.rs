@@ -135,6 +135,12 @@ impl Mesh {
         self
     }
 
+    /// Whether the mesh has any of the attributes [`Mesh::attributes`] interpolates.
+    #[inline]
+    pub fn has_attributes(&self) -> bool {
+        self.uvs1.is_some() || self.tangents.is_some() || self.colors.is_some()
+    }
+
     /// The vertex attributes of a hit beyond [`Mesh::surface`]'s: second texture coordinates,
     /// tangent (xyz, object space, not normalised; w = handedness) and colour, interpolated;
     /// defaults (0, zero tangent, white) where the mesh has none.

@@ -160,7 +160,9 @@ impl Instance {
                     b1: raw.coords[0],
                     b2: raw.coords[1],
                 };
-                (uv1, tangent, color) = m.attributes(&h);
+                if m.has_attributes() {
+                    (uv1, tangent, color) = m.attributes(&h);
+                }
                 m.surface(&h)
             }
             Shape::Lathe(l) => {

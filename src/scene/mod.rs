@@ -96,6 +96,8 @@ impl Scene {
     }
 
     /// The first hit from `hit` on (inclusive) along the ray that stops it.
+    #[cold]
+    #[inline(never)]
     fn past_transparent(&self, ray: &Ray, mut hit: SurfaceHit, t_max: f32) -> Option<SurfaceHit> {
         for _ in 0..MAX_ALPHA_LAYERS {
             let material = self.material(&hit);
