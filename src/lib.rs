@@ -21,6 +21,7 @@
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
+pub mod environment;
 pub mod geometry;
 pub mod image;
 pub mod integrator;

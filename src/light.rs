@@ -55,6 +55,13 @@ pub enum Light {
         /// Emits from both faces.
         two_sided: bool,
     },
+    /// The environment, infinitely far away in every direction.
+    Environment {
+        /// The environment (shared with the scene, which looks it up for escaped rays).
+        env: std::sync::Arc<crate::environment::Environment>,
+        /// Radius of the scene's bounding sphere (for the power estimate).
+        scene_radius: f32,
+    },
     /// An emissive sphere (world space; only under similarity transforms).
     Sphere {
         /// Instance.
@@ -115,6 +122,7 @@ impl Light {
             Light::Sphere {
                 radius, emission, ..
             } => PI * 4.0 * PI * radius * radius * luminance(*emission),
+            Light::Environment { env, scene_radius } => env.power(*scene_radius),
         }
     }
 
@@ -217,6 +225,16 @@ impl Light {
                 })
             }
             Light::Sphere { center, radius, .. } => sample_sphere(center, radius, p, u),
+            Light::Environment { ref env, .. } => env.sample(u).map(|s| LightSample {
+                wi: s.wi,
+                distance: f32::INFINITY,
+                point: p,
+                normal: Vec3::ZERO,
+                uv: Vec2::ZERO,
+                li: s.le,
+                pdf: s.pdf,
+                delta: false,
+            }),
         }
     }
 

@@ -38,3 +38,122 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
         a / (a + b)
     }
 }
+
+/// A piecewise-constant distribution on [0, 1) with one cell per weight (pbrt-v4
+/// `PiecewiseConstant1D`), sampled by inverting its CDF continuously inside the cell.
+#[derive(Debug, Clone)]
+pub struct Distribution1D {
+    func: Vec<f32>,
+    cdf: Vec<f32>,
+    integral: f32,
+}
+
+impl Distribution1D {
+    /// The distribution proportional to the (non-negative) `weights`; uniform when they are
+    /// all zero.
+    pub fn new(weights: &[f32]) -> Distribution1D {
+        let n = weights.len().max(1);
+        let func: Vec<f32> = weights.iter().map(|w| w.max(0.0)).collect();
+        let mut cdf = vec![0.0f32; n + 1];
+        let mut sum = 0.0f64;
+        for (i, f) in func.iter().enumerate() {
+            sum += f64::from(*f) / n as f64;
+            cdf[i + 1] = sum as f32;
+        }
+        let integral = sum as f32;
+        if integral > 0.0 {
+            for c in cdf.iter_mut() {
+                *c /= integral;
+            }
+        } else {
+            for (i, c) in cdf.iter_mut().enumerate() {
+                *c = i as f32 / n as f32;
+            }
+        }
+        cdf[n] = 1.0;
+        Distribution1D {
+            func,
+            cdf,
+            integral,
+        }
+    }
+
+    /// The integral of the weights over [0, 1) (their mean).
+    pub fn integral(&self) -> f32 {
+        self.integral
+    }
+
+    fn cells(&self) -> usize {
+        self.cdf.len() - 1
+    }
+
+    /// Samples x ∈ [0, 1): returns x, its density and its cell.
+    pub fn sample(&self, u: f32) -> (f32, f32, usize) {
+        let n = self.cells();
+        // The last cell whose CDF start is ≤ u.
+        let i = self.cdf[..n].partition_point(|&c| c <= u).saturating_sub(1);
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let du = if width > 0.0 {
+            ((u - self.cdf[i]) / width).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let x = ((i as f32 + du) / n as f32).min(1.0 - f32::EPSILON);
+        (x, self.pdf_of_cell(i), i)
+    }
+
+    fn pdf_of_cell(&self, i: usize) -> f32 {
+        if self.integral > 0.0 {
+            self.func.get(i).map_or(0.0, |f| f / self.integral)
+        } else {
+            1.0
+        }
+    }
+
+    /// The density at x ∈ [0, 1).
+    pub fn pdf(&self, x: f32) -> f32 {
+        let n = self.cells();
+        self.pdf_of_cell(((x * n as f32) as usize).min(n - 1))
+    }
+}
+
+/// A piecewise-constant distribution on [0, 1)² over a w × h grid of weights (row-major, row 0
+/// at y = 0): the marginal over rows, then the conditional of the chosen row (pbrt-v4
+/// `PiecewiseConstant2D`).
+#[derive(Debug, Clone)]
+pub struct Distribution2D {
+    rows: Vec<Distribution1D>,
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// The distribution proportional to `weights` (w × h, row-major).
+    pub fn new(weights: &[f32], w: usize, h: usize) -> Distribution2D {
+        let rows: Vec<Distribution1D> = (0..h)
+            .map(|r| Distribution1D::new(&weights[r * w..(r + 1) * w]))
+            .collect();
+        let marginal = Distribution1D::new(&rows.iter().map(|r| r.integral()).collect::<Vec<_>>());
+        Distribution2D { rows, marginal }
+    }
+
+    /// The integral of the weights over [0, 1)² (their mean).
+    pub fn integral(&self) -> f32 {
+        self.marginal.integral()
+    }
+
+    /// Samples (x, y) ∈ [0, 1)² from `u` (u.y picks the row, u.x the column): the point and
+    /// its density; `None` where the density is zero.
+    pub fn sample(&self, u: Vec2) -> Option<(Vec2, f32)> {
+        let (y, pdf_y, row) = self.marginal.sample(u.y);
+        let (x, pdf_x, _) = self.rows[row].sample(u.x);
+        let pdf = pdf_x * pdf_y;
+        (pdf > 0.0).then_some((Vec2::new(x, y), pdf))
+    }
+
+    /// The density at (x, y).
+    pub fn pdf(&self, p: Vec2) -> f32 {
+        let h = self.rows.len();
+        let row = ((p.y * h as f32) as usize).min(h - 1);
+        self.rows[row].pdf(p.x) * self.marginal.pdf(p.y)
+    }
+}

@@ -7,7 +7,7 @@ use std::path::Path;
 fn scene_with(dir: &Path, object: &str, textures: &str) -> std::path::PathBuf {
     let text = format!(
         r#"{{
-          "format_version": 1,
+          "format_version": 2,
           "image": {{ "width": 8, "height": 8 }},
           "render": {{ "spp": 1 }},
           "camera": {{ "position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y_deg": 40 }},

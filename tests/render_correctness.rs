@@ -46,7 +46,7 @@ fn classify(scene: &lumo::scene::Scene, r: f32) -> Vec<Option<bool>> {
 }
 
 const FURNACE: &str = r#"{
-  "format_version": 1,
+  "format_version": 2,
   "image": { "width": 32, "height": 32 },
   "render": { "spp": SPP, "max_depth": 64, "seed": 3 },
   "camera": { "position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y_deg": 40 },
@@ -57,22 +57,23 @@ const FURNACE: &str = r#"{
 
 #[test]
 fn white_furnace_diffuse_sphere_reflects_albedo_times_background() {
-    let json = FURNACE
-        .replace("SPP", "4")
-        .replace("MATERIAL", r#"{ "base_color": [0.8, 0.5, 0.25] }"#);
+    let json = FURNACE.replace("SPP", "64").replace(
+        "MATERIAL",
+        r#"{ "base_color": [0.8, 0.5, 0.25], "specular": 0 }"#,
+    );
     let scene = scene_from(&json);
     let img = common::render(&scene);
     let bg = Vec3::new(0.5, 0.7, 0.9);
     let expect_on = bg * Vec3::new(0.8, 0.5, 0.25);
     let mut counted = (0, 0);
+    let mut on = Vec::new();
     for (p, class) in img.pixels.iter().zip(classify(&scene, 1.0)) {
         match class {
-            // A convex diffuse sphere sees only the background: every sample is exactly a·L.
+            // A convex diffuse sphere sees only the background: a·L. The background is a light,
+            // sampled and combined with BSDF sampling by MIS, so single samples scatter around
+            // it; the mean below must be a·L within that noise.
             Some(true) => {
-                assert!(
-                    (*p - expect_on).abs().max_element() < 1e-5,
-                    "{p} vs {expect_on}"
-                );
+                on.push(*p);
                 counted.0 += 1;
             }
             Some(false) => {
@@ -83,6 +84,18 @@ fn white_furnace_diffuse_sphere_reflects_albedo_times_background() {
         }
     }
     assert!(counted.0 > 100 && counted.1 > 100, "{counted:?}");
+    let n = on.len() as f32;
+    let mean = on.iter().copied().sum::<Vec3>() / n;
+    let var = on.iter().map(|p| (*p - mean) * (*p - mean)).sum::<Vec3>() / (n - 1.0);
+    for k in 0..3 {
+        let tol = 4.0 * (var[k] / n).sqrt() + 1e-6;
+        assert!(
+            (mean[k] - expect_on[k]).abs() <= tol,
+            "channel {k}: {} vs {} (tolerance {tol})",
+            mean[k],
+            expect_on[k]
+        );
+    }
 }
 
 #[test]
@@ -90,7 +103,7 @@ fn white_furnace_glass_sphere_is_invisible() {
     // A clear dielectric sphere conserves energy: on average every pixel shows the background.
     let json = FURNACE.replace("SPP", "256").replace(
         "MATERIAL",
-        r#"{ "base_color": [1, 1, 1], "transmission": 1, "ior": 1.5 }"#,
+        r#"{ "base_color": [1, 1, 1], "roughness": 0, "transmission": 1, "ior": 1.5, "volume": {} }"#,
     );
     let scene = scene_from(&json);
     let img = common::render(&scene);
@@ -124,11 +137,11 @@ fn lambertian_plane_under_a_directional_light() {
         let t = theta_deg.to_radians();
         let json = format!(
             r#"{{
-              "format_version": 1,
+              "format_version": 2,
               "image": {{ "width": 16, "height": 16 }},
               "render": {{ "spp": 2, "max_depth": 8 }},
               "camera": {{ "position": [0, 3, 0.001], "look_at": [0, 0, 0], "fov_y_deg": 30 }},
-              "materials": {{ "m": {{ "base_color": [0.6, 0.4, 0.2] }} }},
+              "materials": {{ "m": {{ "base_color": [0.6, 0.4, 0.2], "specular": 0 }} }},
               "objects": [ {{ "plane": {{ "material": "m", "normal": [0, 1, 0] }} }} ],
               "lights": [ {{ "directional": {{ "direction": [{}, {}, 0], "irradiance": [2, 3, 4] }} }} ]
             }}"#,
@@ -226,7 +239,7 @@ fn depth_of_field_blurs_by_the_circle_of_confusion() {
     let spot_width = |d: f32| -> f32 {
         let json = format!(
             r#"{{
-              "format_version": 1,
+              "format_version": 2,
               "image": {{ "width": {h}, "height": {h} }},
               "render": {{ "spp": 256, "max_depth": 1 }},
               "camera": {{ "position": [0, 0, 0], "look_at": [0, 0, -1], "fov_y_deg": {fov}, "aperture_radius": {a}, "focus_distance": {f} }},

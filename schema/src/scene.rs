@@ -197,13 +197,52 @@ fn is_zero(x: &f32) -> bool {
     *x == 0.0
 }
 
-/// What rays that leave the scene see.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+/// The environment: what rays that leave the scene see, and a light (importance-sampled, by
+/// the image's luminance or uniformly, and combined with BSDF sampling by MIS).
+///
+/// Radiance from direction d is `strength` × (the image at d, or `color`). The image is
+/// equirectangular, oriented as Blender's Environment Texture with the default mapping: in
+/// lumo's y-up coordinates its centre column faces +x, u = 0.25 faces −z, u = 0.75 faces +z,
+/// and its top row is straight up.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Background {
-    /// Constant radiance in every direction (linear RGB, W·sr⁻¹·m⁻²). Default black.
+    /// Constant radiance in every direction (linear RGB, W·sr⁻¹·m⁻²), when there is no
+    /// `image`. Default black.
     #[serde(default)]
     pub color: Rgb,
+    /// An equirectangular HDR image of the radiance (`.exr` or `.hdr`, linear RGB in
+    /// W·sr⁻¹·m⁻²), relative to the scene file. Negative texels (compression noise) count as 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image: Option<String>,
+    /// Multiplies the radiance (≥ 0). Default 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub strength: f32,
+    /// Rotation of the image about +y, in degrees, counter-clockwise seen from above. Default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rotation_deg: f32,
+    /// Whether camera rays see it; it lights the scene either way. Default true.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub visible: bool,
+}
+
+impl Default for Background {
+    fn default() -> Self {
+        Background {
+            color: [0.0; 3],
+            image: None,
+            strength: 1.0,
+            rotation_deg: 0.0,
+            visible: true,
+        }
+    }
+}
+
+fn yes() -> bool {
+    true
+}
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 /// Colour space of a texture's stored values.

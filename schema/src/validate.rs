@@ -69,11 +69,7 @@ impl Validator<'_> {
         self.image(&root.key("image"));
         self.render(&root.key("render"));
         self.camera(&root.key("camera"));
-        self.color(
-            &root.key("background").key("color"),
-            s.background.color,
-            None,
-        );
+        self.background(&root.key("background"), &s.background);
         for (name, tex) in &s.textures {
             self.texture(&root.key("textures").key(name), tex);
         }
@@ -288,6 +284,49 @@ impl Validator<'_> {
                 format!("texture coordinate set {} does not exist", r.tex_coord),
                 "meshes have sets 0 and 1 (glTF TEXCOORD_0 and TEXCOORD_1)",
             );
+        }
+    }
+
+    fn background(&mut self, p: &JsonPath, b: &Background) {
+        self.color(&p.key("color"), b.color, None);
+        if !(b.strength >= 0.0 && b.strength.is_finite()) {
+            self.err_help(
+                p.key("strength"),
+                format!("strength {} must be finite and ≥ 0", b.strength),
+                "1 keeps the image's own radiance",
+            );
+        }
+        if !b.rotation_deg.is_finite() {
+            self.err(p.key("rotation_deg"), "rotation_deg must be finite");
+        }
+        match &b.image {
+            Some(file) => {
+                if b.color != [0.0; 3] {
+                    self.err_help(
+                        p.key("color"),
+                        "color is not used with an image",
+                        "remove color (scale the image with strength)",
+                    );
+                }
+                let ext = crate::geometry::paths::lowercase_extension(Path::new(file));
+                if !matches!(ext.as_str(), "exr" | "hdr") {
+                    self.err_help(
+                        p.key("image"),
+                        format!("`{file}` is not an HDR image"),
+                        "use an equirectangular .exr or .hdr file",
+                    );
+                }
+                self.file(&p.key("image"), file, "environment image");
+            }
+            None => {
+                if b.rotation_deg != 0.0 {
+                    self.err_help(
+                        p.key("rotation_deg"),
+                        "rotation_deg only applies to an image",
+                        "add an image or remove rotation_deg",
+                    );
+                }
+            }
         }
     }
 

@@ -358,7 +358,10 @@ fn scene() -> impl Strategy<Value = Scene> {
                         aperture_radius,
                         focus_distance,
                     },
-                    background: Background { color: bg },
+                    background: Background {
+                        color: bg,
+                        ..Background::default()
+                    },
                     textures,
                     materials,
                     objects,

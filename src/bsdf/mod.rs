@@ -15,7 +15,7 @@ use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::cosine_hemisphere;
 
 #[cfg(test)]
-mod chi2;
+pub(crate) mod chi2;
 pub mod dielectric;
 mod dielectric_table;
 pub mod fresnel;

@@ -180,6 +180,16 @@ pub struct RenderArgs {
     /// glTF input: the camera to use, by name or index into `cameras` (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     pub camera: Option<String>,
+    /// Light the scene with this equirectangular HDR image (.exr, .hdr) instead of its own
+    /// background, whatever the input kind.
+    #[arg(long, value_name = "FILE.exr")]
+    pub env: Option<PathBuf>,
+    /// Multiplies the environment's radiance (with --env, or the scene's own background).
+    #[arg(long, value_name = "S")]
+    pub env_strength: Option<f32>,
+    /// Rotates the --env image about +y, in degrees, counter-clockwise seen from above.
+    #[arg(long, value_name = "DEG", requires = "env")]
+    pub env_rotation: Option<f32>,
 }
 
 /// Parses `30s`, `2m`, `1.5h`, `500ms` or a plain number of seconds.
@@ -370,6 +380,17 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         scene_dir: None,
     };
     let mut loaded = lumo::load(&args.scene, &options)?;
+    // The environment file is named relative to the working directory; the scene's paths are
+    // relative to its folder, so it goes in as an absolute path.
+    let env_file = match &args.env {
+        Some(p) => Some(
+            std::path::absolute(p)
+                .map_err(|e| CliError::invalid(format!("{}: {e}", p.display())))?
+                .to_string_lossy()
+                .into_owned(),
+        ),
+        None => None,
+    };
     loaded.edit(|s| {
         if let Some(v) = args.spp {
             s.render.spp = v;
@@ -394,6 +415,16 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         }
         if let Some(t) = args.time {
             s.render.time_budget_s = Some(t);
+        }
+        if let Some(file) = &env_file {
+            s.background = schema::Background {
+                image: Some(file.clone()),
+                rotation_deg: args.env_rotation.unwrap_or(0.0),
+                ..schema::Background::default()
+            };
+        }
+        if let Some(k) = args.env_strength {
+            s.background.strength = k;
         }
         if (args.time.is_some() || args.target_error.is_some()) && args.spp.is_none() {
             // Asked for a time or an error, not a sample count: let the budget decide.

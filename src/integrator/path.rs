@@ -28,7 +28,8 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
     for depth in 1..=max_depth {
         stats.rays += 1;
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
-            l += beta * scene.background;
+            let bsdf_pdf = (!prev_delta).then_some(prev_pdf);
+            l += beta * scene.escaped(ray.d.normalize(), bsdf_pdf, depth == 1);
             break;
         };
         if let Some(sigma) = medium {
@@ -66,7 +67,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             if let Some((index, pmf, u_x)) = scene.light_sampler.pick_remapped(u_light.x) {
                 let light = &scene.lights[index];
                 if let Some(ls) = light.sample(hit.p, glam::Vec2::new(u_x, u_light.y)) {
-                    let li = if ls.delta {
+                    let li = if ls.delta || matches!(light, Light::Environment { .. }) {
                         ls.li
                     } else {
                         scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
@@ -77,7 +78,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
                         let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);
                         if f != Vec3::ZERO {
                             let unblocked = match light {
-                                Light::Directional { .. } => {
+                                Light::Directional { .. } | Light::Environment { .. } => {
                                     unoccluded_towards(scene, &hit, ls.wi, stats)
                                 }
                                 _ => visible(scene, &hit, ls.point, ls.normal, stats),

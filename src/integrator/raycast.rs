@@ -13,10 +13,12 @@ use crate::scene::Scene;
 pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut TraceStats) -> Rgb {
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
-    for _depth in 1..=scene.settings.max_depth.max(1) {
+    for depth in 1..=scene.settings.max_depth.max(1) {
         stats.rays += 1;
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
-            l += beta * scene.background;
+            // Only camera rays and delta chains escape here; the environment's direct light is
+            // `direct`'s.
+            l += beta * scene.escaped(ray.d.normalize(), None, depth == 1);
             break;
         };
         let wo = -ray.d.normalize();
@@ -67,11 +69,14 @@ fn direct(
                 continue;
             }
             let ok = match light {
-                Light::Directional { .. } => unoccluded_towards(scene, hit, ls.wi, stats),
+                Light::Directional { .. } | Light::Environment { .. } => {
+                    unoccluded_towards(scene, hit, ls.wi, stats)
+                }
                 _ => visible(scene, hit, ls.point, Vec3::ZERO, stats),
             };
             if ok {
-                l += f * ls.li;
+                // Delta lights give their contribution; the environment one sample of it.
+                l += f * ls.li / if ls.delta { 1.0 } else { ls.pdf };
             }
         }
     }

@@ -118,6 +118,7 @@ impl Assets {
             let image = decode_image(&bytes).map_err(fail)?;
             assets.textures.insert(key, Arc::new(image));
         }
+        assets.read_environment(&scene.background, base_dir)?;
         for (i, obj) in scene.objects.iter().enumerate() {
             let schema::Object::Mesh(m) = obj else {
                 continue;
@@ -167,6 +168,39 @@ impl Assets {
     pub fn texture(&self, texture: &schema::Texture) -> Option<&Arc<TextureImage>> {
         self.textures
             .get(&(texture.file.clone(), texture.gltf_image))
+    }
+
+    /// Reads the environment image `background` names, unless it is already in memory.
+    pub(crate) fn read_environment(
+        &mut self,
+        background: &schema::Background,
+        base_dir: &Path,
+    ) -> Result<(), AssetError> {
+        let Some(file) = &background.image else {
+            return Ok(());
+        };
+        let key = (file.clone(), None);
+        if self.textures.contains_key(&key) {
+            return Ok(());
+        }
+        let path = base_dir.join(file);
+        let fail = |message: String| AssetError {
+            file: path.clone(),
+            json_path: "background.image".into(),
+            message,
+        };
+        let bytes = std::fs::read(&path)
+            .map_err(|e| fail(format!("cannot read environment image: {e}")))?;
+        self.note_file(path.clone());
+        let image = decode_image(&bytes).map_err(fail)?;
+        self.textures.insert(key, Arc::new(image));
+        Ok(())
+    }
+
+    /// The decoded environment image of the scene's `background.image`, if it has one.
+    pub fn environment(&self, background: &schema::Background) -> Option<&Arc<TextureImage>> {
+        let file = background.image.as_ref()?;
+        self.textures.get(&(file.clone(), None))
     }
 
     /// Every file read, each once, in the order first read.

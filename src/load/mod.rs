@@ -146,7 +146,12 @@ impl Loaded {
     /// See [`SceneFile::edit`]. Overrides must not change what the scene references: the
     /// assets were read for the scene as loaded (a build then reports the missing asset).
     pub fn edit(&mut self, change: impl FnOnce(&mut schema::Scene)) -> Result<(), LoadError> {
-        self.description.edit(change)
+        self.description.edit(change)?;
+        // An override may name an environment image the scene did not have.
+        let d = &self.description;
+        self.assets
+            .read_environment(&d.scene.background, &d.base_dir)
+            .map_err(|e| LoadError::Invalid(format!("{}: {e}", d.file.display())))
     }
 }
 

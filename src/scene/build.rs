@@ -10,6 +10,7 @@ use lumo_schema::Validated;
 
 use super::{IntegratorKind, Scene, Settings};
 use crate::camera::Camera;
+use crate::environment::Environment;
 use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
 use crate::light::{Light, LightSampler};
 use crate::load::{Assets, MeshData};
@@ -330,6 +331,46 @@ pub fn build(
             },
         });
     }
+    // The environment: a light too, unless it is black.
+    let bg = &desc.background;
+    let environment = match &bg.image {
+        Some(file) => {
+            let image = assets
+                .environment(bg)
+                .ok_or_else(|| BuildError::MissingAsset {
+                    json_path: "background.image".into(),
+                    file: file.clone(),
+                })?;
+            let texture = Texture {
+                width: image.width,
+                height: image.height,
+                texels: image.texels.clone(),
+                alpha: None,
+                wrap_s: Wrap::Repeat,
+                wrap_t: Wrap::Clamp,
+            };
+            Some(Environment::image(
+                texture,
+                bg.strength,
+                bg.rotation_deg.to_radians(),
+                bg.visible,
+            ))
+        }
+        None => Some(Environment::constant(
+            Vec3::from(bg.color),
+            bg.strength,
+            bg.visible,
+        )),
+    }
+    .filter(|e| !e.is_black())
+    .map(Arc::new);
+    let environment_light = environment.as_ref().map(|env| {
+        lights.push(Light::Environment {
+            env: env.clone(),
+            scene_radius,
+        });
+        lights.len() - 1
+    });
     let light_sampler = LightSampler::new(&lights);
 
     let c = &desc.camera;
@@ -363,7 +404,8 @@ pub fn build(
     let has_alpha = materials.iter().any(Material::has_alpha);
     let scene = Scene {
         camera,
-        background: Vec3::from(desc.background.color),
+        environment,
+        environment_light,
         geometry,
         materials,
         textures,

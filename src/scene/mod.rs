@@ -4,6 +4,7 @@
 pub mod build;
 
 use crate::camera::Camera;
+use crate::environment::Environment;
 use crate::geometry::{Accel, Geometry, SurfaceHit};
 use crate::light::{Light, LightSampler};
 use crate::material::Material;
@@ -47,8 +48,10 @@ pub struct Settings {
 pub struct Scene {
     /// The camera.
     pub camera: Camera,
-    /// Radiance of rays that leave the scene.
-    pub background: Rgb,
+    /// What rays that leave the scene see (`None`: black).
+    pub environment: Option<std::sync::Arc<Environment>>,
+    /// Index of the environment in `lights`, when it is sampled as a light.
+    pub environment_light: Option<usize>,
     /// Geometry and its acceleration structure.
     pub geometry: Geometry,
     /// Materials, indexed by instances.
@@ -117,6 +120,28 @@ impl Scene {
         Some(hit)
     }
 
+    /// Radiance arriving along a ray that left the scene in direction `d` (unit), the MIS
+    /// weight against light sampling applied: `bsdf_pdf` is the pdf with which the previous
+    /// vertex sampled `d` (`None` for camera rays and delta lobes, which light sampling cannot
+    /// produce).
+    #[inline]
+    pub fn escaped(&self, d: Vec3, bsdf_pdf: Option<f32>, camera_ray: bool) -> Rgb {
+        let Some(env) = &self.environment else {
+            return Vec3::ZERO;
+        };
+        if camera_ray && !env.visible {
+            return Vec3::ZERO;
+        }
+        let le = env.le(d);
+        match (bsdf_pdf, self.environment_light) {
+            (Some(pdf), Some(i)) => {
+                let pdf_light = self.light_sampler.pmf(i) * env.pdf(d);
+                le * crate::sampling::power_heuristic(pdf, pdf_light)
+            }
+            _ => le,
+        }
+    }
+
     /// The material of a hit.
     #[inline]
     pub fn material(&self, hit: &SurfaceHit) -> &Material {
@@ -143,7 +168,10 @@ impl Scene {
     pub fn material_of_light(&self, light: &Light) -> Option<&Material> {
         let instance = match light {
             Light::Triangle { instance, .. } | Light::Sphere { instance, .. } => *instance,
-            Light::Point { .. } | Light::Directional { .. } | Light::Spot { .. } => return None,
+            Light::Point { .. }
+            | Light::Directional { .. }
+            | Light::Spot { .. }
+            | Light::Environment { .. } => return None,
         };
         let material = self.geometry.instances.get(instance as usize)?.material;
         self.materials.get(material as usize)

@@ -555,7 +555,10 @@ impl Builder {
             schema: scene.schema.clone(),
             image: Some(scene.image),
             render: Some(scene.render),
-            background: Some(scene.background),
+            background: Some(lumo_schema::Background {
+                image: scene.background.image.as_ref().map(|f| self.rebase(f)),
+                ..scene.background.clone()
+            }),
         };
         let mut root = json!({
             "asset": {"version": "2.0", "generator": concat!("lumo ", env!("CARGO_PKG_VERSION"))},

@@ -274,19 +274,29 @@ impl Importer<'_> {
             self.warnings
                 .push(format!("not imported: {}", list.join(", ")));
         }
-        // A file with neither lights nor emitters would render black; glTF viewers light such
-        // models with a neutral environment, so lumo uses a uniform white background (unless
-        // lumo's own extras give one).
-        let unlit =
-            self.lights.is_empty() && self.materials.values().all(|m| m.emission == [0.0; 3]);
+        // glTF viewers always light a model with an environment (emissive surfaces add to
+        // it), so a file without punctual lights gets a uniform white environment of radiance
+        // 1 (unless lumo's own extras give one): a white Lambertian surface facing it reads 1.
         let background = match scene_extras.background {
-            Some(b) => b,
-            None if unlit => {
+            // An image in lumo's extras is relative to the glTF file; the scene's paths are
+            // relative to the scene folder.
+            Some(b) => lumo_schema::Background {
+                image: b
+                    .image
+                    .as_ref()
+                    .map(|f| relative(&self.l.dir().join(f), &self.scene_dir)),
+                ..b
+            },
+            None if self.lights.is_empty() => {
                 self.warnings.push(
-                    "no lights or emissive materials: lit by a uniform white background"
+                    "no punctual lights: lit by a uniform white environment (radiance 1; \
+                     replace it with --env FILE.exr)"
                         .to_string(),
                 );
-                Background { color: [1.0; 3] }
+                Background {
+                    color: [1.0; 3],
+                    ..Background::default()
+                }
             }
             None => Background::default(),
         };

@@ -32,6 +32,10 @@ pub fn export(scene: &Scene, base_dir: &Path) -> Result<String, ExportError> {
     };
     w.camera(scene);
     w.line(0, "");
+    let bg = &scene.background;
+    if bg.image.is_some() || bg.strength != 1.0 || !bg.visible {
+        w.problem("background: an environment image, strength or invisibility cannot be written (legacy backgrounds are a colour)");
+    }
     w.line(0, "Background {");
     w.line(1, &format!("color {}", v3(scene.background.color)));
     w.line(0, "}");

@@ -150,7 +150,10 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
         image,
         render: schema::RenderSettings::default(),
         camera,
-        background: schema::Background { color: background },
+        background: schema::Background {
+            color: background,
+            ..schema::Background::default()
+        },
         textures,
         materials,
         objects,

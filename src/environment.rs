@@ -1,0 +1,334 @@
+//! The environment: the radiance arriving from infinitely far away in every direction, either a
+//! constant colour or an equirectangular (latitude-longitude) HDR image, times a strength. It is
+//! a light: next-event estimation samples it in proportion to its radiance (images) or
+//! uniformly (constant), and paths that escape the scene see it, the two combined by multiple
+//! importance sampling.
+//!
+//! **Orientation** (the same as Blender's Environment Texture with its default mapping, in
+//! lumo's y-up coordinates): a direction d = (x, y, z) maps to
+//!
+//! ```text
+//! u = 0.5 + atan2(z, x) / 2π,    v = 0.5 + asin(y) / π     (v counted from the bottom row)
+//! ```
+//!
+//! so the image's centre column faces +x, u = 0.25 faces −z, u = 0.75 faces +z and the top row
+//! is straight up. A rotation by φ about +y (counter-clockwise seen from above) turns the image
+//! with the scene: the direction is rotated by −φ before the lookup.
+//!
+//! **Importance sampling** (pbrt-v4 §12.5.2, Cycles' background light): a piecewise-constant 2D
+//! distribution over the texels, each weighted by its luminance times sin θ (θ the polar angle
+//! from +y, the area of the texel's patch of sphere), sampled by inverting the marginal CDF of
+//! the rows and then the conditional CDF of the chosen row, continuously within the texel so that
+//! stratified 2D points stay stratified. The solid-angle pdf of a direction is
+//! p(u, v) / (2π² sin θ).
+
+use std::f32::consts::PI;
+
+use crate::math::{luminance, Rgb, Vec2, Vec3};
+use crate::sampling::Distribution2D;
+use crate::texture::Texture;
+
+/// Where the environment's radiance comes from.
+#[derive(Debug, Clone)]
+pub enum Radiance {
+    /// The same in every direction.
+    Constant(Rgb),
+    /// An equirectangular image (linear RGB, row 0 at the top) and its sampling distribution.
+    Image {
+        /// The texels (wrap: repeat in u, clamp in v).
+        texture: Texture,
+        /// Luminance × sin θ per texel, rows top first as the texture.
+        distribution: Distribution2D,
+    },
+}
+
+/// The environment light.
+#[derive(Debug, Clone)]
+pub struct Environment {
+    /// The radiance before `strength`.
+    pub radiance: Radiance,
+    /// Multiplies the radiance.
+    pub strength: f32,
+    /// Rotation about +y in radians (counter-clockwise seen from above).
+    pub rotation: f32,
+    /// Whether camera rays see it.
+    pub visible: bool,
+}
+
+/// A direction sampled towards the environment.
+#[derive(Debug, Clone, Copy)]
+pub struct EnvironmentSample {
+    /// Unit direction (world space).
+    pub wi: Vec3,
+    /// Radiance arriving from it.
+    pub le: Rgb,
+    /// Solid-angle pdf.
+    pub pdf: f32,
+}
+
+impl Environment {
+    /// A constant environment.
+    pub fn constant(color: Rgb, strength: f32, visible: bool) -> Environment {
+        Environment {
+            radiance: Radiance::Constant(color),
+            strength,
+            rotation: 0.0,
+            visible,
+        }
+    }
+
+    /// An image environment; negative texels (compression noise in HDR files) count as 0.
+    pub fn image(mut texture: Texture, strength: f32, rotation: f32, visible: bool) -> Environment {
+        for t in texture.texels.iter_mut() {
+            *t = t.max(Vec3::ZERO);
+            if !t.is_finite() {
+                *t = Vec3::ZERO;
+            }
+        }
+        let (w, h) = (texture.width as usize, texture.height as usize);
+        // Each cell's weight is the mean over the cell of the bilinearly interpolated
+        // luminance that `le` returns (as pbrt-v4's sampling distribution): in each axis 1/8 of
+        // each neighbour and 3/4 of the texel itself. With the texel's own value alone, the
+        // half-texel rim that a bright sun bleeds into its neighbours would be sampled at their
+        // low density: fireflies.
+        let lum: Vec<f32> = texture.texels.iter().map(|t| luminance(*t)).collect();
+        let at = |x: isize, y: isize| {
+            let x = x.rem_euclid(w as isize) as usize;
+            let y = y.clamp(0, h as isize - 1) as usize;
+            lum[y * w + x]
+        };
+        const TAP: [f32; 3] = [0.125, 0.75, 0.125];
+        let weights: Vec<f32> = (0..h)
+            .flat_map(|row| {
+                // Row `row` (top first) spans polar angles [row, row + 1] · π / h.
+                let sin_theta = (PI * (row as f32 + 0.5) / h as f32).sin();
+                (0..w).map(move |col| {
+                    let mut sum = 0.0;
+                    for (dy, ty) in TAP.iter().enumerate() {
+                        for (dx, tx) in TAP.iter().enumerate() {
+                            sum += ty
+                                * tx
+                                * at(
+                                    col as isize + dx as isize - 1,
+                                    row as isize + dy as isize - 1,
+                                );
+                        }
+                    }
+                    sum * sin_theta
+                })
+            })
+            .collect();
+        let distribution = Distribution2D::new(&weights, w, h);
+        Environment {
+            radiance: Radiance::Image {
+                texture,
+                distribution,
+            },
+            strength,
+            rotation,
+            visible,
+        }
+    }
+
+    /// Whether it sends no light at all.
+    pub fn is_black(&self) -> bool {
+        self.strength <= 0.0
+            || match &self.radiance {
+                Radiance::Constant(c) => c.max_element() <= 0.0,
+                Radiance::Image { distribution, .. } => distribution.integral() <= 0.0,
+            }
+    }
+
+    /// Image coordinates (u, v from the bottom) of a world direction.
+    fn uv(&self, d: Vec3) -> Vec2 {
+        // Rotating the image by φ about +y = looking it up in the direction rotated by −φ.
+        let (s, c) = (-self.rotation).sin_cos();
+        let (x, z) = (c * d.x + s * d.z, -s * d.x + c * d.z);
+        let u = 0.5 + z.atan2(x) / (2.0 * PI);
+        let v = 0.5 + d.y.clamp(-1.0, 1.0).asin() / PI;
+        Vec2::new(u.rem_euclid(1.0), v)
+    }
+
+    /// The world direction of image coordinates (inverse of [`Environment::uv`]).
+    fn direction(&self, uv: Vec2) -> Vec3 {
+        let phi = (uv.x - 0.5) * 2.0 * PI;
+        let elevation = (uv.y - 0.5) * PI;
+        let (x, z) = (elevation.cos() * phi.cos(), elevation.cos() * phi.sin());
+        // The rotation by φ about +y (x → −z for φ = 90°): the inverse of `uv`'s.
+        let (s, c) = self.rotation.sin_cos();
+        Vec3::new(c * x + s * z, elevation.sin(), -s * x + c * z)
+    }
+
+    /// Radiance arriving from direction `d` (unit, pointing away from the scene).
+    pub fn le(&self, d: Vec3) -> Rgb {
+        match &self.radiance {
+            Radiance::Constant(c) => *c * self.strength,
+            Radiance::Image { texture, .. } => texture.lookup(self.uv(d)) * self.strength,
+        }
+    }
+
+    /// Samples a direction towards the environment from the 2D point `u`.
+    pub fn sample(&self, u: Vec2) -> Option<EnvironmentSample> {
+        match &self.radiance {
+            Radiance::Constant(c) => {
+                let z = 1.0 - 2.0 * u.x;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = 2.0 * PI * u.y;
+                Some(EnvironmentSample {
+                    wi: Vec3::new(r * phi.cos(), z, r * phi.sin()),
+                    le: *c * self.strength,
+                    pdf: 1.0 / (4.0 * PI),
+                })
+            }
+            Radiance::Image {
+                texture,
+                distribution,
+            } => {
+                // The distribution's rows are top first; image v counts from the bottom.
+                let (xy, pdf_xy) = distribution.sample(u)?;
+                let uv = Vec2::new(xy.x, 1.0 - xy.y);
+                let sin_theta = (PI * xy.y).sin();
+                if sin_theta <= 0.0 {
+                    return None;
+                }
+                let pdf = pdf_xy / (2.0 * PI * PI * sin_theta);
+                Some(EnvironmentSample {
+                    wi: self.direction(uv),
+                    le: texture.lookup(uv) * self.strength,
+                    pdf,
+                })
+            }
+        }
+    }
+
+    /// The solid-angle pdf with which [`Environment::sample`] returns direction `d`.
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        match &self.radiance {
+            Radiance::Constant(_) => 1.0 / (4.0 * PI),
+            Radiance::Image { distribution, .. } => {
+                let uv = self.uv(d);
+                let xy = Vec2::new(uv.x, 1.0 - uv.y);
+                let sin_theta = (PI * xy.y).sin();
+                if sin_theta <= 0.0 {
+                    return 0.0;
+                }
+                distribution.pdf(xy) / (2.0 * PI * PI * sin_theta)
+            }
+        }
+    }
+
+    /// The power estimate for choosing among lights: the flux through a disc of the scene's
+    /// radius r, π r² × ∫ L dω (luminance), as pbrt-v4's `ImageInfiniteLight::Phi`.
+    pub fn power(&self, scene_radius: f32) -> f32 {
+        let integral = match &self.radiance {
+            Radiance::Constant(c) => 4.0 * PI * luminance(*c),
+            // ∫ L dω = Σ L · ΔΩ with ΔΩ = (2π/w)(π/h) sin θ: the distribution's integral
+            // (the mean of luminance × sin θ over the texels) × 2π².
+            Radiance::Image { distribution, .. } => 2.0 * PI * PI * distribution.integral(),
+        };
+        PI * scene_radius * scene_radius * integral * self.strength
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::chi2;
+    use crate::texture::Wrap;
+
+    /// A 16 × 8 image with a bright "sun" texel and a gradient elsewhere.
+    fn image_env(rotation: f32) -> Environment {
+        let (w, h) = (16u32, 8u32);
+        let texels = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if (x, y) == (11, 2) {
+                    Vec3::new(400.0, 300.0, 200.0)
+                } else {
+                    Vec3::new(0.2 + x as f32 * 0.05, 0.3, 0.1 + y as f32 * 0.1)
+                }
+            })
+            .collect();
+        let texture = Texture {
+            width: w,
+            height: h,
+            texels,
+            alpha: None,
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Clamp,
+        };
+        Environment::image(texture, 1.5, rotation, true)
+    }
+
+    #[test]
+    fn orientation_is_blenders() {
+        let env = image_env(0.0);
+        let close = |a: Vec2, b: Vec2| (a - b).length() < 1e-5;
+        assert!(
+            close(env.uv(Vec3::X), Vec2::new(0.5, 0.5)),
+            "centre column faces +x"
+        );
+        assert!(
+            close(env.uv(-Vec3::Z), Vec2::new(0.25, 0.5)),
+            "u = 0.25 faces −z"
+        );
+        assert!(
+            close(env.uv(Vec3::Z), Vec2::new(0.75, 0.5)),
+            "u = 0.75 faces +z"
+        );
+        assert!(
+            (env.uv(Vec3::Y).y - 1.0).abs() < 1e-6,
+            "the top row is straight up"
+        );
+        // Rotating by 90° counter-clockwise seen from above (+x towards −z) carries the centre
+        // column from +x to −z.
+        let turned = image_env(std::f32::consts::FRAC_PI_2);
+        assert!(close(turned.uv(-Vec3::Z), Vec2::new(0.5, 0.5)));
+        // direction() inverts uv().
+        for d in [Vec3::new(0.3, 0.5, -0.8), Vec3::new(-0.9, -0.2, 0.1)] {
+            let d = d.normalize();
+            assert!((turned.direction(turned.uv(d)) - d).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn pdf_integrates_to_one_over_the_sphere() {
+        for env in [image_env(0.7), Environment::constant(Vec3::ONE, 1.0, true)] {
+            // Midpoint rule over the image's (u, v), 8 × 8 points per texel (so the sun texel
+            // is resolved), with dω = 2π du · π dv · sin θ; the directions come from
+            // `direction`, so this also checks it against `pdf`'s `uv`.
+            let (n_u, n_v) = (16 * 8, 8 * 8);
+            let mut sum = 0.0f64;
+            for j in 0..n_v {
+                let v = (j as f32 + 0.5) / n_v as f32;
+                let sin_theta = (PI * v).sin();
+                for i in 0..n_u {
+                    let u = (i as f32 + 0.5) / n_u as f32;
+                    let d = env.direction(Vec2::new(u, v));
+                    sum += f64::from(env.pdf(d) * 2.0 * PI * PI * sin_theta);
+                }
+            }
+            let integral = sum / (n_u * n_v) as f64;
+            assert!((integral - 1.0).abs() < 1e-3, "∫ pdf = {integral}");
+        }
+    }
+
+    #[test]
+    fn samples_follow_the_pdf() {
+        let env = image_env(0.3);
+        let p = chi2::p_value(
+            "environment",
+            200_000,
+            7,
+            |rng| {
+                env.sample(Vec2::new(rng.next_f32(), rng.next_f32()))
+                    .map(|s| s.wi)
+            },
+            |wi| env.pdf(wi),
+        );
+        chi2::assert_all_pass(&[("environment".to_string(), p)]);
+        // The radiance a sample carries is the lookup in its direction.
+        let s = env.sample(Vec2::new(0.3, 0.6)).unwrap();
+        assert!((s.le - env.le(s.wi)).abs().max_element() < 1e-3 * s.le.max_element());
+    }
+}
