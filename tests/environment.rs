@@ -102,3 +102,78 @@ fn constant_environment_white_furnace() {
         assert!((c - 0.5).abs() < tol, "mean {mean:?}");
     }
 }
+
+/// `lumo render ANY --env FILE` lights every input kind with the image (the default
+/// environments of scene JSON, legacy and glTF files replaced), and a file that cannot be read
+/// is an error naming it, with exit code 2.
+#[test]
+fn env_flag_replaces_the_environment_for_every_input_kind() {
+    let Some(shared) = common::shared() else {
+        return;
+    };
+    let sky = shared.join("hdri/sunrise.exr");
+    let box_glb = shared.join("gltf/Box/glTF-Binary/Box.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let mean = |path: &std::path::Path| {
+        let img = lumo::output::read_image(path).unwrap();
+        img.mean().to_array().iter().sum::<f32>() / 3.0
+    };
+    for (input, name) in [
+        (common::root().join("scenes/cornell.json"), "json"),
+        (common::root().join("scenes/legacy/textured_sphere.txt"), "legacy"),
+        (box_glb, "gltf"),
+    ] {
+        let render = |extra: &[&str], out: &std::path::Path| {
+            let mut c = assert_cmd::Command::cargo_bin("lumo").unwrap();
+            c.arg("render")
+                .arg(&input)
+                .args(["--width", "24", "--height", "24", "--spp", "4", "-q"])
+                .args(extra)
+                .arg("-o")
+                .arg(out)
+                .assert()
+                .success();
+        };
+        let plain = dir.path().join(format!("{name}.exr"));
+        let lit = dir.path().join(format!("{name}_env.exr"));
+        let dim = dir.path().join(format!("{name}_dim.exr"));
+        render(&[], &plain);
+        let env = sky.to_str().unwrap();
+        render(&["--env", env], &lit);
+        render(&["--env", env, "--env-strength", "0.5", "--env-rotation", "45"], &dim);
+        let (p, l, d) = (mean(&plain), mean(&lit), mean(&dim));
+        assert!((p - l).abs() > 1e-3, "{name}: --env changed nothing ({p} vs {l})");
+        assert!(d < l, "{name}: --env-strength 0.5 is not dimmer ({d} vs {l})");
+    }
+    let out = dir.path().join("x.png");
+    let assert = assert_cmd::Command::cargo_bin("lumo")
+        .unwrap()
+        .current_dir(common::root())
+        .args(["render", "scenes/cornell.json", "--env", "no/such/sky.exr", "-o"])
+        .arg(&out)
+        .assert()
+        .code(2);
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("no/such/sky.exr"), "{stderr}");
+    assert!(!out.exists());
+}
+
+/// The decoder reads the shared DWAB-compressed EXR to OpenEXR's values (shared/hdri/README.md:
+/// sunrise.exr min −0.0039, max 33,664, mean 0.47), and the environment clamps the negative
+/// texels to zero.
+#[test]
+fn hdr_images_decode_to_openexr_values() {
+    let Some(shared) = common::shared() else {
+        return;
+    };
+    let img = image::open(shared.join("hdri/sunrise.exr"))
+        .unwrap()
+        .to_rgb32f();
+    let values: Vec<f32> = img.pixels().flat_map(|p| p.0).collect();
+    let min = values.iter().copied().fold(f32::INFINITY, f32::min);
+    let max = values.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let mean = values.iter().map(|&v| f64::from(v)).sum::<f64>() / values.len() as f64;
+    assert!((min + 0.0039).abs() < 5e-4, "min {min}");
+    assert!((max - 33_664.0).abs() < 1.0, "max {max}");
+    assert!((mean - 0.47).abs() < 0.005, "mean {mean}");
+}

@@ -300,3 +300,24 @@ fn exports_pass_the_khronos_validator() {
         reports.len()
     );
 }
+
+/// The environment (image, strength, rotation, visibility) survives scene → glTF → scene in
+/// lumo's extras, its image path rebased to the glTF file's folder and back.
+#[test]
+fn environment_round_trips_through_extras() {
+    let dir = tempfile::tempdir().unwrap();
+    // Conversion never decodes the image: any file of the name will do.
+    std::fs::write(dir.path().join("sky.hdr"), b"#?RADIANCE\n").unwrap();
+    let text = r#"{"format_version": 2, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y_deg": 40},
+      "background": {"image": "sky.hdr", "strength": 2.5, "rotation_deg": 30, "visible": false},
+      "materials": {"m": {}}, "objects": [{"sphere": {"material": "m", "radius": 1}}]}"#;
+    let scene = lumo_schema::load_scene_str(text, &dir.path().join("s.json"), Some(dir.path()))
+        .unwrap()
+        .into_inner();
+    let out_dir = dir.path().join("exported");
+    std::fs::create_dir_all(&out_dir).unwrap();
+    for ext in ["glb", "gltf"] {
+        let back = roundtrip_scene(&scene, dir.path(), &out_dir.join(format!("s.{ext}")));
+        assert_eq!(back.background, scene.background, "{ext}");
+    }
+}
