@@ -120,7 +120,10 @@ fn env_flag_replaces_the_environment_for_every_input_kind() {
     };
     for (input, name) in [
         (common::root().join("scenes/cornell.json"), "json"),
-        (common::root().join("scenes/legacy/textured_sphere.txt"), "legacy"),
+        (
+            common::root().join("scenes/legacy/textured_sphere.txt"),
+            "legacy",
+        ),
         (box_glb, "gltf"),
     ] {
         let render = |extra: &[&str], out: &std::path::Path| {
@@ -140,16 +143,38 @@ fn env_flag_replaces_the_environment_for_every_input_kind() {
         render(&[], &plain);
         let env = sky.to_str().unwrap();
         render(&["--env", env], &lit);
-        render(&["--env", env, "--env-strength", "0.5", "--env-rotation", "45"], &dim);
+        render(
+            &[
+                "--env",
+                env,
+                "--env-strength",
+                "0.5",
+                "--env-rotation",
+                "45",
+            ],
+            &dim,
+        );
         let (p, l, d) = (mean(&plain), mean(&lit), mean(&dim));
-        assert!((p - l).abs() > 1e-3, "{name}: --env changed nothing ({p} vs {l})");
-        assert!(d < l, "{name}: --env-strength 0.5 is not dimmer ({d} vs {l})");
+        assert!(
+            (p - l).abs() > 1e-3,
+            "{name}: --env changed nothing ({p} vs {l})"
+        );
+        assert!(
+            d < l,
+            "{name}: --env-strength 0.5 is not dimmer ({d} vs {l})"
+        );
     }
     let out = dir.path().join("x.png");
     let assert = assert_cmd::Command::cargo_bin("lumo")
         .unwrap()
         .current_dir(common::root())
-        .args(["render", "scenes/cornell.json", "--env", "no/such/sky.exr", "-o"])
+        .args([
+            "render",
+            "scenes/cornell.json",
+            "--env",
+            "no/such/sky.exr",
+            "-o",
+        ])
         .arg(&out)
         .assert()
         .code(2);
