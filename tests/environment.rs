@@ -202,3 +202,71 @@ fn hdr_images_decode_to_openexr_values() {
     assert!((max - 33_664.0).abs() < 1.0, "max {max}");
     assert!((mean - 0.47).abs() < 0.005, "mean {mean}");
 }
+
+/// Orientation: a map whose quarters around the horizon and top band have distinct colours,
+/// seen from cameras looking along ±x, ±z and up, renders the colour the mapping
+/// u = 0.5 + atan2(z, x)/2π, v = 0.5 + asin(y)/π predicts (centre column +x, u = 0.25 −z,
+/// u = 0.75 +z, top row up), also rotated by 90° about +y.
+#[test]
+fn environment_orientation_follows_the_mapping() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (64u32, 32u32);
+    // Colours by direction: +x red, −z green, −x blue, +z yellow, up white.
+    let colour = |u: f32, v_from_top: f32| -> [f32; 3] {
+        if v_from_top < 0.15 {
+            return [1.0, 1.0, 1.0];
+        }
+        match ((u * 4.0 + 0.5).floor() as i32).rem_euclid(4) {
+            0 => [0.0, 0.0, 1.0], // u ≈ 0: −x
+            1 => [0.0, 1.0, 0.0], // u ≈ 0.25: −z
+            2 => [1.0, 0.0, 0.0], // u ≈ 0.5: +x
+            _ => [1.0, 1.0, 0.0], // u ≈ 0.75: +z
+        }
+    };
+    let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+        image::Rgb(colour(
+            (x as f32 + 0.5) / w as f32,
+            (y as f32 + 0.5) / h as f32,
+        ))
+    });
+    image::DynamicImage::ImageRgb32F(img)
+        .save(dir.path().join("quadrants.exr"))
+        .unwrap();
+    let look = |to: [f32; 3], up: [f32; 3], rotation: f32| -> [f32; 3] {
+        let text = format!(
+            r#"{{"format_version": 2, "image": {{"width": 4, "height": 4}},
+            "render": {{"spp": 4, "max_depth": 1}},
+            "camera": {{"position": [0, 0, 0], "look_at": {to:?}, "up": {up:?}, "fov_y_deg": 5}},
+            "background": {{"image": "quadrants.exr", "rotation_deg": {rotation}}},
+            "materials": {{}}, "objects": []}}"#
+        );
+        let path = dir.path().join("look.json");
+        std::fs::write(&path, text).unwrap();
+        let scene = common::build(&common::load_scene(&path), dir.path());
+        common::render(&scene).mean().to_array()
+    };
+    let (red, green, blue, yellow, white) = (
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 1.0, 0.0],
+        [1.0, 1.0, 1.0],
+    );
+    let y = [0.0, 1.0, 0.0];
+    for (to, up, rotation, expected) in [
+        ([1.0, 0.0, 0.0], y, 0.0, red),
+        ([0.0, 0.0, -1.0], y, 0.0, green),
+        ([-1.0, 0.0, 0.0], y, 0.0, blue),
+        ([0.0, 0.0, 1.0], y, 0.0, yellow),
+        ([0.0, 1.0, 0.0], [0.0, 0.0, -1.0], 0.0, white),
+        // Turned 90° counter-clockwise seen from above: what faced +x now faces −z.
+        ([0.0, 0.0, -1.0], y, 90.0, red),
+        ([1.0, 0.0, 0.0], y, 90.0, yellow),
+    ] {
+        let got = look(to, up, rotation);
+        assert!(
+            (0..3).all(|k| (got[k] - expected[k]).abs() < 1e-3),
+            "looking along {to:?} (rotation {rotation}°): {got:?}, expected {expected:?}"
+        );
+    }
+}
