@@ -128,11 +128,34 @@ const CASES: &[Case] = &[
 ];
 
 fn reference(name: &str, suffix: &str) -> Image {
-    let path = common::root().join(format!("tests/data/cycles_gltf/{name}{suffix}.exr"));
+    reference_in("cycles_gltf", name, suffix)
+}
+
+fn reference_in(folder: &str, name: &str, suffix: &str) -> Image {
+    let path = common::root().join(format!("tests/data/{folder}/{name}{suffix}.exr"));
     lumo::output::read_image(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The grey world of the references: a constant environment of radiance 0.5.
+fn grey_world() -> lumo_schema::Background {
+    lumo_schema::Background {
+        color: [0.5; 3],
+        ..lumo_schema::Background::default()
+    }
+}
+
 fn render(path: &std::path::Path, camera: &Value, seed: u64) -> Image {
+    render_lit(path, camera, seed, &grey_world())
+}
+
+/// Renders a model at 128², `SPP`, with the reference's camera (checked) and `background` as
+/// the only light.
+fn render_lit(
+    path: &std::path::Path,
+    camera: &Value,
+    seed: u64,
+    background: &lumo_schema::Background,
+) -> Image {
     let mut inp = lumo::load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     inp.edit(|s| {
         s.image.width = SIZE;
@@ -140,7 +163,7 @@ fn render(path: &std::path::Path, camera: &Value, seed: u64) -> Image {
         s.render.spp = SPP;
         s.render.seed = seed;
         s.render.max_depth = 8;
-        s.background.color = [0.5; 3];
+        s.background = background.clone();
         s.lights.clear();
         let close = |a: [f32; 3], b: &Value| {
             (0..3).all(|k| (f64::from(a[k]) - b[k].as_f64().unwrap()).abs() < 1e-6)
@@ -299,3 +322,161 @@ fn gltf_samples_match_cycles() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// Every shared glTF sample (none has lights) under the HDR world `studio.exr` (default
+/// mapping, strength 1) against Cycles' references in `tests/data/cycles_gltf_env/`, with the
+/// same metric and smooth-pixel mask as above.
+#[test]
+fn gltf_samples_under_an_hdr_world_match_cycles() {
+    let Some(shared) = common::shared() else {
+        return;
+    };
+    let folder = common::root().join("tests/data/cycles_gltf_env");
+    let meta: Value =
+        serde_json::from_str(&std::fs::read_to_string(folder.join("cameras.json")).unwrap())
+            .unwrap();
+    let world = lumo_schema::Background {
+        image: Some(
+            shared
+                .join("hdri/studio.exr")
+                .to_string_lossy()
+                .into_owned(),
+        ),
+        ..lumo_schema::Background::default()
+    };
+    let models = meta["models"].as_object().unwrap();
+    assert!(models.len() >= 30, "{} models", models.len());
+    let mut failures = Vec::new();
+    for (name, model) in models {
+        let path = shared.join("gltf").join(model["gltf"].as_str().unwrap());
+        let (a, b) = (
+            render_lit(&path, &model["camera"], 1, &world),
+            render_lit(&path, &model["camera"], 2, &world),
+        );
+        let (c, vc) = (
+            reference_in("cycles_gltf_env", name, ""),
+            reference_in("cycles_gltf_env", name, ".var"),
+        );
+        let keep = smooth_pixels(&c);
+        let (ratio, mean_diff) = compare(&a, &b, &c, &vc, &keep);
+        let (max_ratio, max_mean_diff) = match ENV_BOUNDS.iter().find(|b| b.0 == name) {
+            Some((_, Some(bounds), _)) => *bounds,
+            Some((_, None, why)) => {
+                eprintln!("{name} under studio.exr: R = {ratio:.3}, not compared: {why}");
+                continue;
+            }
+            None => (ENV_DEFAULT_MAX_RATIO, ENV_DEFAULT_MAX_MEAN_DIFF),
+        };
+        eprintln!(
+            "{name} under studio.exr: R = {ratio:.3} (bound {max_ratio}), mean difference {:.2} % \
+             (bound {} %)",
+            100.0 * mean_diff,
+            100.0 * max_mean_diff
+        );
+        if ratio > max_ratio || mean_diff > max_mean_diff {
+            failures.push(format!(
+                "{name}: R = {ratio:.3}, mean difference {:.2} %",
+                100.0 * mean_diff
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The bounds on R and the relative mean difference for models not listed in [`ENV_BOUNDS`]:
+/// measured 0.87–1.77 and ≤ 0.6 % for 18 models on 2026-11-29 (AlphaBlendMode 1.15, Box 1.01,
+/// BoxTextured 0.94, ClearCoatCarPaint 1.77, ClearCoat 1.04, DamagedHelmet 0.87, Duck 1.01,
+/// EmissiveStrength 1.03, GlassVaseFlowers 1.00, NormalTangentMirror 1.28, NormalTangent 1.29,
+/// Specular 1.04, TextureCoordinate 0.93, TextureSettings 0.98, TextureTransform 1.05,
+/// TransmissionRoughness 1.28, VertexColor 0.95).
+const ENV_DEFAULT_MAX_RATIO: f64 = 2.7;
+const ENV_DEFAULT_MAX_MEAN_DIFF: f64 = 0.01;
+/// Models with their own bounds (measured × 1.5), or not compared (`None`), and why.
+#[allow(clippy::type_complexity)]
+const ENV_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
+    (
+        "MetalRoughSpheresNoTextures",
+        Some((3.3, 0.01)),
+        "R 2.18: Principled's rough metal",
+    ),
+    // Blender departs from the specification: a primitive without a material gets grey
+    // diffuse, not glTF's default white metal of roughness 1 (which lumo renders).
+    (
+        "BoxVertexColors",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "Cameras",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "MultipleScenes",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "SimpleMeshes",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "SimpleSparseAccessor",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "Triangle",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "TriangleWithoutIndices",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    // Blender refracts through the single transmissive quad as into a solid; glTF (and lumo)
+    // treat transmission without a volume as thin-walled.
+    (
+        "GlassBrokenWindow",
+        None,
+        "thin-walled glass: Blender refracts",
+    ),
+    // lumo does not implement EXT_mesh_gpu_instancing (one cube instead of 125); the camera
+    // lumo frames sits inside one of Blender's cubes, whose image is black.
+    (
+        "SimpleInstancing",
+        None,
+        "EXT_mesh_gpu_instancing is not implemented",
+    ),
+    // Blender's unlit objects are visible only to camera rays; lumo's absorb other rays too.
+    (
+        "UnlitTest",
+        None,
+        "unlit surfaces: Blender lets non-camera rays through",
+    ),
+    // Not explained yet (open, see the issue note): rough saturated or textured metals and an
+    // interior lit through its opening differ by more than noise.
+    (
+        "BoxInterleaved",
+        Some((37.0, 0.16)),
+        "R 24.5, 10.7 %: red metal of roughness 1",
+    ),
+    ("Cube", Some((3.7, 0.027)), "R 2.43, 1.8 %: textured metal"),
+    (
+        "CornellBoxVinc3r",
+        Some((6.1, 0.084)),
+        "R 4.06, 5.6 %: interior lit through its opening",
+    ),
+    (
+        "TextureEncodingTest",
+        Some((21.0, 0.021)),
+        "R 13.8, 1.4 %: texture encodings",
+    ),
+    (
+        "TwoSidedPlane",
+        Some((6.2, 0.01)),
+        "R 4.08, 0.5 %: single quad seen at 26.6°",
+    ),
+];

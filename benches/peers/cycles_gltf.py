@@ -1,8 +1,9 @@
 """Reference renders of Khronos glTF sample models with Blender Cycles (PyPI ``bpy``), for lumo's
 glTF material tests: per model a mean image and the per-pixel variance of that mean.
 
-    .venv/bin/python cycles_gltf.py [--models A,B] [--passes 8] [--spp 256] [--lumo PATH]
-                                    [--gltf-root DIR] [--out DIR]
+    .venv/bin/python cycles_gltf.py [--models A,B|all] [--passes 8] [--spp 256] [--lumo PATH]
+                                    [--gltf-root DIR] [--out DIR] [--env FILE.exr]
+                                    [--still PNG --size 384]
 
 For every model (``<Name>`` or ``<Name>_nonormal``):
 
@@ -34,12 +35,34 @@ For every model (``<Name>`` or ``<Name>_nonormal``):
 A model that fails (lumo convert, import, render) prints an error and the others go on; the exit
 status is 1 if any failed. Per-model timings are printed. Run it with ``nice -n 10`` on a shared
 machine.
+
+``--env FILE.exr`` (environment mode): the world is that equirectangular HDR image instead of the
+grey constant, built exactly as ``cycles_env.set_env_world`` builds it for rotation 0 (Environment
+Texture, Linear Rec.709, interpolation Linear, Vector input unlinked = Blender's default mapping,
+which is lumo's orientation of an unrotated ``--env`` image; Background strength 1; visible to the
+camera; world importance sampling Auto, Blender's default). Everything else is unchanged
+(settings, lumo's camera, K passes, mean / variance EXRs, previews, ``cameras.json``, README).
+Defaults that change with ``--env``: ``--out`` = ``tests/data/cycles_gltf_env``, ``--models`` =
+``all`` (every folder of ``--gltf-root`` holding a model, no ``_nonormal`` variants), and
+``--prefer glb`` (``glTF-Binary/*.glb`` before ``glTF/*.gltf``). The grey check is replaced by an
+environment check: Blender's ``scene.ray_cast`` on the evaluated scene with 4 x 4 rays per pixel
+finds the pixels that see no geometry (eroded by one pixel); there the Cycles mean must match a
+numpy prediction of the environment (``cycles_env.env_lookup``, lumo's documented orientation,
+the same rays) with a median relative luminance error under 3 %, or the model fails. The number
+of pixels that see any geometry is recorded (0 = the camera sees nothing). Environment-mode EXRs
+are stored more compactly (see ``ENV_MEAN_HALF``, ``ENV_VAR_MANTISSA_BITS``).
+
+``--still PNG --size N`` (one model, with or without ``--env``): one pass of ``--spp`` samples,
+seed 1, at N x N, the same scene and settings otherwise, written as an 8-bit sRGB PNG (the linear
+result clamped to [0, 1], sRGB transfer curve, no dithering: what the Standard view transform
+shows). Its settings are recorded under ``stills`` in ``--out``'s ``cameras.json`` and README.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import hashlib
 import json
 import math
 import os
@@ -88,7 +111,24 @@ PNG_MAX_BYTES = 30_000
 
 DEFAULT_GLTF_ROOT = common.REPO_ROOT.parent / "shared" / "gltf"
 DEFAULT_OUT = common.REPO_ROOT / "tests" / "data" / "cycles_gltf"
+DEFAULT_ENV_OUT = common.REPO_ROOT / "tests" / "data" / "cycles_gltf_env"
 SOURCE_REPO = "KhronosGroup/glTF-Sample-Assets"
+
+# Environment mode (--env) only:
+#: Sub-pixel rays per axis for the background mask (Blender ray casts) and the prediction.
+ENV_CHECK_SUBPIXELS = 4
+#: Largest median relative luminance error allowed between the background pixels and the numpy
+#: prediction of the environment.
+ENV_CHECK_TOLERANCE = 0.03
+#: Storage of the environment-mode EXRs (ZIP either way), to keep 33 models within a few MB: with
+#: a textured background every pixel is noisy and float32 compresses poorly (~195 KB per image,
+#: ~13 MB for 33 models). The mean is written as half floats (11 significant bits: relative
+#: rounding <= 2^-11 = 0.05 %, far below the noise of a 2048-spp mean; range up to 65504): ~55 KB.
+#: The variance as float32 (its values, down to 1e-17, go far below half's range) rounded to this
+#: many explicit mantissa bits: relative rounding <= 2^-(bits+1) = 1.6 %, against the estimate's
+#: own ~53 % scatter with K = 8: ~80 KB. The grey-world references keep full float32.
+ENV_MEAN_HALF = True
+ENV_VAR_MANTISSA_BITS = 5
 
 
 def default_jobs() -> list[str]:
@@ -107,13 +147,29 @@ def split_job(job: str) -> tuple[str, bool]:
     return job, False
 
 
-def find_model_file(root: Path, model: str) -> Path:
-    """The model's glTF/*.gltf, else glTF-Binary/*.glb (the variant lumo's tests read)."""
-    for sub, pattern in (("glTF", "*.gltf"), ("glTF-Binary", "*.glb")):
+def find_model_file(root: Path, model: str, prefer_binary: bool = False) -> Path:
+    """The model's glTF/*.gltf, else glTF-Binary/*.glb (the variant lumo's tests read); with
+    ``prefer_binary`` the other way round. Folders without that layout (CornellBoxVinc3r): the
+    first *.gltf / *.glb in the folder itself."""
+    order = [("glTF", "*.gltf"), ("glTF-Binary", "*.glb")]
+    if prefer_binary:
+        order.reverse()
+    order += [(".", pattern) for _, pattern in order]
+    for sub, pattern in order:
         hits = sorted((root / model / sub).glob(pattern))
         if hits:
             return hits[0]
-    raise FileNotFoundError(f"{root / model}: no glTF/*.gltf or glTF-Binary/*.glb")
+    raise FileNotFoundError(f"{root / model}: no glTF/*.gltf, glTF-Binary/*.glb or *.gltf/*.glb")
+
+
+def all_models(root: Path) -> list[str]:
+    """Every folder of ``root`` that holds a model (see find_model_file), sorted."""
+    names = []
+    for d in sorted(p for p in root.iterdir() if p.is_dir()):
+        with contextlib.suppress(FileNotFoundError):
+            find_model_file(root, d.name)
+            names.append(d.name)
+    return names
 
 
 def read_gltf_json(path: Path) -> dict:
@@ -220,8 +276,11 @@ def import_model(bpy, path: Path) -> tuple[list[str], list[str]]:
                 error = f"importer returned {sorted(result)}"
         except Exception as e:  # bpy raises RuntimeError with the operator's ERROR report
             error = f"{type(e).__name__}: {e}"
+    # INFO lines only name what is created ("create Mesh node Error Marker" in TextureTransformTest
+    # is a mesh's name); the importer reports problems at WARNING / ERROR level.
     notable = [ln.strip() for ln in log
-               if any(w in ln.upper() for w in ("WARNING", "ERROR", "UNSUPPORTED", "NOT SUPPORTED"))]
+               if any(w in ln.upper() for w in ("WARNING", "ERROR", "UNSUPPORTED", "NOT SUPPORTED"))
+               and "| INFO:" not in ln]
     if error:
         raise RuntimeError(f"glTF import of {path} failed: {error}\n  log: " + "\n  log: ".join(log))
     return log, notable
@@ -345,11 +404,71 @@ def set_world(bpy, scene) -> None:
     scene.world = world
 
 
-def configure_cycles(scene) -> dict:
+def set_env_world(bpy, scene, env: Path) -> dict:
+    """The HDR image ``env`` as the world, exactly as ``cycles_env.set_env_world`` builds it for
+    rotation 0 and strength 1 (Environment Texture with default mapping, importance sampling
+    Auto, visible to the camera; it also checks Blender's pixels against OpenEXR's)."""
+    import cycles_env
+
+    return cycles_env.set_env_world(bpy, scene, {"image": env, "strength": 1.0,
+                                                 "rotation_deg": 0.0, "visible": True})
+
+
+def repo_relative(path: Path) -> str:
+    """``path`` relative to the repository root (with ``..`` if outside), for the records."""
+    return Path(os.path.relpath(Path(path).resolve(), common.REPO_ROOT)).as_posix()
+
+
+def env_background_check(bpy, scene, cam: dict, env: Path, mean: np.ndarray,
+                         n: int = ENV_CHECK_SUBPIXELS) -> dict:
+    """Environment mode: finds the pixels that see geometry (Blender ray casts, n x n rays per
+    pixel through lumo's camera) and compares the pixels that see none (eroded by one pixel) with
+    the numpy prediction of the environment along the same rays. Returns the record."""
+    import cycles_env
+    from mathutils import Vector
+
+    h, w = mean.shape[:2]
+    dirs = cycles_env.camera_rays(cam, w, h, n)              # (h, w, n*n, 3), glTF / lumo frame
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    origin = Vector(gltf_to_blender(cam["position"]))
+    flat = dirs.reshape(-1, 3)
+    hits = np.zeros(len(flat), bool)
+    for i, d in enumerate(flat):
+        hits[i] = scene.ray_cast(depsgraph, origin, Vector(gltf_to_blender(d)))[0]
+    hits = hits.reshape(h, w, n * n)
+    sees_geometry = np.any(hits, axis=-1)
+    background = cycles_env.erode(~sees_geometry)
+    env_img = np.maximum(common.read_exr(env), 0.0)          # as lumo reads it (DWAB noise -> 0)
+    out = {"subpixel_rays": n * n,
+           "pixels_seeing_geometry": int(sees_geometry.sum()),
+           "background_pixels_checked": int(background.sum())}
+    if background.any():
+        pred = cycles_env.env_lookup(env_img, dirs[background]).mean(axis=1)
+        y = mean[background] @ cycles_env.LUMINANCE
+        py = pred @ cycles_env.LUMINANCE
+        rel = np.abs(y - py) / np.maximum(py, 1e-6)
+        out["median_rel_err"] = round(float(np.median(rel)), 5)
+        out["p99_rel_err"] = round(float(np.quantile(rel, 0.99)), 5)
+        out["mean_ratio_rgb"] = (mean[background].mean(axis=0) / pred.mean(axis=0)).round(5).tolist()
+    return out
+
+
+def quantize_mantissa(a: np.ndarray, bits: int) -> np.ndarray:
+    """float32 values rounded (to nearest, ties to even) to ``bits`` explicit mantissa bits."""
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    drop = 23 - bits
+    if drop <= 0:
+        return a
+    i = a.view(np.uint32).astype(np.uint64)
+    i = ((i + (1 << (drop - 1)) - 1 + ((i >> drop) & 1)) >> drop) << drop
+    return i.astype(np.uint32).view(np.float32)
+
+
+def configure_cycles(scene, width: int = WIDTH, height: int = HEIGHT) -> dict:
     """The issue's settings; returns them as read back from Blender (for the record)."""
     r = scene.render
     r.engine = "CYCLES"
-    r.resolution_x, r.resolution_y, r.resolution_percentage = WIDTH, HEIGHT, 100
+    r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
     r.pixel_aspect_x = r.pixel_aspect_y = 1.0
     r.film_transparent = False
     r.threads_mode = "AUTO"
@@ -429,6 +548,16 @@ def configure_cycles(scene) -> dict:
 
 def write_png_preview(path: Path, rgb: np.ndarray) -> int | None:
     """sRGB 8-bit preview (clamped); written only if under PNG_MAX_BYTES. Returns its size."""
+    png = encode_png(rgb)
+    if len(png) >= PNG_MAX_BYTES:
+        path.unlink(missing_ok=True)
+        return None
+    path.write_bytes(png)
+    return len(png)
+
+
+def encode_png(rgb: np.ndarray) -> bytes:
+    """8-bit sRGB PNG of a linear RGB image: clamped to [0, 1], sRGB transfer curve, rounded."""
     x = np.clip(rgb, 0.0, 1.0)
     srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
     px = np.round(srgb * 255).astype(np.uint8)
@@ -453,22 +582,35 @@ def write_png_preview(path: Path, rgb: np.ndarray) -> int | None:
     def chunk(tag: bytes, body: bytes) -> bytes:
         return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
 
-    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-           + chunk(b"sRGB", b"\x00") + chunk(b"IDAT", best) + chunk(b"IEND", b""))
-    if len(png) >= PNG_MAX_BYTES:
-        path.unlink(missing_ok=True)
-        return None
-    path.write_bytes(png)
-    return len(png)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+            + chunk(b"sRGB", b"\x00") + chunk(b"IDAT", best) + chunk(b"IEND", b""))
 
 
 def canonical_command(args) -> str:
-    """The command that regenerates every model with these sample counts (no --models/--out)."""
+    """The command that regenerates every model with these sample counts (no --models; --out
+    only in environment mode, when it is not the default)."""
     argv = ["nice", "-n", "10", "benches/peers/.venv/bin/python", "benches/peers/cycles_gltf.py"]
+    if args.env is not None:
+        argv += ["--env", args.env_arg]
+        if args.out != DEFAULT_ENV_OUT.resolve():
+            argv += ["--out", repo_relative(args.out)]
     if args.passes != 8:
         argv += ["--passes", str(args.passes)]
     if args.spp != 256:
         argv += ["--spp", str(args.spp)]
+    argv += ["--lumo", args.lumo_arg]
+    return " ".join(shlex.quote(a) for a in argv)
+
+
+def still_command(args, job: str, png: Path) -> str:
+    """The command that regenerates one --still image."""
+    argv = ["nice", "-n", "10", "benches/peers/.venv/bin/python", "benches/peers/cycles_gltf.py"]
+    if args.env is not None:
+        argv += ["--env", args.env_arg]
+    argv += ["--models", job, "--still", repo_relative(png), "--size", str(args.size),
+             "--spp", str(args.spp)]
+    if args.out != (DEFAULT_ENV_OUT if args.env is not None else DEFAULT_OUT).resolve():
+        argv += ["--out", repo_relative(args.out)]
     argv += ["--lumo", args.lumo_arg]
     return " ".join(shlex.quote(a) for a in argv)
 
@@ -511,10 +653,11 @@ def model_title(root: Path, model: str) -> str:
 
 # --- main loop -------------------------------------------------------------------------------------
 
-def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]:
+def prepare_job(bpy, job: str, args, managed_ext: list[str], width: int = WIDTH,
+                height: int = HEIGHT) -> dict:
+    """Steps 1-3 for one job: lumo's camera, the import, world, Cycles settings and camera."""
     model, nonormal = split_job(job)
-    t_job = time.perf_counter()
-    model_file = find_model_file(args.gltf_root, model)
+    model_file = find_model_file(args.gltf_root, model, prefer_binary=args.prefer == "glb")
     cam = lumo_camera(args.lumo, model_file)
 
     reset_blender(bpy)
@@ -541,12 +684,40 @@ def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]
     emissive = count_emissive(bpy)
     meshes = sum(1 for o in bpy.data.objects if o.type == "MESH")
 
-    set_world(bpy, scene)
-    settings = configure_cycles(scene)
+    world = None
+    if args.env is None:
+        set_world(bpy, scene)
+    else:
+        world = set_env_world(bpy, scene, args.env)
+        world["image"] = repo_relative(world["image"])
+    settings = configure_cycles(scene, width, height)
+    if world is not None:
+        settings["world"] = (f"Environment Texture {world['image']} ({world['vector']}), "
+                             f"strength {world['strength']:g}")
+        settings["world_nodes"] = world
     add_camera(bpy, scene, cam)
+    return {
+        "model": model, "nonormal": nonormal, "model_file": model_file, "camera": cam,
+        "scene": scene, "import_seconds": import_seconds, "notable": notable, "used": used,
+        "unsupported": unsupported, "lights": lights, "cams": cams, "unlinked": unlinked,
+        "emissive": emissive, "meshes": meshes, "world": world, "settings": settings,
+        "meshes_in_view_layer": sum(1 for o in scene.objects if o.type == "MESH" and o.visible_get()),
+    }
+
+
+def remove_timer(bpy, timer) -> None:
+    for h, fn in ((bpy.app.handlers.render_pre, timer._pre), (bpy.app.handlers.render_post, timer._post)):
+        with contextlib.suppress(ValueError):
+            h.remove(fn)
+
+
+def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]:
+    t_job = time.perf_counter()
+    ctx = prepare_job(bpy, job, args, managed_ext)
+    model_file, cam, scene = ctx["model_file"], ctx["camera"], ctx["scene"]
     timer = Timer(bpy)
 
-    passes = PASSES_OVERRIDE.get(job, PASSES_OVERRIDE.get(model, args.passes))
+    passes = PASSES_OVERRIDE.get(job, PASSES_OVERRIDE.get(ctx["model"], args.passes))
     seeds = [FIRST_SEED + k for k in range(passes)]
     images = []
     render_s = cpu_s = 0.0
@@ -568,27 +739,43 @@ def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]
                 print(f"  pass {k + 1}/{passes}: {args.spp} spp, seed {seed}, {dt:7.2f} s "
                       f"(cpu {cpu:7.2f} s, load {loads[-1]:.2f})", flush=True)
     finally:
-        for h, fn in ((bpy.app.handlers.render_pre, timer._pre), (bpy.app.handlers.render_post, timer._post)):
-            with contextlib.suppress(ValueError):
-                h.remove(fn)
+        remove_timer(bpy, timer)
 
     stack = np.stack(images)
     mean = stack.mean(axis=0)
     var_of_mean = stack.var(axis=0, ddof=1) / passes if passes > 1 else np.full_like(mean, np.nan)
-    # Linearity check: pixels that see only the world read exactly its radiance in every pass.
-    bg = np.all(np.abs(stack - WORLD_GREY) < 1e-6, axis=(0, 3))
-    background_pixels = int(bg.sum())
+    env_check = None
+    if args.env is None:
+        # Linearity check: pixels that see only the world read exactly its radiance in every pass.
+        bg = np.all(np.abs(stack - WORLD_GREY) < 1e-6, axis=(0, 3))
+        background_pixels = int(bg.sum())
+    else:
+        t0 = time.perf_counter()
+        env_check = env_background_check(bpy, scene, cam, args.env, mean)
+        env_check["seconds"] = round(time.perf_counter() - t0, 2)
+        print(f"  environment check: {env_check}", flush=True)
+        if env_check.get("median_rel_err", 0.0) > ENV_CHECK_TOLERANCE:
+            raise RuntimeError(f"the background pixels do not match the environment's prediction "
+                               f"(median relative error {env_check['median_rel_err']} > "
+                               f"{ENV_CHECK_TOLERANCE}): {env_check}")
 
     args.out.mkdir(parents=True, exist_ok=True)
-    common.write_exr(args.out / f"{job}.exr", mean.astype(np.float32))
-    common.write_exr(args.out / f"{job}.var.exr", var_of_mean.astype(np.float32))
+    if args.env is None:
+        common.write_exr(args.out / f"{job}.exr", mean.astype(np.float32))
+        common.write_exr(args.out / f"{job}.var.exr", var_of_mean.astype(np.float32))
+    else:
+        if ENV_MEAN_HALF and float(np.max(mean)) >= 65504:
+            raise RuntimeError(f"mean up to {np.max(mean)}: too large for half floats")
+        common.write_exr(args.out / f"{job}.exr", mean, half=ENV_MEAN_HALF)
+        common.write_exr(args.out / f"{job}.var.exr",
+                         quantize_mantissa(var_of_mean, ENV_VAR_MANTISSA_BITS))
     png_bytes = write_png_preview(args.out / f"{job}.png", mean)
 
     total_s = time.perf_counter() - t_job
     entry = {
         "gltf": model_file.relative_to(args.gltf_root).as_posix(),
         "camera": cam,
-        "normal_maps": not nonormal,
+        "normal_maps": not ctx["nonormal"],
         "passes": passes,
         "spp_per_pass": args.spp,
         "spp": passes * args.spp,
@@ -596,45 +783,117 @@ def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]
         "render_seconds": round(render_s, 2),
         "render_cpu_seconds": round(cpu_s, 2),
         "total_seconds": round(total_s, 2),
-        "import_seconds": round(import_seconds, 2),
+        "import_seconds": round(ctx["import_seconds"], 2),
         "load1_max": round(max(loads), 2),
         "blender": bpy.app.version_string,
-        "meshes": meshes,
-        "emissive_materials": emissive,
-        "lights_removed": lights,
-        "cameras_removed": cams,
-        "normal_map_links_removed": unlinked,
-        "importer_warnings": notable,
-        "extensions_used": used,
-        "extensions_not_handled_by_importer": unsupported,
-        "background_pixels_reading_0.5": background_pixels,
-        "image_mean": [round(float(v), 6) for v in mean.reshape(-1, 3).mean(axis=0)],
-        "png_preview_bytes": png_bytes,
+        "meshes": ctx["meshes"],
+        "emissive_materials": ctx["emissive"],
+        "lights_removed": ctx["lights"],
+        "cameras_removed": ctx["cams"],
+        "normal_map_links_removed": ctx["unlinked"],
+        "importer_warnings": ctx["notable"],
+        "extensions_used": ctx["used"],
+        "extensions_not_handled_by_importer": ctx["unsupported"],
     }
+    if args.env is None:
+        entry["background_pixels_reading_0.5"] = background_pixels
+    else:
+        entry["meshes_in_view_layer"] = ctx["meshes_in_view_layer"]
+        entry["environment_check"] = env_check
+    entry["image_mean"] = [round(float(v), 6) for v in mean.reshape(-1, 3).mean(axis=0)]
+    entry["png_preview_bytes"] = png_bytes
+    if args.env is None:
+        check_txt = f"{background_pixels} background pixels read {WORLD_GREY}"
+    else:
+        check_txt = (f"{env_check['pixels_seeing_geometry']} pixels see geometry, "
+                     f"{env_check['background_pixels_checked']} background pixels checked")
     print(f"  -> {job}: {passes} x {args.spp} spp = {passes * args.spp} spp, render {render_s:.1f} s "
-          f"(cpu {cpu_s:.1f} s), total {total_s:.1f} s; {background_pixels} background pixels read "
-          f"{WORLD_GREY}; image mean {entry['image_mean']}; png "
+          f"(cpu {cpu_s:.1f} s), total {total_s:.1f} s; {check_txt}; image mean {entry['image_mean']}; png "
           f"{'%d B' % png_bytes if png_bytes else 'skipped (>= 30 KB)'}", flush=True)
-    if background_pixels == 0:
+    if args.env is None and background_pixels == 0:
         print(f"  warning: no pixel sees only the world; the linearity check could not run")
-    return entry, settings
+    if args.env is not None and env_check["pixels_seeing_geometry"] == 0:
+        print(f"  warning: the camera sees no geometry")
+    return entry, ctx["settings"]
+
+
+def render_still(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]:
+    """--still: one pass of --spp samples (seed FIRST_SEED) at --size x --size, as an sRGB PNG."""
+    t_job = time.perf_counter()
+    ctx = prepare_job(bpy, job, args, managed_ext, args.size, args.size)
+    timer = Timer(bpy)
+    try:
+        with tempfile.TemporaryDirectory(prefix="cycles_gltf_") as tmp:
+            path = Path(tmp) / "still.exr"
+            dt, cpu = render_pass(bpy, ctx["scene"], timer, args.spp, FIRST_SEED, path)
+            load = common.load1()
+            img = common.read_exr(path)
+    finally:
+        remove_timer(bpy, timer)
+    if img.shape != (args.size, args.size, 3) or not np.all(np.isfinite(img)):
+        raise RuntimeError(f"bad image (shape {img.shape})")
+    png = encode_png(img)
+    args.still.parent.mkdir(parents=True, exist_ok=True)
+    args.still.write_bytes(png)
+    total_s = time.perf_counter() - t_job
+    entry = {
+        "model": job,
+        "gltf": ctx["model_file"].relative_to(args.gltf_root).as_posix(),
+        "camera": ctx["camera"],
+        "resolution": [args.size, args.size],
+        "passes": 1,
+        "spp": args.spp,
+        "seed": FIRST_SEED,
+        "world": ctx["settings"]["world"],
+        "png": "8-bit sRGB: linear result clamped to [0, 1], sRGB transfer curve, rounded "
+               "(no dithering); the Standard view transform's encoding",
+        "png_bytes": len(png),
+        "render_seconds": round(dt, 2),
+        "render_cpu_seconds": round(cpu, 2),
+        "total_seconds": round(total_s, 2),
+        "load1": round(load, 2),
+        "blender": bpy.app.version_string,
+        "image_mean_linear": [round(float(v), 6) for v in img.reshape(-1, 3).mean(axis=0)],
+        "command": still_command(args, job, args.still),
+    }
+    print(f"  -> {args.still}: {args.size} x {args.size}, {args.spp} spp, render {dt:.1f} s "
+          f"(cpu {cpu:.1f} s, load {load:.2f}), {len(png)} B", flush=True)
+    return entry, ctx["settings"]
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--models", default=",".join(default_jobs()),
-                    help="comma-separated models (a '_nonormal' suffix unlinks the normal maps); "
-                         "default: all of the issue's")
+    ap.add_argument("--models", default=None,
+                    help="comma-separated models (a '_nonormal' suffix unlinks the normal maps), or "
+                         "'all' (every model folder of --gltf-root); default: all of the issue's, "
+                         "with --env: all")
     ap.add_argument("--passes", type=int, default=8, help="independent passes K (default 8)")
     ap.add_argument("--spp", type=int, default=256, help="samples per pixel per pass (default 256)")
     ap.add_argument("--lumo", default=default_lumo(),
                     help="lumo binary used for the cameras (default target/release/lumo, else PATH)")
     ap.add_argument("--gltf-root", type=Path, default=DEFAULT_GLTF_ROOT,
                     help=f"folder of the sample models (default {DEFAULT_GLTF_ROOT})")
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
+    ap.add_argument("--out", type=Path, default=None,
+                    help=f"output folder (default {DEFAULT_OUT}, with --env {DEFAULT_ENV_OUT})")
+    ap.add_argument("--env", default=None, metavar="FILE.exr",
+                    help="light the models with this equirectangular HDR image (Environment "
+                         "Texture, default mapping, strength 1) instead of the grey world")
+    ap.add_argument("--prefer", choices=("gltf", "glb"), default=None,
+                    help="which file of a model folder: glTF/*.gltf or glTF-Binary/*.glb first "
+                         "(default gltf, with --env glb)")
+    ap.add_argument("--still", type=Path, default=None, metavar="PNG",
+                    help="render one model (--models) in one pass of --spp samples at --size x "
+                         "--size into this sRGB PNG; recorded in --out's cameras.json and README")
+    ap.add_argument("--size", type=int, default=384, help="--still: width = height (default 384)")
     ap.add_argument("--readme-only", action="store_true",
                     help="only rewrite README.md from the existing cameras.json (no rendering)")
     args = ap.parse_args()
+    args.env_arg = args.env
+    args.env = Path(args.env).resolve() if args.env else None
+    if args.out is None:
+        args.out = DEFAULT_ENV_OUT if args.env is not None else DEFAULT_OUT
+    if args.prefer is None:
+        args.prefer = "glb" if args.env is not None else "gltf"
     if args.readme_only:
         record = load_record(args.out)
         if not record.get("models"):
@@ -642,35 +901,74 @@ def main() -> int:
         write_readme(args.out, record, args.gltf_root.resolve())
         print(f"wrote {args.out / 'README.md'}")
         return 0
-    if args.passes < 2:
+    if args.env is not None and not args.env.is_file():
+        raise SystemExit(f"--env: {args.env} not found")
+    if args.passes < 2 and args.still is None:
         raise SystemExit("--passes: need at least 2 passes to estimate a variance")
     if args.spp < 1:
         raise SystemExit("--spp: must be positive")
-    jobs = [j.strip() for j in args.models.split(",") if j.strip()]
+    if args.still is not None and args.size < 1:
+        raise SystemExit("--size: must be positive")
+    args.gltf_root = args.gltf_root.resolve()
+    if args.models is None:
+        jobs = all_models(args.gltf_root) if args.env is not None else default_jobs()
+    elif args.models.strip() == "all":
+        jobs = all_models(args.gltf_root)
+    else:
+        jobs = [j.strip() for j in args.models.split(",") if j.strip()]
     if not jobs:
         raise SystemExit("--models: empty")
+    if args.still is not None and len(jobs) != 1:
+        raise SystemExit("--still: give exactly one model with --models")
     if shutil.which(args.lumo) is None and not Path(args.lumo).is_file():
         raise SystemExit(f"--lumo: {args.lumo} not found (build lumo or pass --lumo PATH)")
     args.lumo_arg = args.lumo
-    args.gltf_root = args.gltf_root.resolve()
     args.out = args.out.resolve()
+    if args.still is not None:
+        args.still = args.still.resolve()
 
     import bpy
 
     reset_blender(bpy)
     managed_ext = importer_extensions()
     print(f"blender {bpy.app.version_string}; glTF importer handles {len(managed_ext)} extensions; "
-          f"{len(jobs)} model(s), {args.passes} x {args.spp} spp, out {args.out}", flush=True)
+          f"{len(jobs)} model(s), "
+          + (f"still {args.size} x {args.size}, 1 x {args.spp} spp" if args.still is not None
+             else f"{args.passes} x {args.spp} spp")
+          + f", out {args.out}"
+          + (f", env {args.env}" if args.env is not None else ""), flush=True)
 
     record = load_record(args.out)
     record["generator"] = "benches/peers/cycles_gltf.py"
     record["blender"] = bpy.app.version_string
     record["resolution"] = [WIDTH, HEIGHT]
-    record["world_rgb"] = [WORLD_GREY] * 3
+    if args.env is None:
+        record["world_rgb"] = [WORLD_GREY] * 3
+    else:
+        record["env"] = {"image": repo_relative(args.env), "bytes": args.env.stat().st_size,
+                         "sha256": hashlib.sha256(args.env.read_bytes()).hexdigest()}
+        record["exr_storage"] = {
+            "mean": "half float, ZIP" if ENV_MEAN_HALF else "float32, ZIP",
+            "variance": f"float32 rounded to {ENV_VAR_MANTISSA_BITS} mantissa bits, ZIP"}
     record["lumo_version"] = lumo_version(args.lumo)
     record["camera_frame"] = ("glTF / lumo y-up; Blender camera = (x, y, z) -> (x, -z, y), "
                               "fov_y_deg = vertical field of view (sensor_fit VERTICAL)")
     record.setdefault("models", {})
+
+    if args.still is not None:
+        job = jobs[0]
+        print(f"== {job} (still)", flush=True)
+        try:
+            entry, settings = render_still(bpy, job, args, managed_ext)
+        except Exception as e:
+            print(f"ERROR: {job}: {type(e).__name__}: {e}", file=sys.stderr, flush=True)
+            traceback.print_exc()
+            return 1
+        record.setdefault("stills", {})[repo_relative(args.still)] = entry
+        save_record(args.out, record)
+        if record["models"]:
+            write_readme(args.out, record, args.gltf_root)
+        return 0
 
     failed = []
     timings = []
@@ -678,7 +976,7 @@ def main() -> int:
         model, _ = split_job(job)
         print(f"== {job}", flush=True)
         try:
-            if model not in MODELS:
+            if model not in MODELS and args.env is None:
                 print(f"  note: {model} is not one of the issue's models; rendering it anyway")
             entry, settings = render_job(bpy, job, args, managed_ext)
         except Exception as e:
@@ -686,8 +984,13 @@ def main() -> int:
             if not isinstance(e, (FileNotFoundError, RuntimeError)):
                 traceback.print_exc()
             failed.append(job)
+            if args.env is not None:
+                record.setdefault("failed", {})[job] = f"{type(e).__name__}: {e}"[:2000]
+                save_record(args.out, record)
+                write_readme(args.out, record, args.gltf_root)
             continue
         record["models"][job] = entry
+        record.get("failed", {}).pop(job, None)
         record["settings"] = settings  # the same for every model
         record["command"] = canonical_command(args)
         save_record(args.out, record)
@@ -766,6 +1069,9 @@ MODEL_NOTES = {
 
 
 def write_readme(out: Path, record: dict, gltf_root: Path) -> None:
+    if record.get("env"):
+        write_env_readme(out, record, gltf_root)
+        return
     models = record.get("models", {})
     names = [j for j in default_jobs() if j in models] + sorted(j for j in models if j not in default_jobs())
     lines = []
@@ -901,6 +1207,333 @@ def write_readme(out: Path, record: dict, gltf_root: Path) -> None:
     add("license link https://creativecommons.org/licenses/by/4.0/). DamagedHelmet's metadata also")
     add("names an earlier version of the model under CC-BY-NC-4.0 (theblueturtle_), which the")
     add("current model \"may have been based on\" (its SOURCE-README.md).")
+    add("")
+    (out / "README.md").write_text("\n".join(lines))
+
+
+#: Environment-mode notes on the importer for features the issue's models do not have.
+ENV_GENERAL_NOTES = """\
+- **Primitives without a material** (BoxVertexColors, Cameras, MultipleScenes, SimpleInstancing,
+  SimpleMeshes, SimpleSparseAccessor, Triangle, TriangleWithoutIndices): the glTF default
+  material is white, metallic 1, roughness 1. The importer does not build it: without COLOR_0 it
+  leaves the material slot empty, and Cycles renders an empty slot with its own default
+  surface, a grey (0.8) diffuse BSDF; with COLOR_0 it creates a default Principled BSDF (base
+  colour = the vertex colour, metallic 0, roughness 0.5, IOR 1.5). Both differ from the spec's
+  default material, so these images are not a reference for it.
+- **Missing normals** (NORMAL absent): flat shading (face normals), as the spec says.
+- **KHR_materials_unlit** (UnlitTest): an Emission shader of the base colour (strength 1) for
+  camera rays, mixed with a Transparent BSDF for every other ray (Blender's "light path trick"):
+  the camera sees the base colour; other surfaces see through the unlit object (no shadows, no
+  reflections of it).
+- **KHR_texture_transform**: a Mapping node on the UVs (offset, rotation, scale; `texCoord`
+  override honoured).
+- **EXT_mesh_gpu_instancing** (SimpleInstancing): the importer instances the mesh at every
+  TRANSLATION / ROTATION / SCALE; lumo 0.1.0 does not read the extension ("not imported") and
+  frames its single mesh.
+- **Several scenes** (MultipleScenes): the importer imports every scene as a collection and
+  excludes all but the default one (`scene`) from the view layer, so the default scene is
+  rendered, as lumo does.
+- **Cameras in the file** (Cameras, Duck): deleted; lumo's camera is used, which is the file's
+  first camera (perspective; lumo does not import orthographic cameras) with its vertical field
+  of view.
+"""
+
+#: Per-model environment-mode notes (besides MODEL_NOTES), written from the renders.
+ENV_MODEL_NOTES: dict[str, str] = {
+    "SimpleInstancing": "**The image is black (exactly 0) and is no reference.** lumo does not "
+        "read EXT_mesh_gpu_instancing, so its automatic camera frames the single unit cube of the "
+        "node, from (0.5, 0.5, 2.99). Blender instances the cube 125 times (translations 0..10, "
+        "scales 1..2), and that camera position lies inside the instance at translation "
+        "(0, 0, 2.5), scale (1, 1, 1.25): every pixel sees the inside of a closed cube that no "
+        "light reaches (no background pixel, so no environment check). Also the slowest render: "
+        "every path bounces inside the cube up to the bounce limit.",
+    "BoxInterleaved": "No metallicFactor, so metallic 1 (the spec's default): a red metal, "
+        "unlike Box (metallicFactor 0), which is why the two images differ.",
+    "BoxVertexColors": "No material, with COLOR_0: the importer's default Principled BSDF (base "
+        "colour = COLOR_0, metallic 0, roughness 0.5), not the spec's default material "
+        "(metallic 1, roughness 1) times COLOR_0.",
+    "Cameras": "lumo's camera is the file's first camera (perspective, yfov 0.7 rad = 40.1 deg); "
+        "the orthographic one is ignored by lumo and deleted here. No material (Cycles' grey "
+        "diffuse) and no normals (flat).",
+    "Duck": "lumo's camera is the file's camera (yfov 37.8 deg, up vector not +y): the duck covers "
+        "only about 1300 pixels, off centre.",
+    "MultipleScenes": "The default scene (`scene`: 1) is rendered, as in lumo; scene 0's "
+        "collection is excluded. No material, no normals.",
+    "SimpleMeshes": "No material: Cycles' grey diffuse.",
+    "SimpleSparseAccessor": "No material (Cycles' grey diffuse), no normals (flat).",
+    "Triangle": "No material (Cycles' grey diffuse), no normals (flat).",
+    "TriangleWithoutIndices": "No material (Cycles' grey diffuse), no normals (flat); the same "
+        "image as Triangle.",
+    "GlassBrokenWindow": "The glass is a single quad with KHR_materials_transmission "
+        "(transmissionFactor 1, roughness 0.05 x texture) and alphaMode MASK (the broken hole). "
+        "Without KHR_materials_volume the spec treats it as thin-walled (no refraction "
+        "offset); Cycles refracts at the quad as at the surface of a solid of IOR 1.5 and never "
+        "refracts back, so the background seen through the glass is shifted. The frame's "
+        "occlusion texture is unused (see above).",
+    "TextureTransformTest": "KHR_texture_transform -> Mapping nodes; in the render every arrow "
+        "points at its green marker (transforms as the spec wants). The importer's log lines "
+        "\"create Mesh node Error Marker / Not Supported Marker\" are INFO lines naming meshes of "
+        "the test, not problems.",
+    "ClearCoatCarPaint": "KHR_materials_clearcoat and KHR_texture_transform (both required) are "
+        "handled: Principled Coat (weight 1, roughness 0; no clearcoat normal, so the coat is "
+        "smooth), a Mapping node (scale 3) on the UVs of the base layer's noise normal map "
+        "(scale 0.2).",
+    "EmissiveStrengthTest": "KHR_materials_emissive_strength -> Principled Emission Strength.",
+    "UnlitTest": "KHR_materials_unlit (required): see 'KHR_materials_unlit' above.",
+    "CornellBoxVinc3r": "Not a Khronos sample: a Blender 2.80 export with an open front, lit by "
+        "the environment and by its emissive ceiling panel (emissiveFactor 1; no "
+        "pbrMetallicRoughness, so a white rough metal underneath). TEXCOORD_1 (lightmap UVs) is "
+        "not used by any material.",
+    "TwoSidedPlane": "doubleSided true: both faces rendered (Cycles renders back faces anyway).",
+}
+
+#: Models outside the Khronos sample assets: (source URL, licence line).
+OTHER_SOURCES = {
+    "CornellBoxVinc3r": (
+        "https://github.com/Vinc3r/cornellBox",
+        "\"WebGL Cornell box for BabylonJS\" — © 2019 Vincent Lamy (Vinc3r), WTFPL v2 (the "
+        "repository's LICENSE; its README: \"feel free to do whatever you want with these "
+        "assets\"); file `BJS-2.80-Eevee-gltf/assets/cornellBox-2.80-Eevee-gltf.gltf` at commit "
+        "4250737dcec66c88575ede38a37b68cb4d62bf98"),
+}
+
+
+def env_check_summary(models: dict) -> str:
+    checked = {j: e["environment_check"] for j, e in models.items()
+               if (e.get("environment_check") or {}).get("median_rel_err") is not None}
+    unchecked = sorted(j for j in models if j not in checked)
+    text = ""
+    if checked:
+        worst = max(checked, key=lambda j: checked[j]["median_rel_err"])
+        p99 = max(c["p99_rel_err"] for c in checked.values())
+        text = (f"{len(checked)} models were checked: median error at most "
+                f"{100 * checked[worst]['median_rel_err']:.3f} % ({worst}), 99th percentile at most "
+                f"{100 * p99:.2f} % (pixels next to geometry and the environment's sharpest edges).")
+    if unchecked:
+        text += (" No background pixel, so no check: " + ", ".join(unchecked) + ".")
+    return text.strip()
+
+
+def write_env_readme(out: Path, record: dict, gltf_root: Path) -> None:
+    """README.md of an environment-mode folder (--env), generated from ``cameras.json``."""
+    models = record.get("models", {})
+    failed = record.get("failed", {})
+    names = sorted(models)
+    env = record["env"]
+    settings = record.get("settings", {})
+    world = settings.get("world_nodes", {})
+    storage = record.get("exr_storage", {})
+    lines = []
+    add = lines.append
+
+    def para(text: str) -> None:
+        add(textwrap.fill(text, width=96, break_on_hyphens=False, break_long_words=False))
+
+    def bullet(text: str) -> None:
+        add(textwrap.fill(text, width=96, subsequent_indent="  ", break_on_hyphens=False,
+                          break_long_words=False))
+
+    env_name = Path(env["image"]).name
+    add(f"# Cycles reference renders of glTF sample models under `{env_name}`")
+    add("")
+    para("Reference images of glTF sample models rendered with Blender Cycles, lit by an HDR "
+         f"environment map (`{env['image']}`) instead of the grey world of `../cycles_gltf/`, for "
+         "testing lumo's glTF materials together with its environment light (`--env`). "
+         "Generated by `benches/peers/cycles_gltf.py --env` (this file too: edit the script, not "
+         "this README).")
+    add("")
+    add("## Files")
+    add("")
+    add("| file | content |")
+    add("|---|---|")
+    add(f"| `<Name>.exr` | mean of K independent passes: linear scene radiance, RGB (channels `R`, `G`, `B`), {storage.get('mean', '?')}, {WIDTH} x {HEIGHT} |")
+    add(f"| `<Name>.var.exr` | per-pixel variance of that mean = sample variance of the K passes (ddof 1) / K, RGB, {storage.get('variance', '?')} |")
+    add("| `<Name>.png` | sRGB preview of the mean (clamped to [0, 1]), for humans; only where it is under 30 KB |")
+    add("| `cameras.json` | per model: `gltf` (path under `shared/gltf/`), `camera` = the lumo camera used (`position`, `look_at`, `up`, `fov_y_deg`, glTF/lumo y-up frame), passes, spp, seeds, seconds, importer warnings, the environment check; at the top: Blender and lumo versions, the environment file (with its SHA-256), the world nodes and the Cycles settings as read back, the still image(s) |")
+    add("")
+    para("`<Name>` is the model's folder under `shared/gltf/`. Storage: with a textured background "
+         "every pixel is noisy and float32 compresses poorly (about 195 KB per 128 x 128 image, "
+         "13 MB for the folder), so the mean is stored as half floats (relative rounding at most "
+         "2^-11 = 0.05 %, far below the noise of a 2048-spp mean) and the variance as float32 "
+         f"rounded to {ENV_VAR_MANTISSA_BITS} mantissa bits (relative rounding at most "
+         f"{100 * 2.0 ** -(ENV_VAR_MANTISSA_BITS + 1):.1f} %, against the estimate's own scatter "
+         "below); readers that convert to float (OpenEXR, the `exr`/`image` crates) need nothing "
+         "special.")
+    add("")
+    ks = sorted({models[j]["passes"] for j in names}) or [8]
+    k = ks[0]
+    para(f"With K = {k} passes the variance estimate has {k - 1} degrees of freedom (relative "
+         f"standard deviation sqrt(2/{k - 1}) = {100 * math.sqrt(2 / (k - 1)):.0f} % per pixel and "
+         "channel): pool it over neighbouring pixels or a whole image, or allow for it in the "
+         "threshold, rather than trusting single pixels. Unlike the grey world's, background "
+         "pixels have a small non-zero variance (the environment varies within a pixel).")
+    add("")
+    add("## Regenerate")
+    add("")
+    add("```sh")
+    add("bash benches/peers/setup.sh    # benches/peers/.venv with bpy==5.0.1, numpy, OpenEXR")
+    add(record.get("command", "nice -n 10 benches/peers/.venv/bin/python benches/peers/cycles_gltf.py --env FILE.exr"))
+    for still in record.get("stills", {}).values():
+        add(still["command"])
+    add("```")
+    add("")
+    para(f"Cameras came from `{record.get('lumo_version', '?')}`. `--lumo` is any lumo binary whose "
+         "`lumo convert MODEL -o x.json` gives the camera; `--models A,B` re-renders only some "
+         "models and keeps the others' entries; `--passes K --spp N` change the sample counts; "
+         "`--readme-only --out tests/data/cycles_gltf_env` rewrites this file from `cameras.json`. "
+         "Models are read from `../shared/gltf/` (`--gltf-root`), one file per model folder: "
+         "`glTF-Binary/*.glb`, else `glTF/*.gltf`, else the folder's own `*.gltf` "
+         "(CornellBoxVinc3r). Cycles renders are deterministic for a given seed: a second run "
+         "of UnlitTest and Triangle reproduced their EXRs bit for bit.")
+    add("")
+    para("The matching lumo render (same camera, since lumo made it; lumo's `--env` uses the "
+         "orientation that Blender's default mapping gives, see `../cycles_env/`): "
+         f"`lumo render MODEL --env {env['image']} --width {WIDTH} --height {HEIGHT} --spp N -o "
+         "x.exr` from the repository root. Remember the importer departures below before "
+         "reading differences as lumo bugs.")
+    add("")
+    add("## Renders")
+    add("")
+    para("Render seconds = sum over the passes of Cycles' `render_pre` .. `render_post` (scene "
+         "sync and path tracing; the first model's first pass also loads the kernels), wall time "
+         "on the shared 2-core machine; CPU s = CPU time of all of Blender's threads over the "
+         "same intervals; load = the highest 1-minute load average seen (above 2, other jobs "
+         "competed for the cores and the wall times are inflated). Geometry px = pixels with at "
+         "least one of 16 rays hitting geometry (Blender's `ray_cast`; 0 = the camera sees "
+         "nothing); env err = median relative luminance error of the pixels that see only the "
+         "environment against the numpy prediction (see 'Scene and settings').")
+    add("")
+    total = sum(models[j]["total_seconds"] for j in names)
+    para(f"All {len(names)} renders took {total:.0f} s in all (import, render, checks, writing)"
+         + (f"; {len(failed)} model(s) failed (below)." if failed else "; none failed."))
+    add("")
+    add("| model | file | passes x spp | render s | CPU s | load | total s | geometry px | env err | importer warnings |")
+    add("|---|---|---|---:|---:|---:|---:|---:|---:|---|")
+    for j in names:
+        e = models[j]
+        warn = "; ".join(e.get("importer_warnings") or []) or "none"
+        unsup = e.get("extensions_not_handled_by_importer") or []
+        if unsup:
+            warn += "; not handled: " + ", ".join(unsup)
+        chk = e.get("environment_check", {})
+        err = chk.get("median_rel_err")
+        add(f"| {j} | `{Path(e['gltf']).name}` | {e['passes']} x {e['spp_per_pass']} | "
+            f"{e['render_seconds']:.1f} | {e['render_cpu_seconds']:.1f} | {e['load1_max']:.2f} | "
+            f"{e['total_seconds']:.1f} | {chk.get('pixels_seeing_geometry', '?')} | "
+            f"{'-' if err is None else f'{100 * err:.3f} %'} | {warn} |")
+    for j in sorted(failed):
+        add(f"| {j} | failed: {failed[j].splitlines()[0]} | | | | | | | | |")
+    add("")
+    add(f"Blender {record.get('blender', '?')}, sampling pattern {settings.get('sampling_pattern', '?')}.")
+    add("")
+    stills = record.get("stills", {})
+    if stills:
+        add("## Larger still image")
+        add("")
+        for path, s in stills.items():
+            para(f"`{path}`: {s['model']} (`{s['gltf']}`), {s['resolution'][0]} x "
+                 f"{s['resolution'][1]}, {s['passes']} pass of {s['spp']} spp (seed {s['seed']}), "
+                 f"the same camera (lumo's, fov_y {s['camera']['fov_y_deg']:g} deg; the image is "
+                 "square, so the framing equals the 128 x 128 reference's), world and Cycles "
+                 f"settings as above except the resolution. {s['png']}. Blender {s['blender']}; "
+                 f"render {s['render_seconds']:.1f} s (CPU {s['render_cpu_seconds']:.1f} s, load "
+                 f"{s['load1']:.2f}); {s['png_bytes']} bytes. Regenerate with `{s['command']}`.")
+            add("")
+    add("## Scene and settings")
+    add("")
+    bullet("- Camera: lumo's (`lumo convert MODEL -o x.json`, its `camera`: the file's first camera "
+           "(Cameras, Duck), or lumo's automatic framing), turned to Blender's z-up frame as the "
+           "importer turns the model, (x, y, z) -> (x, -z, y); vertical field of view "
+           "`fov_y_deg` with `sensor_fit = VERTICAL`; checked by projecting look_at to the image "
+           f"centre and points at the half-angles to the image edges. {WIDTH} x {HEIGHT}, pixel "
+           "aspect 1.")
+    bullet("- Import: Blender's bundled glTF importer (`io_scene_gltf2`), default options, into an "
+           "empty factory-settings scene. Lights and cameras from the file deleted (no file has "
+           "lights).")
+    bullet(f"- Light: the world only (plus emissive materials): `{env['image']}` ({env['bytes']} "
+           f"bytes, SHA-256 `{env['sha256']}`, {world.get('image_size', ['?', '?'])[0]} x "
+           f"{world.get('image_size', ['?', '?'])[1]}) as an Environment Texture, projection "
+           f"{world.get('projection', '?')}, interpolation {world.get('interpolation', '?')}, "
+           f"colour space {world.get('colorspace', '?')}, Vector input "
+           f"{world.get('vector', '?')} -> Background, strength {world.get('strength', '?')} -> "
+           "World Output. Visible to the camera. World importance sampling "
+           f"{world.get('sampling_method', '?')} (Blender's default; map resolution "
+           f"{world.get('sample_map_resolution', '?')}), light tree off. Blender decodes the EXR "
+           "to the values OpenEXR gives (checked: largest relative difference "
+           f"{world.get('blender_vs_openexr_max_rel_diff', '?')}). The default mapping is lumo's "
+           "orientation of an unrotated environment (verified in `../cycles_env/`).")
+    bullet("- Cycles: CPU device, all threads (threads mode AUTO); pixel filter Box, width 1 px; no "
+           "denoising; no adaptive sampling; no clamping (`sample_clamp_direct` = "
+           "`sample_clamp_indirect` = 0); light tree off; Filter Glossy 0; caustics reflective and "
+           "refractive on (Blender's defaults, set explicitly); max bounces 6, diffuse / glossy / "
+           "transmission / volume bounces 6; transparent max bounces 64; sampling pattern "
+           "Blender's default; seeds 1..K, `use_animated_seed` off; film not transparent.")
+    bullet("- Colour: view transform Standard, look None, exposure 0, gamma 1; the EXR holds the "
+           "scene-linear render result (Linear Rec.709), written by Blender as float32 EXR and "
+           "averaged in float64 (then stored as above).")
+    bullet(f"- Check (replaces the grey world's): Blender's `scene.ray_cast` on the evaluated scene "
+           f"with {ENV_CHECK_SUBPIXELS} x {ENV_CHECK_SUBPIXELS} rays per pixel through lumo's "
+           "camera finds the pixels that see no geometry (eroded by one pixel; transparent "
+           "geometry counts as geometry); there the Cycles mean must match a numpy prediction of "
+           "the environment along the same rays (lumo's documented orientation, bilinear lookup, "
+           "negative texels as 0) with a median relative luminance error under "
+           f"{100 * ENV_CHECK_TOLERANCE:.0f} % (else the model fails). "
+           + env_check_summary(models))
+    add("")
+    add("## Where Blender's importer / Cycles depart from the glTF spec")
+    add("")
+    para("The importer's console log had no warnings or errors for any model unless the table "
+         "above says so, and it handles every extension these files use (it ignores unknown "
+         "non-required extensions without a word, so the script also compares `extensionsUsed` "
+         "with the importer's list). Departures noticed in the importer's code and in Cycles (the "
+         "first six as in `../cycles_gltf/README.md`):")
+    add("")
+    add(GENERAL_NOTES.rstrip())
+    add(ENV_GENERAL_NOTES.rstrip())
+    add("")
+    add("Per model:")
+    add("")
+    for j in names:
+        note = " ".join(n for n in (MODEL_NOTES.get(j), ENV_MODEL_NOTES.get(j)) if n)
+        if note:
+            bullet(f"- **{j}**: {note}")
+    for j in sorted(failed):
+        bullet(f"- **{j}**: failed: {failed[j]}")
+    add("")
+    add("## Licenses and attribution")
+    add("")
+    para("These images are derived works (renders) of the models below, copied in "
+         "`shared/gltf/<Name>/` with their `SOURCE-LICENSE.md` / `SOURCE-metadata.json`; all but "
+         f"one come from the Khronos glTF Sample Assets (`{SOURCE_REPO}`, `Models/<Name>/`). "
+         "Licenses per `SOURCE-metadata.json`:")
+    add("")
+    for j in names + sorted(failed):
+        if j in OTHER_SOURCES:
+            url, text = OTHER_SOURCES[j]
+            bullet(f"- `{j}`: {text}. Source: {url}. Rendered with Blender Cycles (re-lit, "
+                   "re-framed).")
+            continue
+        legal = model_legal(gltf_root, j)
+        parts = [f"© {lg.get('year', '?')} {lg.get('owner', '?')}, artist {lg.get('artist', '?')} "
+                 f"({lg.get('what', '?')}), {lg.get('spdx') or lg.get('license', '?')}" for lg in legal]
+        bullet(f"- `{j}`: \"{model_title(gltf_root, j)}\" — "
+               + ("; ".join(parts) if parts else "license unknown")
+               + f". Source: https://github.com/{SOURCE_REPO}/tree/main/Models/{j}. Rendered "
+                 "with Blender Cycles (re-lit, re-framed).")
+    add("")
+    para("CC-BY-4.0 attribution applies to the renders of the CC-BY models (listed above, with the "
+         "license link https://creativecommons.org/licenses/by/4.0/). `LicenseRef-CC-BY-TM` "
+         "(BoxTextured) is CC-BY 4.0 with trademark limitations (the texture is the Cesium logo). "
+         "`SCEA` (Duck) is the SCEA Shared Source License 1.0 (https://spdx.org/licenses/SCEA.html). "
+         "DamagedHelmet's metadata also names an earlier version of the model under CC-BY-NC-4.0 "
+         "(theblueturtle_), which the current model \"may have been based on\" (its "
+         "SOURCE-README.md).")
+    add("")
+    para(f"Environment: `{env_name}` (`{env['image']}`, copied unmodified from Blender's "
+         "studio lights, `datafiles/studiolights/world`, Debian package `blender-data` "
+         "3.4.1+dfsg-2; see `shared/hdri/README.md`): CC0, created by Greg Zaal (HDRI Haven, now "
+         "Poly Haven, https://polyhaven.com), per `shared/hdri/SOURCE-license.txt`: \"All HDRIs are "
+         "licenses as CC0.\"")
     add("")
     (out / "README.md").write_text("\n".join(lines))
 
