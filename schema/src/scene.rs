@@ -43,7 +43,7 @@ pub struct Scene {
     pub render: RenderSettings,
     /// The viewpoint.
     pub camera: Camera,
-    /// What a ray that leaves the scene sees. Default: black.
+    /// The environment: what a ray that leaves the scene sees, and a light. Default: black.
     #[serde(default)]
     pub background: Background,
     /// Image textures by name, referenced by materials.
