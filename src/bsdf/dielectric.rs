@@ -543,9 +543,55 @@ pub struct ThinDielectric {
     pub eta: f32,
     /// GGX α; below [`DELTA_ALPHA`] both lobes are Dirac deltas.
     pub alpha: f32,
+    /// Give back the light that meets more than one microfacet (see
+    /// [`ThinDielectric::multiple_scattering`]).
+    pub energy_compensation: bool,
 }
 
 impl ThinDielectric {
+    /// The multiple-scattering compensation of a rough slab for `wo`: (probability of sampling
+    /// it, its reflected share ρ, 1 − E(μo)), or `None`.
+    ///
+    /// At every microfacet the slab reflects R′ and transmits T′ = 1 − R′, so its
+    /// single-scattering albedo is exactly that of a GGX mirror with F = 1, E(μ, α)
+    /// ([`super::multiple_scattering::albedo`]); the light lost between microfacets comes back,
+    /// as in Kulla & Conty 2017, through f_ms = (1 − E(μo))(1 − E(μi)) / (π (1 − E_avg)),
+    /// a share ρ reflected and 1 − ρ transmitted, ρ the slab's hemispherical mean reflectance
+    /// (8-point midpoint rule). It is symmetric (the same medium on both sides), and its albedo
+    /// is exactly 1 − E(μo): a white rough slab in a white furnace keeps all its energy.
+    fn multiple_scattering(&self, wo: Vec3) -> Option<(f32, f32, f32)> {
+        use super::multiple_scattering::{albedo, average_albedo};
+        if !self.energy_compensation || self.is_delta() || wo.z == 0.0 {
+            return None;
+        }
+        let loss = (1.0 - albedo(wo.z.abs(), self.alpha)).max(0.0);
+        if loss <= 0.0 || 1.0 - average_albedo(self.alpha) < 1e-6 {
+            return None;
+        }
+        let n = 8;
+        let rho = (0..n)
+            .map(|k| {
+                let mu = (k as f32 + 0.5) / n as f32;
+                2.0 * self.slab_reflectance(mu) * mu
+            })
+            .sum::<f32>()
+            / n as f32;
+        Some((loss, rho, loss))
+    }
+
+    /// f·|cos θi| and the pdf contribution (including the choice probability) of the
+    /// compensation lobe.
+    fn eval_ms(&self, wo: Vec3, wi: Vec3, ms: (f32, f32, f32)) -> (f32, f32) {
+        use super::multiple_scattering::{albedo, average_albedo};
+        let (p, rho, loss_o) = ms;
+        let share = if wo.z * wi.z > 0.0 { rho } else { 1.0 - rho };
+        let cos_i = wi.z.abs();
+        let loss_i = (1.0 - albedo(cos_i, self.alpha)).max(0.0);
+        let f = share * loss_o * loss_i * std::f32::consts::FRAC_1_PI * cos_i
+            / (1.0 - average_albedo(self.alpha));
+        (f, p * share * cos_i * std::f32::consts::FRAC_1_PI)
+    }
+
     /// Whether both lobes are Dirac deltas.
     pub fn is_delta(&self) -> bool {
         self.alpha < DELTA_ALPHA
@@ -563,6 +609,52 @@ impl ThinDielectric {
 
     /// f·|cos θi| and the pdf of [`sample`](Self::sample) for the pair; zero for delta slabs.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        let (f, pdf) = self.eval_single(wo, wi);
+        match self.multiple_scattering(wo) {
+            Some(ms) if wi.z != 0.0 => {
+                let (fm, pm) = self.eval_ms(wo, wi, ms);
+                (f + fm, (1.0 - ms.0) * pdf + pm)
+            }
+            _ => (f, pdf),
+        }
+    }
+
+    /// Samples the single-scattering slab or, with compensation, its multiple-scattering lobe
+    /// (probability 1 − E(μo)).
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<LocalSample> {
+        let Some(ms) = self.multiple_scattering(wo) else {
+            return self.sample_single(wo, uc, u);
+        };
+        let wi = if uc < ms.0 {
+            let mut i = crate::sampling::cosine_hemisphere(u);
+            if i.z <= 0.0 {
+                return None;
+            }
+            let reflect = uc / ms.0 < ms.1;
+            if reflect != (wo.z > 0.0) {
+                i.z = -i.z;
+            }
+            i
+        } else {
+            let uc = ((uc - ms.0) / (1.0 - ms.0)).min(1.0 - f32::EPSILON);
+            self.sample_single(wo, uc, u)?.wi
+        };
+        let (f, pdf) = self.eval(wo, wi);
+        if pdf.is_nan() || pdf <= 0.0 || f.is_nan() || f <= 0.0 {
+            return None;
+        }
+        Some(LocalSample {
+            wi,
+            weight: Vec3::splat(f / pdf),
+            pdf,
+            delta: false,
+            transmitted: wo.z * wi.z < 0.0,
+            etap: 1.0,
+        })
+    }
+
+    /// [`eval`](Self::eval) without compensation.
+    fn eval_single(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
         if self.is_delta() || wo.z == 0.0 || wi.z == 0.0 {
             return (0.0, 0.0);
         }
@@ -589,7 +681,7 @@ impl ThinDielectric {
 
     /// Samples a visible microfacet, reflects about it, and transmits (mirroring through the
     /// surface) with probability T′.
-    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<LocalSample> {
+    fn sample_single(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<LocalSample> {
         if wo.z == 0.0 {
             return None;
         }
@@ -624,7 +716,7 @@ impl ThinDielectric {
                 etap: 1.0,
             });
         }
-        let (f, pdf) = self.eval(wo, wi);
+        let (f, pdf) = self.eval_single(wo, wi);
         if pdf <= 0.0 {
             return None;
         }
@@ -689,7 +781,11 @@ mod tests {
         ];
         let mut ps = Vec::new();
         for (k, &(eta, alpha, theta)) in cases.iter().enumerate() {
-            let b = ThinDielectric { eta, alpha };
+            let b = ThinDielectric {
+                eta,
+                alpha,
+                energy_compensation: false,
+            };
             let wo = dir(theta, 1.0);
             let p = chi2::p_value(
                 "thin dielectric",
@@ -715,7 +811,11 @@ mod tests {
                 alpha,
                 energy_compensation: false,
             };
-            let thin = ThinDielectric { eta, alpha };
+            let thin = ThinDielectric {
+                eta,
+                alpha,
+                energy_compensation: false,
+            };
             for theta in [5.0f32, 50.0, 85.0, 130.0, 175.0] {
                 let wo = dir(theta, 0.7);
                 for _ in 0..2000 {
@@ -747,7 +847,11 @@ mod tests {
                 alpha,
                 energy_compensation: false,
             };
-            let thin = ThinDielectric { eta, alpha };
+            let thin = ThinDielectric {
+                eta,
+                alpha,
+                energy_compensation: false,
+            };
             for _ in 0..5000 {
                 let wo = random_dir(&mut rng);
                 let wi = random_dir(&mut rng);
@@ -821,7 +925,11 @@ mod tests {
                     };
                     let e = energy(|uc, u| b.sample(wo, uc, u), 40_000);
                     assert!(e <= 1.01 && e > 0.25, "η {eta} α {alpha} θ {theta}: {e}");
-                    let t = ThinDielectric { eta, alpha };
+                    let t = ThinDielectric {
+                        eta,
+                        alpha,
+                        energy_compensation: false,
+                    };
                     let e = energy(|uc, u| t.sample(wo, uc, u), 40_000);
                     assert!(
                         e <= 1.01 && e > 0.25,
@@ -942,5 +1050,67 @@ mod tests {
                 "({k}, {j}, {i}): {coarse} vs {fine}"
             );
         }
+    }
+
+    /// White furnace for a rough thin-walled slab: with compensation it reflects and transmits
+    /// what it receives within 1 %; without, it loses what single scattering misses.
+    #[test]
+    fn compensated_thin_slab_keeps_its_energy() {
+        for eta in [1.33f32, 1.5, 2.4] {
+            for alpha in [0.1f32, 0.4, 1.0] {
+                for theta in [0.0f32, 40.0, 80.0, 130.0] {
+                    let wo = dir(theta, 0.3);
+                    let single = ThinDielectric {
+                        eta,
+                        alpha,
+                        energy_compensation: false,
+                    };
+                    let comp = ThinDielectric {
+                        energy_compensation: true,
+                        ..single
+                    };
+                    let e1 = energy(|uc, u| single.sample(wo, uc, u), 100_000);
+                    let e2 = energy(|uc, u| comp.sample(wo, uc, u), 100_000);
+                    assert!((e2 - 1.0).abs() < 0.01, "η {eta} α {alpha} θ {theta}: {e2}");
+                    if alpha >= 1.0 {
+                        assert!(e1 < 0.95, "η {eta} α {alpha} θ {theta}: {e1}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The compensated slab's sampling follows its pdf (χ²), on both sides.
+    #[test]
+    fn compensated_thin_slab_chi2() {
+        let mut ps = Vec::new();
+        for (k, (eta, alpha, theta)) in [
+            (1.5f32, 0.5f32, 30.0f32),
+            (1.33, 1.0, 70.0),
+            (2.4, 0.3, 150.0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let t = ThinDielectric {
+                eta,
+                alpha,
+                energy_compensation: true,
+            };
+            let wo = dir(theta, 0.7);
+            let name = format!("thin compensated η {eta} α {alpha} θ {theta}");
+            let p = chi2::p_value(
+                &name,
+                100_000,
+                500 + k as u64,
+                |rng| {
+                    let (uc, u) = u3(rng);
+                    t.sample(wo, uc, u).map(|s| s.wi)
+                },
+                |wi| t.eval(wo, wi).1,
+            );
+            ps.push((name, p));
+        }
+        chi2::assert_all_pass(&ps);
     }
 }

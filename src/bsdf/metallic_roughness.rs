@@ -189,6 +189,7 @@ impl MetallicRoughness {
         ThinDielectric {
             eta: self.eta(),
             alpha: self.alpha(),
+            energy_compensation: self.energy_compensation,
         }
     }
 
