@@ -67,24 +67,6 @@ pub struct Imported {
     pub warnings: Vec<String>,
 }
 
-/// KHR_texture_transform as JSON, for texture uses the gltf crate gives no accessor for
-/// (`normalTexture`).
-#[derive(serde::Deserialize)]
-struct RawTransform {
-    #[serde(default)]
-    offset: [f32; 2],
-    #[serde(default)]
-    rotation: f32,
-    #[serde(default = "unit_scale")]
-    scale: [f32; 2],
-    #[serde(rename = "texCoord")]
-    tex_coord: Option<u32>,
-}
-
-fn unit_scale() -> [f32; 2] {
-    [1.0, 1.0]
-}
-
 /// Imports a .gltf or .glb file as a lumo scene. See `docs/gltf.md` for the mapping.
 pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, GltfError> {
     let loaded = Loaded::open(path)?;
@@ -670,20 +652,7 @@ impl Importer<'_> {
     }
 
     fn read_pbr(&mut self, m: &gltf::Material, el: &str) -> Pbr {
-        let info = |i: Option<gltf::texture::Info>| {
-            i.map(|i| {
-                let tt = i.texture_transform();
-                let transform = tt
-                    .as_ref()
-                    .map(|t| (t.offset(), t.rotation(), t.scale()))
-                    .filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0]));
-                TexInfo {
-                    index: i.texture().index(),
-                    tex_coord: tt.and_then(|t| t.tex_coord()).unwrap_or(i.tex_coord()),
-                    transform,
-                }
-            })
-        };
+        let info = |i: Option<gltf::texture::Info>| i.as_ref().map(TexInfo::of_info);
         let p = m.pbr_metallic_roughness();
         // KHR_materials_clearcoat and KHR_materials_sheen, which the gltf crate does not parse.
         let coat = m.extension_value("KHR_materials_clearcoat");
@@ -694,23 +663,7 @@ impl Importer<'_> {
                 .map_or(default, |x| x as f32)
         };
         let raw_info = |ext: Option<&serde_json::Value>, key: &str| {
-            let v = ext?.get(key)?;
-            let index = usize::try_from(v.get("index")?.as_u64()?).ok()?;
-            let tt = v
-                .get("extensions")
-                .and_then(|e| e.get("KHR_texture_transform"))
-                .and_then(|t| serde_json::from_value::<RawTransform>(t.clone()).ok());
-            let own = v
-                .get("texCoord")
-                .and_then(serde_json::Value::as_u64)
-                .unwrap_or(0) as u32;
-            Some(TexInfo {
-                index,
-                tex_coord: tt.as_ref().and_then(|t| t.tex_coord).unwrap_or(own),
-                transform: tt
-                    .map(|t| (t.offset, t.rotation, t.scale))
-                    .filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0])),
-            })
+            ext.and_then(|e| e.get(key)).and_then(TexInfo::from_json)
         };
         let specular = m.specular();
         let transmission = m.transmission();
@@ -726,23 +679,9 @@ impl Importer<'_> {
                 gltf::material::AlphaMode::Blend => AlphaMode::Blend,
             },
             alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
-            normal_texture: m.normal_texture().map(|n| {
-                let tt = n
-                    .extension_value("KHR_texture_transform")
-                    .and_then(|v| serde_json::from_value::<RawTransform>(v.clone()).ok());
-                let transform = tt
-                    .as_ref()
-                    .map(|t| (t.offset, t.rotation, t.scale))
-                    .filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0]));
-                (
-                    TexInfo {
-                        index: n.texture().index(),
-                        tex_coord: tt.and_then(|t| t.tex_coord).unwrap_or(n.tex_coord()),
-                        transform,
-                    },
-                    n.scale(),
-                )
-            }),
+            normal_texture: m
+                .normal_texture()
+                .map(|n| (TexInfo::of_normal(&n), n.scale())),
             metallic: p.metallic_factor(),
             roughness: p.roughness_factor(),
             metallic_roughness_texture: info(p.metallic_roughness_texture()),

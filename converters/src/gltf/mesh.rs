@@ -7,6 +7,7 @@ use gltf::Semantic;
 
 use super::document::Loaded;
 use super::error::GltfError;
+use super::pbr::TexInfo;
 use super::tangents;
 
 /// The triangles of one glTF mesh primitive, in the primitive's own (object) space.
@@ -147,23 +148,18 @@ impl GltfFile {
     }
 }
 
-/// The TEXCOORD set a material's tangent space follows: that of its normal texture, else of its
-/// clear-coat normal texture (`KHR_materials_clearcoat`); `None` when it has neither, so needs
-/// no tangents.
+/// The TEXCOORD set a material's tangent space follows: the set its normal texture samples
+/// (with KHR_texture_transform's override, as the importer reads it), else its clear-coat
+/// normal texture's (`KHR_materials_clearcoat`); `None` when it has neither, so needs no
+/// tangents.
 pub fn tangent_set(material: &gltf::Material) -> Option<u32> {
     if let Some(n) = material.normal_texture() {
-        return Some(n.tex_coord());
+        return Some(TexInfo::of_normal(&n).tex_coord);
     }
     let coat = material
         .extension_value("KHR_materials_clearcoat")?
         .get("clearcoatNormalTexture")?;
-    let own = coat.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0);
-    let transformed = coat
-        .get("extensions")
-        .and_then(|e| e.get("KHR_texture_transform"))
-        .and_then(|t| t.get("texCoord"))
-        .and_then(|t| t.as_u64());
-    Some(transformed.unwrap_or(own) as u32)
+    TexInfo::from_json(coat).map(|t| t.tex_coord)
 }
 
 /// Reads a primitive of a loaded document.

@@ -22,6 +22,75 @@ pub struct TexInfo {
     pub transform: Option<([f32; 2], f32, [f32; 2])>,
 }
 
+/// KHR_texture_transform's values; read from JSON for the texture uses the gltf crate gives no
+/// transform accessor for (`normalTexture`, and the extensions it does not parse).
+#[derive(serde::Deserialize)]
+pub(super) struct RawTransform {
+    #[serde(default)]
+    offset: [f32; 2],
+    #[serde(default)]
+    rotation: f32,
+    #[serde(default = "unit_scale")]
+    scale: [f32; 2],
+    #[serde(rename = "texCoord")]
+    tex_coord: Option<u32>,
+}
+
+fn unit_scale() -> [f32; 2] {
+    [1.0, 1.0]
+}
+
+impl TexInfo {
+    /// A texture use from its texture index, its own `texCoord` and its KHR_texture_transform
+    /// (whose `texCoord`, when given, overrides the use's).
+    fn new(index: usize, tex_coord: u32, transform: Option<RawTransform>) -> TexInfo {
+        TexInfo {
+            index,
+            tex_coord: transform
+                .as_ref()
+                .and_then(|t| t.tex_coord)
+                .unwrap_or(tex_coord),
+            transform: transform
+                .map(|t| (t.offset, t.rotation, t.scale))
+                .filter(|t| *t != ([0.0, 0.0], 0.0, [1.0, 1.0])),
+        }
+    }
+
+    /// A `textureInfo` the gltf crate parsed.
+    pub(super) fn of_info(i: &gltf::texture::Info) -> TexInfo {
+        let transform = i.texture_transform().map(|t| RawTransform {
+            offset: t.offset(),
+            rotation: t.rotation(),
+            scale: t.scale(),
+            tex_coord: t.tex_coord(),
+        });
+        TexInfo::new(i.texture().index(), i.tex_coord(), transform)
+    }
+
+    /// A `normalTexture` (the gltf crate has no transform accessor for it).
+    pub(super) fn of_normal(n: &gltf::material::NormalTexture) -> TexInfo {
+        let transform = n
+            .extension_value("KHR_texture_transform")
+            .and_then(|v| serde_json::from_value::<RawTransform>(v.clone()).ok());
+        TexInfo::new(n.texture().index(), n.tex_coord(), transform)
+    }
+
+    /// A `textureInfo` as JSON, in an extension the gltf crate does not parse; `None` when it
+    /// has no valid index.
+    pub(super) fn from_json(v: &serde_json::Value) -> Option<TexInfo> {
+        let index = usize::try_from(v.get("index")?.as_u64()?).ok()?;
+        let own = v
+            .get("texCoord")
+            .and_then(serde_json::Value::as_u64)
+            .unwrap_or(0) as u32;
+        let transform = v
+            .get("extensions")
+            .and_then(|e| e.get("KHR_texture_transform"))
+            .and_then(|t| serde_json::from_value::<RawTransform>(t.clone()).ok());
+        Some(TexInfo::new(index, own, transform))
+    }
+}
+
 /// The glTF values of a material that lumo maps.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pbr {
