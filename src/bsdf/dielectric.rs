@@ -99,8 +99,13 @@ impl RoughDielectric {
     /// f·|cos θi| and the pdf of [`sample`](Self::sample) for the pair; zero for delta
     /// interfaces.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        self.eval_with(wo, wi, self.multiple_scattering(wo))
+    }
+
+    /// [`eval`](Self::eval) given `wo`'s compensation lobe (computed once per sample).
+    fn eval_with(&self, wo: Vec3, wi: Vec3, ms: Option<MultipleScattering>) -> (f32, f32) {
         let (f, pdf) = self.eval_single(wo, wi);
-        match self.multiple_scattering(wo) {
+        match ms {
             None => (f, pdf),
             Some(ms) => {
                 let (fm, pm) = ms.eval(wo, wi);
@@ -131,7 +136,7 @@ impl RoughDielectric {
             let uc = ((uc - ms.p) / (1.0 - ms.p)).min(1.0 - f32::EPSILON);
             self.sample_single(wo, uc, u)?.wi
         };
-        let (f, pdf) = self.eval(wo, wi);
+        let (f, pdf) = self.eval_with(wo, wi, Some(ms));
         if pdf.is_nan() || pdf <= 0.0 || f.is_nan() || f <= 0.0 || !f.is_finite() {
             return None;
         }
@@ -609,8 +614,13 @@ impl ThinDielectric {
 
     /// f·|cos θi| and the pdf of [`sample`](Self::sample) for the pair; zero for delta slabs.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        self.eval_with(wo, wi, self.multiple_scattering(wo))
+    }
+
+    /// [`eval`](Self::eval) given `wo`'s compensation lobe (computed once per sample).
+    fn eval_with(&self, wo: Vec3, wi: Vec3, ms: Option<(f32, f32, f32)>) -> (f32, f32) {
         let (f, pdf) = self.eval_single(wo, wi);
-        match self.multiple_scattering(wo) {
+        match ms {
             Some(ms) if wi.z != 0.0 => {
                 let (fm, pm) = self.eval_ms(wo, wi, ms);
                 (f + fm, (1.0 - ms.0) * pdf + pm)
@@ -639,7 +649,7 @@ impl ThinDielectric {
             let uc = ((uc - ms.0) / (1.0 - ms.0)).min(1.0 - f32::EPSILON);
             self.sample_single(wo, uc, u)?.wi
         };
-        let (f, pdf) = self.eval(wo, wi);
+        let (f, pdf) = self.eval_with(wo, wi, Some(ms));
         if pdf.is_nan() || pdf <= 0.0 || f.is_nan() || f <= 0.0 {
             return None;
         }

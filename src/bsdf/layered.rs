@@ -167,17 +167,9 @@ impl Sheen {
                 for (m, cell) in row.iter_mut().enumerate() {
                     let mu = (m as f32 + 0.5) / SHEEN_N_MU as f32;
                     let o = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-                    let mut sum = 0.0f64;
-                    for k in 0..n {
-                        let z = (k as f32 + 0.5) / n as f32;
-                        let r = (1.0 - z * z).sqrt();
-                        for j in 0..n {
-                            let phi = std::f32::consts::TAU * (j as f32 + 0.5) / n as f32;
-                            let i = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-                            sum += f64::from(Self::brdf(alpha, o, i) * z);
-                        }
-                    }
-                    *cell = (sum * std::f64::consts::TAU / (n * n) as f64) as f32;
+                    *cell =
+                        super::hemisphere_integral(n, |i| f64::from(Self::brdf(alpha, o, i) * i.z))
+                            as f32;
                 }
             }
             SheenTable { e }

@@ -288,10 +288,14 @@ impl MetallicRoughness {
     /// f·|cos θi| for the pair (local frame) and the pdf with which [`sample`](Self::sample)
     /// returns `wi`; delta lobes contribute nothing.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        self.eval_with(wo, wi, &self.strategy_probs(wo))
+    }
+
+    /// [`eval`](Self::eval) given `wo`'s strategy probabilities (computed once per sample).
+    fn eval_with(&self, wo: Vec3, wi: Vec3, probs: &[f32; 3]) -> (Rgb, f32) {
         if wo.z == 0.0 || wi.z == 0.0 {
             return (Vec3::ZERO, 0.0);
         }
-        let probs = self.strategy_probs(wo);
         let (_, _, t) = self.weights();
         let mut f = Vec3::ZERO;
         let mut pdf = 0.0;
@@ -327,11 +331,15 @@ impl MetallicRoughness {
     /// Samples an incident direction: `u_lobe` chooses the strategy (and, rescaled, reflection
     /// or transmission inside the dielectric), `u` the direction.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<LocalSample> {
-        let wi = match self.sample_direction(wo, u_lobe, u)? {
+        if wo.z == 0.0 {
+            return None;
+        }
+        let probs = self.strategy_probs(wo);
+        let wi = match self.sample_direction_with(wo, u_lobe, u, &probs)? {
             Sampled::Delta(s) => return Some(s),
             Sampled::Smooth(wi) => wi,
         };
-        let (f, pdf) = self.eval(wo, wi);
+        let (f, pdf) = self.eval_with(wo, wi, &probs);
         if pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
@@ -361,7 +369,17 @@ impl MetallicRoughness {
         if wo.z == 0.0 {
             return None;
         }
-        let probs = self.strategy_probs(wo);
+        self.sample_direction_with(wo, u_lobe, u, &self.strategy_probs(wo))
+    }
+
+    /// [`sample_direction`](Self::sample_direction) given `wo`'s strategy probabilities.
+    fn sample_direction_with(
+        &self,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        probs: &[f32; 3],
+    ) -> Option<Sampled> {
         let (m, d, t) = self.weights();
         let side = wo.z.signum();
         let o = upper(wo);

@@ -53,6 +53,22 @@ pub enum Lobes {
     Layered(Box<layered::Layered>),
 }
 
+/// ∫ f(ωi) dωi over the upper hemisphere by the midpoint rule on an n × n grid in (cos θ, φ),
+/// whose cells have equal solid angle 2π / n² (used to tabulate albedos, and by the tests to
+/// check sampling routines without one).
+pub(crate) fn hemisphere_integral(n: usize, mut f: impl FnMut(Vec3) -> f64) -> f64 {
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        let z = (i as f32 + 0.5) / n as f32;
+        let r = (1.0 - z * z).sqrt();
+        for j in 0..n {
+            let phi = std::f32::consts::TAU * (j as f32 + 0.5) / n as f32;
+            sum += f(Vec3::new(r * phi.cos(), r * phi.sin(), z));
+        }
+    }
+    sum * std::f64::consts::TAU / (n * n) as f64
+}
+
 /// Roughness α below which a GGX lobe is treated as a perfect mirror (or smooth interface).
 pub const DELTA_ALPHA: f32 = 1e-3;
 

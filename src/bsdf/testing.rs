@@ -1,4 +1,4 @@
-//! Helpers shared by the BSDF tests: test directions, sample triples and a deterministic
+//! Helpers shared by the BSDF tests: test directions, sample triples and the deterministic
 //! hemisphere quadrature (no sampling routine involved, so it can check the samplers).
 
 use crate::math::{Vec2, Vec3};
@@ -25,17 +25,4 @@ pub fn u3(rng: &mut Pcg32) -> (f32, Vec2) {
     (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()))
 }
 
-/// ∫ f(ωi) dωi over the upper hemisphere by the midpoint rule on an n × n grid in (cos θ, φ),
-/// whose cells have equal solid angle 2π / n².
-pub fn hemisphere_integral(n: usize, mut f: impl FnMut(Vec3) -> f64) -> f64 {
-    let mut sum = 0.0f64;
-    for i in 0..n {
-        let z = (i as f32 + 0.5) / n as f32;
-        let r = (1.0 - z * z).sqrt();
-        for j in 0..n {
-            let phi = std::f32::consts::TAU * (j as f32 + 0.5) / n as f32;
-            sum += f(Vec3::new(r * phi.cos(), r * phi.sin(), z));
-        }
-    }
-    sum * std::f64::consts::TAU / (n * n) as f64
-}
+pub(crate) use super::hemisphere_integral;
