@@ -71,7 +71,7 @@ import numpy as np
 
 import common
 import cycles_gltf as cg
-from cycles_cornell import Timer, render as render_pass
+from cycles_cornell import Timer
 
 SCENES = ("spheres_sunrise", "spheres_sunrise_rot90", "spheres_city_strength")
 GLB_NAME = "spheres.glb"
@@ -531,28 +531,7 @@ def render_scene(bpy, sc: dict, glb: Path, args) -> tuple[dict, dict, np.ndarray
           flush=True)
 
     seeds = [FIRST_SEED + k for k in range(args.passes)]
-    images, loads = [], []
-    render_s = cpu_s = 0.0
-    try:
-        with tempfile.TemporaryDirectory(prefix="cycles_env_") as tmp:
-            for k, seed in enumerate(seeds):
-                path = Path(tmp) / f"pass{k}.exr"
-                dt, cpu = render_pass(bpy, scene, timer, args.spp, seed, path)
-                render_s += dt
-                cpu_s += cpu
-                loads.append(common.load1())
-                img = common.read_exr(path)
-                if img.shape != (cg.HEIGHT, cg.WIDTH, 3) or not np.all(np.isfinite(img)):
-                    raise RuntimeError(f"pass {k}: bad image (shape {img.shape})")
-                images.append(img)
-                print(f"  pass {k + 1}/{args.passes}: {args.spp} spp, seed {seed}, {dt:7.2f} s "
-                      f"(cpu {cpu:7.2f} s, load {loads[-1]:.2f})", flush=True)
-    finally:
-        for h, fn in ((bpy.app.handlers.render_pre, timer._pre), (bpy.app.handlers.render_post, timer._post)):
-            with contextlib.suppress(ValueError):
-                h.remove(fn)
-
-    stack = np.stack(images)
+    stack, render_s, cpu_s, loads = cg.render_passes(bpy, scene, timer, args.spp, seeds, "cycles_env_")
     mean = stack.mean(axis=0)
     var_of_mean = stack.var(axis=0, ddof=1) / args.passes
 

@@ -711,22 +711,17 @@ def remove_timer(bpy, timer) -> None:
             h.remove(fn)
 
 
-def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]:
-    t_job = time.perf_counter()
-    ctx = prepare_job(bpy, job, args, managed_ext)
-    model_file, cam, scene = ctx["model_file"], ctx["camera"], ctx["scene"]
-    timer = Timer(bpy)
-
-    passes = PASSES_OVERRIDE.get(job, PASSES_OVERRIDE.get(ctx["model"], args.passes))
-    seeds = [FIRST_SEED + k for k in range(passes)]
-    images = []
+def render_passes(bpy, scene, timer, spp: int, seeds: list[int], prefix: str):
+    """Renders one pass per seed into a temporary folder and returns the stack of images (each
+    checked: WIDTH × HEIGHT, finite), the summed render and CPU seconds and the load after each
+    pass. The render handlers of `timer` are removed afterwards, whatever happens."""
+    images, loads = [], []
     render_s = cpu_s = 0.0
-    loads = []
     try:
-        with tempfile.TemporaryDirectory(prefix="cycles_gltf_") as tmp:
+        with tempfile.TemporaryDirectory(prefix=prefix) as tmp:
             for k, seed in enumerate(seeds):
                 path = Path(tmp) / f"pass{k}.exr"
-                dt, cpu = render_pass(bpy, scene, timer, args.spp, seed, path)
+                dt, cpu = render_pass(bpy, scene, timer, spp, seed, path)
                 render_s += dt
                 cpu_s += cpu
                 loads.append(common.load1())
@@ -736,12 +731,22 @@ def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]
                 if not np.all(np.isfinite(img)):
                     raise RuntimeError(f"pass {k}: non-finite pixels")
                 images.append(img)
-                print(f"  pass {k + 1}/{passes}: {args.spp} spp, seed {seed}, {dt:7.2f} s "
+                print(f"  pass {k + 1}/{len(seeds)}: {spp} spp, seed {seed}, {dt:7.2f} s "
                       f"(cpu {cpu:7.2f} s, load {loads[-1]:.2f})", flush=True)
     finally:
         remove_timer(bpy, timer)
+    return np.stack(images), render_s, cpu_s, loads
 
-    stack = np.stack(images)
+
+def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]:
+    t_job = time.perf_counter()
+    ctx = prepare_job(bpy, job, args, managed_ext)
+    model_file, cam, scene = ctx["model_file"], ctx["camera"], ctx["scene"]
+    timer = Timer(bpy)
+
+    passes = PASSES_OVERRIDE.get(job, PASSES_OVERRIDE.get(ctx["model"], args.passes))
+    seeds = [FIRST_SEED + k for k in range(passes)]
+    stack, render_s, cpu_s, loads = render_passes(bpy, scene, timer, args.spp, seeds, "cycles_gltf_")
     mean = stack.mean(axis=0)
     var_of_mean = stack.var(axis=0, ddof=1) / passes if passes > 1 else np.full_like(mean, np.nan)
     env_check = None
