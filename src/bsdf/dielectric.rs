@@ -789,25 +789,32 @@ mod tests {
             (1.5, 0.7, 160.0),
             (2.0, 0.5, 80.0),
         ];
+        thin_chi2(&cases, false, 1.0, 100, "thin");
+    }
+
+    /// χ² of a thin slab's sampling against its pdf for (η, α, θo) cases, wo at azimuth `phi`,
+    /// seeds from `seed`.
+    fn thin_chi2(cases: &[(f32, f32, f32)], compensated: bool, phi: f32, seed: u64, label: &str) {
         let mut ps = Vec::new();
         for (k, &(eta, alpha, theta)) in cases.iter().enumerate() {
-            let b = ThinDielectric {
+            let t = ThinDielectric {
                 eta,
                 alpha,
-                energy_compensation: false,
+                energy_compensation: compensated,
             };
-            let wo = dir(theta, 1.0);
+            let wo = dir(theta, phi);
+            let name = format!("{label} η {eta} α {alpha} θ {theta}");
             let p = chi2::p_value(
-                "thin dielectric",
+                &name,
                 100_000,
-                100 + k as u64,
+                seed + k as u64,
                 |rng| {
                     let (uc, u) = u3(rng);
-                    b.sample(wo, uc, u).map(|s| s.wi)
+                    t.sample(wo, uc, u).map(|s| s.wi)
                 },
-                |wi| b.eval(wo, wi).1,
+                |wi| t.eval(wo, wi).1,
             );
-            ps.push((format!("thin η {eta} α {alpha} θ {theta}"), p));
+            ps.push((name, p));
         }
         chi2::assert_all_pass(&ps);
     }
@@ -1093,34 +1100,11 @@ mod tests {
     /// The compensated slab's sampling follows its pdf (χ²), on both sides.
     #[test]
     fn compensated_thin_slab_chi2() {
-        let mut ps = Vec::new();
-        for (k, (eta, alpha, theta)) in [
+        let cases = [
             (1.5f32, 0.5f32, 30.0f32),
             (1.33, 1.0, 70.0),
             (2.4, 0.3, 150.0),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let t = ThinDielectric {
-                eta,
-                alpha,
-                energy_compensation: true,
-            };
-            let wo = dir(theta, 0.7);
-            let name = format!("thin compensated η {eta} α {alpha} θ {theta}");
-            let p = chi2::p_value(
-                &name,
-                100_000,
-                500 + k as u64,
-                |rng| {
-                    let (uc, u) = u3(rng);
-                    t.sample(wo, uc, u).map(|s| s.wi)
-                },
-                |wi| t.eval(wo, wi).1,
-            );
-            ps.push((name, p));
-        }
-        chi2::assert_all_pass(&ps);
+        ];
+        thin_chi2(&cases, true, 0.7, 500, "thin compensated");
     }
 }
