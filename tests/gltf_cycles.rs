@@ -145,16 +145,19 @@ fn grey_world() -> lumo_schema::Background {
 }
 
 fn render(path: &std::path::Path, camera: &Value, seed: u64) -> Image {
-    render_lit(path, camera, seed, &grey_world())
+    render_lit(path, camera, seed, &grey_world(), false)
 }
 
 /// Renders a model at 128², `SPP`, with the reference's camera (checked) and `background` as
 /// the only light.
+/// `flat`: every mesh shaded with its geometric normals (`smooth: false`), as the `_flat`
+/// references are.
 fn render_lit(
     path: &std::path::Path,
     camera: &Value,
     seed: u64,
     background: &lumo_schema::Background,
+    flat: bool,
 ) -> Image {
     let mut inp = lumo::load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     inp.edit(|s| {
@@ -165,6 +168,13 @@ fn render_lit(
         s.render.max_depth = 8;
         s.background = background.clone();
         s.lights.clear();
+        if flat {
+            for object in &mut s.objects {
+                if let lumo_schema::Object::Mesh(mesh) = object {
+                    mesh.smooth = false;
+                }
+            }
+        }
         let close = |a: [f32; 3], b: &Value| {
             (0..3).all(|k| (f64::from(a[k]) - b[k].as_f64().unwrap()).abs() < 1e-6)
         };
@@ -349,9 +359,10 @@ fn gltf_samples_under_an_hdr_world_match_cycles() {
     let mut failures = Vec::new();
     for (name, model) in models {
         let path = shared.join("gltf").join(model["gltf"].as_str().unwrap());
+        let flat = model["flat"].as_bool().unwrap_or(false);
         let (a, b) = (
-            render_lit(&path, &model["camera"], 1, &world),
-            render_lit(&path, &model["camera"], 2, &world),
+            render_lit(&path, &model["camera"], 1, &world, flat),
+            render_lit(&path, &model["camera"], 2, &world, flat),
         );
         let (c, vc) = (
             reference_in("cycles_gltf_env", name, ""),
@@ -388,7 +399,7 @@ fn gltf_samples_under_an_hdr_world_match_cycles() {
 /// BoxTextured 0.94, ClearCoatCarPaint 1.77, ClearCoat 1.04, DamagedHelmet 0.87, Duck 1.01,
 /// EmissiveStrength 1.03, GlassVaseFlowers 1.00, NormalTangentMirror 1.28, NormalTangent 1.29,
 /// Specular 1.04, TextureCoordinate 0.93, TextureSettings 0.98, TextureTransform 1.05,
-/// TransmissionRoughness 1.28, VertexColor 0.95).
+/// TransmissionRoughness 1.28, VertexColor 0.95; CornellBoxVinc3r_flat 1.03 and 0.23 %).
 const ENV_DEFAULT_MAX_RATIO: f64 = 2.7;
 const ENV_DEFAULT_MAX_MEAN_DIFF: f64 = 0.01;
 /// Models with their own bounds (measured × 1.5), or not compared (`None`), and why.
@@ -468,11 +479,18 @@ const ENV_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
         "R 24.5, 10.7 %: red metal of roughness 1",
     ),
     ("Cube", Some((3.7, 0.027)), "R 2.43, 1.8 %: textured metal"),
-    // Not explained yet (open, see the issue note): an interior lit through its opening.
+    // The file's normals are averaged across the box's corners, up to 55° from the walls'
+    // geometric normals, so the walls see parts of the sky outside the box above their shading
+    // horizon but behind their geometric surface. lumo scatters no light arriving from behind
+    // the geometric surface (in light sampling and BSDF sampling alike); Cycles' light sampling
+    // evaluates its closures against the shading normal alone while its BSDF sampling rejects
+    // such directions, so MIS lets part of that light through the walls. Direct light only, the
+    // ceiling reads 62 % brighter in Cycles; with every direction let through lumo's reads 21 %
+    // brighter than Cycles'. Shaded flat (`CornellBoxVinc3r_flat`) the two agree within noise.
     (
         "CornellBoxVinc3r",
         Some((6.1, 0.084)),
-        "R 4.06, 5.6 %: interior lit through its opening",
+        "R 4.06, 5.6 %: light through walls with bent normals (see _flat)",
     ),
     // White plastic labels facing a bright studio light read 8 % brighter in lumo: its diffuse
     // base under the specular layer is scaled by (1 − a(μo))(1 − a(μi))/(1 − a_avg)

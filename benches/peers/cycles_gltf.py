@@ -5,7 +5,7 @@ glTF material tests: per model a mean image and the per-pixel variance of that m
                                     [--gltf-root DIR] [--out DIR] [--env FILE.exr]
                                     [--still PNG --size 384]
 
-For every model (``<Name>`` or ``<Name>_nonormal``):
+For every model (``<Name>``, ``<Name>_nonormal`` or ``<Name>_flat``):
 
 1. The camera comes from lumo: ``lumo convert MODEL -o x.json`` writes lumo's scene for the glTF
    file, whose ``camera`` (``position``, ``look_at``, ``up``, ``fov_y_deg``, glTF's y-up frame) is
@@ -18,7 +18,9 @@ For every model (``<Name>`` or ``<Name>_nonormal``):
    and extensions the file uses but the importer does not handle are printed and recorded.
    Lights and cameras the file brings are deleted. The only light is a world of constant grey 0.5,
    strength 1. ``_nonormal``: every Normal Map node is unlinked from the Principled BSDF's Normal
-   input (the normal maps are then ignored).
+   input (the normal maps are then ignored). ``_flat``: every mesh loses its custom (the file's)
+   normals and is shaded flat, so that shading normals are the geometric ones (lumo's
+   ``smooth: false``).
 3. Cycles settings (the issue's list): CPU, all threads; Box pixel filter 1 px; no denoising; no
    adaptive sampling; no clamping; light tree off; Filter Glossy 0; caustics reflective and
    refractive on (Blender's defaults); max bounces 6 (diffuse, glossy, transmission and volume 6
@@ -43,7 +45,8 @@ which is lumo's orientation of an unrotated ``--env`` image; Background strength
 camera; world importance sampling Auto, Blender's default). Everything else is unchanged
 (settings, lumo's camera, K passes, mean / variance EXRs, previews, ``cameras.json``, README).
 Defaults that change with ``--env``: ``--out`` = ``tests/data/cycles_gltf_env``, ``--models`` =
-``all`` (every folder of ``--gltf-root`` holding a model, no ``_nonormal`` variants), and
+``all`` (every folder of ``--gltf-root`` holding a model, no ``_nonormal`` variants, then the
+``ENV_VARIANTS``: ``CornellBoxVinc3r_flat``), and
 ``--prefer glb`` (``glTF-Binary/*.glb`` before ``glTF/*.gltf``). The grey check is replaced by an
 environment check: Blender's ``scene.ray_cast`` on the evaluated scene with 4 x 4 rays per pixel
 finds the pixels that see no geometry (eroded by one pixel); there the Cycles mean must match a
@@ -98,6 +101,11 @@ MODELS = (
     "GlassVaseFlowers",
 )
 NONORMAL_SUFFIX = "_nonormal"
+FLAT_SUFFIX = "_flat"
+#: Environment mode: variants rendered after the folders' models by default. CornellBoxVinc3r's
+#: file normals are averaged across the box's corners (up to 55 degrees from the walls' geometric
+#: normals); flat, it isolates how each renderer treats light from behind the geometric surface.
+ENV_VARIANTS = ("CornellBoxVinc3r" + FLAT_SUFFIX,)
 NONORMAL_MODELS = ("NormalTangentMirrorTest", "NormalTangentTest")
 #: Passes for models too slow for the default (name -> passes); empty: every model uses --passes.
 PASSES_OVERRIDE: dict[str, int] = {}
@@ -140,11 +148,14 @@ def default_jobs() -> list[str]:
     return jobs
 
 
-def split_job(job: str) -> tuple[str, bool]:
-    """'NormalTangentTest_nonormal' -> ('NormalTangentTest', True)."""
+def split_job(job: str) -> tuple[str, bool, bool]:
+    """'NormalTangentTest_nonormal' -> ('NormalTangentTest', True, False);
+    'CornellBoxVinc3r_flat' -> ('CornellBoxVinc3r', False, True)."""
     if job.endswith(NONORMAL_SUFFIX):
-        return job[: -len(NONORMAL_SUFFIX)], True
-    return job, False
+        return job[: -len(NONORMAL_SUFFIX)], True, False
+    if job.endswith(FLAT_SUFFIX):
+        return job[: -len(FLAT_SUFFIX)], False, True
+    return job, False, False
 
 
 def find_model_file(root: Path, model: str, prefer_binary: bool = False) -> Path:
@@ -313,6 +324,20 @@ def count_emissive(bpy) -> int:
                 if (s.is_linked or s.default_value > 0) and (c.is_linked or any(c.default_value[:3])):
                     n += 1
                     break
+    return n
+
+
+def shade_flat(bpy) -> int:
+    """Removes every mesh's custom normals (the file's NORMAL) and shades its faces flat; returns
+    the number of meshes."""
+    n = 0
+    for mesh in {o.data for o in bpy.data.objects if o.type == "MESH"}:
+        if "custom_normal" in mesh.attributes:
+            mesh.attributes.remove(mesh.attributes["custom_normal"])
+        mesh.shade_flat()
+        if mesh.has_custom_normals or any(p.use_smooth for p in mesh.polygons):
+            raise RuntimeError(f"{mesh.name}: still smooth after shade_flat")
+        n += 1
     return n
 
 
@@ -656,7 +681,7 @@ def model_title(root: Path, model: str) -> str:
 def prepare_job(bpy, job: str, args, managed_ext: list[str], width: int = WIDTH,
                 height: int = HEIGHT) -> dict:
     """Steps 1-3 for one job: lumo's camera, the import, world, Cycles settings and camera."""
-    model, nonormal = split_job(job)
+    model, nonormal, flat = split_job(job)
     model_file = find_model_file(args.gltf_root, model, prefer_binary=args.prefer == "glb")
     cam = lumo_camera(args.lumo, model_file)
 
@@ -681,6 +706,8 @@ def prepare_job(bpy, job: str, args, managed_ext: list[str], width: int = WIDTH,
         if unlinked == 0:
             raise RuntimeError("no Normal Map -> Principled BSDF Normal link found to remove")
         print(f"  unlinked {unlinked} Normal Map node(s) from the Principled BSDF")
+    if flat:
+        print(f"  shaded {shade_flat(bpy)} mesh(es) flat")
     emissive = count_emissive(bpy)
     meshes = sum(1 for o in bpy.data.objects if o.type == "MESH")
 
@@ -697,7 +724,7 @@ def prepare_job(bpy, job: str, args, managed_ext: list[str], width: int = WIDTH,
         settings["world_nodes"] = world
     add_camera(bpy, scene, cam)
     return {
-        "model": model, "nonormal": nonormal, "model_file": model_file, "camera": cam,
+        "model": model, "nonormal": nonormal, "flat": flat, "model_file": model_file, "camera": cam,
         "scene": scene, "import_seconds": import_seconds, "notable": notable, "used": used,
         "unsupported": unsupported, "lights": lights, "cams": cams, "unlinked": unlinked,
         "emissive": emissive, "meshes": meshes, "world": world, "settings": settings,
@@ -781,6 +808,7 @@ def render_job(bpy, job: str, args, managed_ext: list[str]) -> tuple[dict, dict]
         "gltf": model_file.relative_to(args.gltf_root).as_posix(),
         "camera": cam,
         "normal_maps": not ctx["nonormal"],
+        "flat": ctx["flat"],
         "passes": passes,
         "spp_per_pass": args.spp,
         "spp": passes * args.spp,
@@ -916,7 +944,8 @@ def main() -> int:
         raise SystemExit("--size: must be positive")
     args.gltf_root = args.gltf_root.resolve()
     if args.models is None:
-        jobs = all_models(args.gltf_root) if args.env is not None else default_jobs()
+        jobs = (all_models(args.gltf_root) + list(ENV_VARIANTS) if args.env is not None
+                else default_jobs())
     elif args.models.strip() == "all":
         jobs = all_models(args.gltf_root)
     else:
@@ -978,7 +1007,7 @@ def main() -> int:
     failed = []
     timings = []
     for job in jobs:
-        model, _ = split_job(job)
+        model, _, _ = split_job(job)
         print(f"== {job}", flush=True)
         try:
             if model not in MODELS and args.env is None:
@@ -1098,6 +1127,8 @@ def write_readme(out: Path, record: dict, gltf_root: Path) -> None:
     add("")
     add("`<Name>_nonormal` = the same model and camera with every Normal Map node unlinked from the")
     add("Principled BSDF's Normal input (normal maps ignored), same seeds as `<Name>`.")
+    add("`<Name>_flat` = the same model and camera with every mesh's normals removed and its faces")
+    add("shaded flat (shading normals = geometric normals; lumo's `smooth: false`).")
     add("")
     ks = sorted({models[j]["passes"] for j in names})
     k = ks[0]
@@ -1179,7 +1210,7 @@ def write_readme(out: Path, record: dict, gltf_root: Path) -> None:
     add("Per model:")
     add("")
     for j in names:
-        model, _ = split_job(j)
+        model, _, _ = split_job(j)
         if j == model and model in MODEL_NOTES:
             add(textwrap.fill(f"- **{model}**: {MODEL_NOTES[model]}", width=96,
                               subsequent_indent="  ", break_on_hyphens=False))
@@ -1192,7 +1223,7 @@ def write_readme(out: Path, record: dict, gltf_root: Path) -> None:
     add("")
     seen = []
     for j in names:
-        model, _ = split_job(j)
+        model, _, _ = split_job(j)
         if model in seen:
             continue
         seen.append(model)
@@ -1356,7 +1387,9 @@ def write_env_readme(out: Path, record: dict, gltf_root: Path) -> None:
     add("| `<Name>.png` | sRGB preview of the mean (clamped to [0, 1]), for humans; only where it is under 30 KB |")
     add("| `cameras.json` | per model: `gltf` (path under `shared/gltf/`), `camera` = the lumo camera used (`position`, `look_at`, `up`, `fov_y_deg`, glTF/lumo y-up frame), passes, spp, seeds, seconds, importer warnings, the environment check; at the top: Blender and lumo versions, the environment file (with its SHA-256), the world nodes and the Cycles settings as read back, the still image(s) |")
     add("")
-    para("`<Name>` is the model's folder under `shared/gltf/`. Storage: with a textured background "
+    para("`<Name>` is the model's folder under `shared/gltf/`; `<Name>_flat` is the same model and "
+         "camera with every mesh's normals removed and its faces shaded flat (shading normals = "
+         "geometric normals, lumo's `smooth: false`). Storage: with a textured background "
          "every pixel is noisy and float32 compresses poorly (about 195 KB per 128 x 128 image, "
          "13 MB for the folder), so the mean is stored as half floats (relative rounding at most "
          "2^-11 = 0.05 %, far below the noise of a 2048-spp mean) and the variance as float32 "
@@ -1513,6 +1546,8 @@ def write_env_readme(out: Path, record: dict, gltf_root: Path) -> None:
          "Licenses per `SOURCE-metadata.json`:")
     add("")
     for j in names + sorted(failed):
+        if split_job(j)[0] != j:
+            continue  # a variant: attributed with its model
         if j in OTHER_SOURCES:
             url, text = OTHER_SOURCES[j]
             bullet(f"- `{j}`: {text}. Source: {url}. Rendered with Blender Cycles (re-lit, "
