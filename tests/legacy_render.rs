@@ -55,6 +55,7 @@ fn render_legacy(path: &Path, integrator: Option<Integrator>, w: u32, h: u32, sp
             progress: None,
             target_rel_error: None,
             adaptive: false,
+            ..Default::default()
         },
     );
     assert_eq!(

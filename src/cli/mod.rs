@@ -480,6 +480,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         progress: Some(&progress),
         target_rel_error: args.target_error,
         adaptive: args.adaptive,
+        ..Default::default()
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0) as usize)

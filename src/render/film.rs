@@ -3,7 +3,17 @@
 //! image's estimated error.
 //!
 //! Everything a render keeps about its samples lives here, so a film can be merged with another
-//! one of the same size (a pass into the total today; later, films rendered elsewhere).
+//! one of the same size: a pass into the total, a checkpoint into a resumed render, partial films
+//! rendered elsewhere (`lumo merge`).
+//!
+//! **Exact sums.** Floating-point addition is not associative, so f64 running sums would depend
+//! on how samples were grouped (passes, checkpoints, sample ranges on other machines). Each
+//! sample is therefore rounded once to fixed point and summed in integers, which is exact and
+//! associative: any partition of the samples, merged in any order, gives the same bits as one
+//! uninterrupted render. Sums are i128 with 64 fractional bits (resolution 5.4·10⁻²⁰, range
+//! ±9.2·10¹⁸), squares i128 with 32 fractional bits (2.3·10⁻¹⁰, ±4·10²⁸). A sample with a
+//! channel of magnitude ≥ [`MAX_SAMPLE`] (2³², 4.3·10⁹) is dropped like a NaN and counted, so that
+//! up to 2³¹ samples per pixel can never overflow either sum.
 
 use std::time::Duration;
 
@@ -12,30 +22,62 @@ use glam::DVec3;
 use crate::image::{Image, REL_EPSILON};
 use crate::math::Vec3;
 
-/// Running sums of one pixel's samples.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct PixelSum {
-    sum: DVec3,
-    sum_sq: DVec3,
+/// Largest sample magnitude (exclusive) a film accumulates; larger ones are dropped and counted.
+pub const MAX_SAMPLE: f64 = 4_294_967_296.0;
+/// 2⁶⁴: fixed-point scale of the sums.
+const SUM_SCALE: f64 = 18_446_744_073_709_551_616.0;
+/// 2³²: fixed-point scale of the sums of squares.
+const SQ_SCALE: f64 = 4_294_967_296.0;
+
+/// Running sums of one pixel's samples, exact (see the module doc).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PixelSum {
+    /// Σ v per channel, in units of 2⁻⁶⁴.
+    pub(crate) sum: [i128; 3],
+    /// Σ v² per channel, in units of 2⁻³².
+    pub(crate) sum_sq: [i128; 3],
     /// Finite samples (the ones in the sums).
-    good: u32,
-    /// Samples that were NaN or infinite and dropped.
-    bad: u32,
+    pub(crate) good: u32,
+    /// Samples that were NaN, infinite or too large and dropped.
+    pub(crate) bad: u32,
     /// Wall time these samples took, in nanoseconds: the cost model of time-budgeted adaptive
-    /// passes (a render against the clock is not reproducible anyway).
-    nanos: u64,
+    /// passes (a render against the clock is not reproducible anyway). Not part of equality
+    /// of what was rendered, and not saved in partial films.
+    pub(crate) nanos: u64,
 }
 
 impl PixelSum {
     /// Adds one sample; a NaN or infinite one is counted and dropped.
     pub(super) fn add_sample(&mut self, value: DVec3) {
-        if value.is_finite() {
-            self.sum += value;
-            self.sum_sq += value * value;
+        if value.is_finite() && value.abs().max_element() < MAX_SAMPLE {
+            for k in 0..3 {
+                // Exact: scaling by a power of two, then one rounding to an integer (|·| < 2⁹⁶
+                // and < 2⁹⁶ respectively, exactly representable as i128).
+                self.sum[k] += (value[k] * SUM_SCALE).round() as i128;
+                self.sum_sq[k] += (value[k] * value[k] * SQ_SCALE).round() as i128;
+            }
             self.good += 1;
         } else {
             self.bad += 1;
         }
+    }
+
+    /// Σ v per channel, as f64 (one rounding).
+    fn sum_f64(&self) -> DVec3 {
+        DVec3::new(
+            self.sum[0] as f64 / SUM_SCALE,
+            self.sum[1] as f64 / SUM_SCALE,
+            self.sum[2] as f64 / SUM_SCALE,
+        )
+    }
+
+    /// Σ v² per channel, as f64 (one rounding).
+    fn sum_sq_f64(&self) -> DVec3 {
+        DVec3::new(
+            self.sum_sq[0] as f64 / SQ_SCALE,
+            self.sum_sq[1] as f64 / SQ_SCALE,
+            self.sum_sq[2] as f64 / SQ_SCALE,
+        )
     }
 
     /// Records the wall time the samples took.
@@ -44,16 +86,18 @@ impl PixelSum {
     }
 
     /// Adds another set of samples of the same pixel.
-    pub(super) fn merge(&mut self, other: &PixelSum) {
-        self.sum += other.sum;
-        self.sum_sq += other.sum_sq;
+    pub fn merge(&mut self, other: &PixelSum) {
+        for k in 0..3 {
+            self.sum[k] += other.sum[k];
+            self.sum_sq[k] += other.sum_sq[k];
+        }
         self.good += other.good;
         self.bad += other.bad;
         self.nanos += other.nanos;
     }
 
     /// Samples taken, finite or not.
-    pub(super) fn taken(&self) -> u32 {
+    pub fn taken(&self) -> u32 {
         self.good + self.bad
     }
 
@@ -66,7 +110,7 @@ impl PixelSum {
     /// Sum of the finite samples.
     #[cfg(test)]
     pub(super) fn sum(&self) -> DVec3 {
-        self.sum
+        self.sum_f64()
     }
 
     /// Wall time per sample in nanoseconds, if these samples were timed.
@@ -79,7 +123,7 @@ impl PixelSum {
         if self.good == 0 {
             DVec3::ZERO
         } else {
-            self.sum / f64::from(self.good)
+            self.sum_f64() / f64::from(self.good)
         }
     }
 
@@ -89,8 +133,8 @@ impl PixelSum {
             return DVec3::splat(f64::INFINITY);
         }
         let n = f64::from(self.good);
-        let m = self.sum / n;
-        ((self.sum_sq - m * m * n) / (n - 1.0)).max(DVec3::ZERO) / n
+        let m = self.sum_f64() / n;
+        ((self.sum_sq_f64() - m * m * n) / (n - 1.0)).max(DVec3::ZERO) / n
     }
 
     /// Relative variance of one sample, Σ var / (m² + ε) over channels / 3 (∞ with fewer
@@ -115,17 +159,27 @@ pub(super) struct ErrorEstimate {
     pub(super) rel_error: f64,
 }
 
-/// The running sums of every pixel of an image, row-major, top row first.
-#[derive(Debug, Clone)]
-pub(super) struct Film {
+/// The running sums of every pixel of an image (or of a window of it), row-major, top row first.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Film {
     width: u32,
     height: u32,
     pixels: Vec<PixelSum>,
 }
 
 impl Film {
+    /// A film of `width` × `height` pixels with the given sums, or `None` when their number
+    /// is not width × height.
+    pub fn from_pixels(width: u32, height: u32, pixels: Vec<PixelSum>) -> Option<Film> {
+        (pixels.len() as u64 == u64::from(width) * u64::from(height)).then_some(Film {
+            width,
+            height,
+            pixels,
+        })
+    }
+
     /// A film without samples.
-    pub(super) fn new(width: u32, height: u32) -> Film {
+    pub fn new(width: u32, height: u32) -> Film {
         Film {
             width,
             height,
@@ -134,22 +188,22 @@ impl Film {
     }
 
     /// Width in pixels.
-    pub(super) fn width(&self) -> u32 {
+    pub fn width(&self) -> u32 {
         self.width
     }
 
     /// Height in pixels.
-    pub(super) fn height(&self) -> u32 {
+    pub fn height(&self) -> u32 {
         self.height
     }
 
     /// The pixels' sums, row-major, top row first.
-    pub(super) fn pixels(&self) -> &[PixelSum] {
+    pub fn pixels(&self) -> &[PixelSum] {
         &self.pixels
     }
 
     /// The sums of pixel (x, y).
-    pub(super) fn pixel(&self, x: u32, y: u32) -> &PixelSum {
+    pub fn pixel(&self, x: u32, y: u32) -> &PixelSum {
         &self.pixels[(y * self.width + x) as usize]
     }
 
@@ -159,7 +213,7 @@ impl Film {
     }
 
     /// Adds the samples of another film of the same size (one pass's, for instance).
-    pub(super) fn merge(&mut self, other: &Film) {
+    pub fn merge(&mut self, other: &Film) {
         assert_eq!(
             (self.width, self.height),
             (other.width, other.height),
@@ -171,22 +225,22 @@ impl Film {
     }
 
     /// Samples taken over all pixels, finite or not.
-    pub(super) fn samples_taken(&self) -> u64 {
+    pub fn samples_taken(&self) -> u64 {
         self.pixels.iter().map(|p| u64::from(p.taken())).sum()
     }
 
     /// Samples dropped as NaN or infinite over all pixels.
-    pub(super) fn dropped_samples(&self) -> u64 {
+    pub fn dropped_samples(&self) -> u64 {
         self.pixels.iter().map(|p| u64::from(p.bad)).sum()
     }
 
     /// Samples taken per pixel, row-major, top row first.
-    pub(super) fn counts(&self) -> Vec<u32> {
+    pub fn counts(&self) -> Vec<u32> {
         self.pixels.iter().map(PixelSum::taken).collect()
     }
 
     /// Mean radiance per pixel.
-    pub(super) fn image(&self) -> Image {
+    pub fn image(&self) -> Image {
         Image {
             width: self.width,
             height: self.height,
@@ -195,7 +249,7 @@ impl Film {
     }
 
     /// Standard error of each pixel's mean, per channel (zero with fewer than two samples).
-    pub(super) fn std_error(&self) -> Image {
+    pub fn std_error(&self) -> Image {
         Image {
             width: self.width,
             height: self.height,

@@ -16,10 +16,11 @@ mod schedule;
 mod tests;
 
 use std::ops::Range;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use adaptive::{AdaptiveAllocator, ErrorSource};
-use film::{Film, PixelSum};
+pub use film::{Film, PixelSum, MAX_SAMPLE};
 use pass::PassContext;
 pub use pass::TILE;
 use pixel::render_samples;
@@ -49,6 +50,41 @@ pub struct Stats {
     pub estimated_rel_error: f64,
 }
 
+/// A window of the image: pixels `x0..x1` × `y0..y1` (top row first).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Window {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl Window {
+    /// The whole of a `width` × `height` image.
+    pub fn full(width: u32, height: u32) -> Window {
+        Window {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+}
+
 /// Options of a render call.
 #[derive(Default)]
 pub struct RenderOptions<'a> {
@@ -61,7 +97,29 @@ pub struct RenderOptions<'a> {
     /// the largest estimated relative error (per unit of time under a time budget). The image
     /// mean stays unbiased: a pixel's own samples never decide how many it gets.
     pub adaptive: bool,
+    /// Render only this window of the image (default: all of it); the film covers the window.
+    pub crop: Option<Window>,
+    /// Index of every pixel's first sample (default 0): a render of `spp` samples takes indices
+    /// `first_sample..first_sample + spp`, so that sample ranges rendered apart merge into the
+    /// render that takes them all.
+    pub first_sample: u32,
+    /// Continue from this film (a checkpoint of the same scene, window and first sample): its
+    /// samples count towards `spp`, and new samples continue each pixel's indices after them.
+    pub resume: Option<&'a Film>,
+    /// When set (by a signal handler, say), the render takes no new work: threads finish the
+    /// tile they are on, the pass in flight is dropped, and the film of the passes finished so
+    /// far is returned, marked interrupted: it holds whole passes only.
+    pub cancel: Option<&'a AtomicBool>,
+    /// Called after every finished pass with the film so far (for checkpoints). Setting it, or
+    /// `cancel`, makes uniform renders progressive (passes of doubling size, each at most
+    /// [`MAX_PASS_SECONDS`] long once the throughput is known), so that there are whole passes
+    /// to keep; the image is the same bits either way (the film's sums are exact).
+    pub on_pass: Option<&'a (dyn Fn(&Film) + Sync)>,
 }
+
+/// Longest pass, in seconds, of renders that can be interrupted or checkpointed: an interruption
+/// loses at most this much work.
+pub const MAX_PASS_SECONDS: f64 = 2.0;
 
 /// A render with its per-pixel error estimate.
 #[derive(Debug, Clone)]
@@ -75,6 +133,10 @@ pub struct Rendered {
     pub counts: Vec<u32>,
     /// Counters.
     pub stats: Stats,
+    /// Every sample's sums: what partial films and checkpoints save.
+    pub film: Film,
+    /// Whether [`RenderOptions::cancel`] stopped the render before its budget was spent.
+    pub interrupted: bool,
 }
 
 /// Renders the scene with its settings.
@@ -99,40 +161,60 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> (Image, Stats) {
 pub fn render_with_error(scene: &Scene, options: &RenderOptions) -> Rendered {
     let start = Instant::now();
     let s = &scene.settings;
+    let window = options.crop.unwrap_or(Window::full(s.width, s.height));
     let plan = Plan {
-        width: s.width,
-        height: s.height,
+        width: window.width(),
+        height: window.height(),
         spp: s.spp,
         budget: s.time_budget_s.map(|t| Duration::from_secs_f32(t.max(0.0))),
         seed: s.seed,
     };
-    let (film, rays) = run_passes(
+    let (x0, y0) = (window.x0, window.y0);
+    let (film, rays, interrupted) = run_passes(
         &plan,
         options,
         ErrorSource::Neighbours,
-        |x, y, indices, stats| render_samples(scene, x, y, indices, stats),
+        |x, y, indices, stats| render_samples(scene, x0 + x, y0 + y, indices, stats),
     );
-    finish(&film, rays, start.elapsed())
+    finish(film, rays, start.elapsed(), interrupted)
 }
 
 /// Takes all samples of a render, pass by pass; `sample(x, y, indices, stats)` returns the sums
-/// of pixel (x, y)'s samples with the given indices. Returns the film and the rays cast.
+/// of pixel (x, y)'s samples with the given indices (x, y in the film's window). Returns the
+/// film, the rays cast and whether `options.cancel` interrupted the render.
 fn run_passes<F>(
     plan: &Plan,
     options: &RenderOptions,
     source: ErrorSource,
     sample: F,
-) -> (Film, u64)
+) -> (Film, u64, bool)
 where
     F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
 {
-    let mut schedule = Schedule::new(plan, options);
-    let mut film = Film::new(plan.width, plan.height);
+    let mut film = match options.resume {
+        Some(f) => {
+            assert_eq!(
+                (f.width(), f.height()),
+                (plan.width, plan.height),
+                "the film resumed from has another size"
+            );
+            f.clone()
+        }
+        None => Film::new(plan.width, plan.height),
+    };
+    let mut schedule = Schedule::new(plan, options, film.samples_taken());
     let mut allocator = AdaptiveAllocator::new(plan.seed, plan.budget.is_some(), source);
     // Per-pixel timing feeds only the cost model of time-budgeted adaptive passes.
     let timed = options.adaptive && plan.budget.is_some();
-    let context = PassContext::new(sample, options.progress, timed);
+    let context = PassContext::new(
+        sample,
+        options.progress,
+        timed,
+        options.first_sample,
+        options.cancel,
+    );
     let mut counts = vec![0u32; film.pixels().len()];
+    let mut interrupted = false;
     while let Some(next) = schedule.next_pass() {
         let samples = match next {
             NextPass::Uniform(spp) => {
@@ -145,15 +227,22 @@ where
             },
         };
         let pass_start = Instant::now();
-        film.merge(&context.render(&film, &counts));
+        let Some(pass) = context.render(&film, &counts) else {
+            interrupted = true;
+            break;
+        };
+        film.merge(&pass);
         schedule.record_pass(samples, pass_start.elapsed(), &film);
+        if let Some(on_pass) = options.on_pass {
+            on_pass(&film);
+        }
     }
     let rays = context.rays();
-    (film, rays)
+    (film, rays, interrupted)
 }
 
 /// Image, error image and counters from the film.
-fn finish(film: &Film, rays: u64, elapsed: Duration) -> Rendered {
+fn finish(film: Film, rays: u64, elapsed: Duration, interrupted: bool) -> Rendered {
     let estimate = film.estimate();
     let samples = film.samples_taken();
     let stats = Stats {
@@ -170,5 +259,7 @@ fn finish(film: &Film, rays: u64, elapsed: Duration) -> Rendered {
         std_error: film.std_error(),
         counts: film.counts(),
         stats,
+        film,
+        interrupted,
     }
 }

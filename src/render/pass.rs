@@ -3,7 +3,7 @@
 //! own, to be merged into the total.
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -23,6 +23,10 @@ pub(super) struct PassContext<'a, F> {
     progress: Option<&'a (dyn Fn(u64) + Sync)>,
     /// Whether to record the wall time each pixel's samples take.
     timed: bool,
+    /// Index of every pixel's first sample.
+    first_sample: u32,
+    /// When set, tiles not yet started are skipped and the pass is dropped.
+    cancel: Option<&'a AtomicBool>,
     /// Rays cast so far.
     rays: AtomicU64,
     /// Samples finished so far.
@@ -69,11 +73,15 @@ where
         sample: F,
         progress: Option<&'a (dyn Fn(u64) + Sync)>,
         timed: bool,
+        first_sample: u32,
+        cancel: Option<&'a AtomicBool>,
     ) -> PassContext<'a, F> {
         PassContext {
             sample,
             progress,
             timed,
+            first_sample,
+            cancel,
             rays: AtomicU64::new(0),
             samples_done: AtomicU64::new(0),
         }
@@ -84,28 +92,41 @@ where
         self.rays.load(Ordering::Relaxed)
     }
 
+    /// Whether the render was asked to stop.
+    fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+    }
+
     /// Takes `counts[i]` more samples of pixel i, tile by tile in parallel, continuing each
-    /// pixel's sample indices after those already in `film`; returns the new samples as a film.
-    pub(super) fn render(&self, film: &Film, counts: &[u32]) -> Film {
+    /// pixel's sample indices after those already in `film`; returns the new samples as a film,
+    /// or `None` when the render was cancelled before every tile was done (each thread finishes
+    /// at most the tile it is on).
+    pub(super) fn render(&self, film: &Film, counts: &[u32]) -> Option<Film> {
         let (w, h) = (film.width(), film.height());
         let tiles_x = w.div_ceil(TILE);
         let tiles_y = h.div_ceil(TILE);
-        let results: Vec<(Tile, Vec<PixelSum>)> = (0..tiles_x * tiles_y)
+        let results: Vec<Option<(Tile, Vec<PixelSum>)>> = (0..tiles_x * tiles_y)
             .into_par_iter()
             .with_max_len(1)
             .map(|index| {
+                if self.cancelled() {
+                    return None;
+                }
                 let tile = Tile::new(index, tiles_x, w, h);
                 let sums = self.render_tile(film, counts, &tile);
-                (tile, sums)
+                Some((tile, sums))
             })
             .collect();
+        if self.cancelled() {
+            return None;
+        }
         let mut pass = Film::new(w, h);
-        for (tile, sums) in results {
+        for (tile, sums) in results.into_iter().flatten() {
             for ((x, y), sums) in tile.pixels().zip(sums) {
                 *pass.pixel_mut(x, y) = sums;
             }
         }
-        pass
+        Some(pass)
     }
 
     /// The new samples of one tile's pixels, row by row.
@@ -115,7 +136,7 @@ where
         let mut samples = 0u64;
         for (x, y) in tile.pixels() {
             let count = counts[(y * film.width() + x) as usize];
-            let first = film.pixel(x, y).taken();
+            let first = self.first_sample + film.pixel(x, y).taken();
             sums.push(if count == 0 {
                 PixelSum::default()
             } else if self.timed {

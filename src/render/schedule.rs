@@ -76,14 +76,21 @@ pub(super) struct Schedule {
     passes: u64,
     /// Whether the error target has been reached.
     target_reached: bool,
+    /// Longest pass in seconds, once the throughput is known (interruptible renders).
+    max_pass_seconds: Option<f64>,
 }
 
 impl Schedule {
-    /// The schedule of a render of `plan` with `options`, starting now.
-    pub(super) fn new(plan: &Plan, options: &RenderOptions) -> Schedule {
+    /// The schedule of a render of `plan` with `options`, starting now with `samples_taken`
+    /// samples already in the film (a resumed render).
+    pub(super) fn new(plan: &Plan, options: &RenderOptions, samples_taken: u64) -> Schedule {
         let pixels = u64::from(plan.width * plan.height);
-        let progressive =
-            plan.budget.is_some() || options.target_rel_error.is_some() || options.adaptive;
+        let interruptible = options.cancel.is_some() || options.on_pass.is_some();
+        let progressive = plan.budget.is_some()
+            || options.target_rel_error.is_some()
+            || options.adaptive
+            || interruptible
+            || samples_taken > 0;
         Schedule {
             start: Instant::now(),
             budget: plan.budget,
@@ -97,11 +104,12 @@ impl Schedule {
             // allocation is refined after every pass anyway), at least 2 so that variances exist.
             pilot_spp: (plan.spp / 4).clamp(2, 64),
             adaptive_phase: false,
-            samples_taken: 0,
+            samples_taken,
             pass_spp: plan.spp.min(2),
             throughput: None,
             passes: 0,
             target_reached: false,
+            max_pass_seconds: interruptible.then_some(super::MAX_PASS_SECONDS),
         }
     }
 
@@ -134,6 +142,10 @@ impl Schedule {
                 self.adaptive_phase = true;
             }
             let mut pass_samples = (u64::from(self.pass_spp) * n).min(samples_left);
+            if let (Some(cap), Some(throughput)) = (self.max_pass_seconds, self.throughput) {
+                let fit = (throughput.samples_per_second * cap) as u64;
+                pass_samples = pass_samples.min(fit.max(n));
+            }
             let mut time_bound = false;
             if let (Some(b), Some(throughput)) = (self.budget, self.throughput) {
                 // The pilot of an adaptive render ends at a quarter of the budget.

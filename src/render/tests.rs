@@ -65,7 +65,7 @@ fn z_score(source: ErrorSource, seed: u64) -> (f64, Film) {
         adaptive: true,
         ..Default::default()
     };
-    let (film, _) = run_passes(&plan, &options, source, synthetic(w, seed));
+    let (film, _, _) = run_passes(&plan, &options, source, synthetic(w, seed));
     let sums = film.pixels();
     let n = sums.len() as f64;
     let (mut err, mut var) = (0.0, 0.0);
@@ -127,13 +127,13 @@ fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
         budget: None,
         seed: 5,
     };
-    let (one, _) = run_passes(
+    let (one, _, _) = run_passes(
         &plan,
         &RenderOptions::default(),
         ErrorSource::Neighbours,
         synthetic(20, 5),
     );
-    let (passes, _) = run_passes(
+    let (passes, _, _) = run_passes(
         &plan,
         &RenderOptions {
             target_rel_error: Some(0.0),
