@@ -1,6 +1,7 @@
 //! The command-line interface: argument parsing and the subcommands.
 
 pub mod converge;
+pub mod split;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -14,6 +15,7 @@ use lumo_schema::Keyword;
 
 use lumo::load::{LoadError, LoadOptions};
 use lumo::output::{write_image, ToneMap};
+use lumo::partial_film::PartialFilm;
 use lumo::render::{render_with_error, RenderOptions};
 
 /// Exit code for invalid input.
@@ -108,6 +110,28 @@ pub enum Command {
         #[arg(long, value_parser = keyword::<LightsPolicy>(), default_value = "auto")]
         lights: LightsPolicy,
     },
+    /// Merge partial films (`lumo render --samples A..B --film F`, checkpoints) into an image or
+    /// a bigger partial film, bit for bit as one render taking all their samples.
+    #[command(
+        after_help = "Examples:\n  lumo merge a.npz b.npz c.npz -o out.exr\n  lumo merge a.npz b.npz --film ab.npz"
+    )]
+    Merge {
+        /// Partial films (.npz) of one render: sample ranges and/or crop windows.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output image (.png, .exr, .hdr, .bmp).
+        #[arg(short, long, required_unless_present = "film")]
+        output: Option<PathBuf>,
+        /// Write the merged partial film (.npz).
+        #[arg(long)]
+        film: Option<PathBuf>,
+        /// Merge even when pixels or sample indices are missing (each pixel averages what it has).
+        #[arg(long)]
+        allow_partial: bool,
+        /// Tone mapping for 8-bit outputs.
+        #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
+        tonemap: ToneMap,
+    },
     /// Print the JSON Schema of scene files (draft 2020-12).
     #[command(after_help = "Example:\n  lumo schema -o schema/scene.schema.json")]
     Schema {
@@ -123,11 +147,31 @@ pub struct RenderArgs {
     /// The scene to render.
     pub scene: PathBuf,
     /// Output image; the format follows the extension (.png, .exr, .hdr, .bmp).
-    #[arg(short, long)]
-    pub output: PathBuf,
+    #[arg(short, long, required_unless_present = "film")]
+    pub output: Option<PathBuf>,
     /// Samples per pixel (overrides the scene).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_SPP)))]
     pub spp: Option<u32>,
+    /// Render exactly sample indices A to B−1 of every pixel (for `--film`; excludes `--spp`).
+    #[arg(long, value_name = "A..B", value_parser = split::parse_samples, conflicts_with = "spp")]
+    pub samples: Option<(u32, u32)>,
+    /// Render only pixels x0..x1 × y0..y1 of the image (the film records where they sit).
+    #[arg(long, value_name = "x0,y0,x1,y1", value_parser = split::parse_crop)]
+    pub crop: Option<lumo::render::Window>,
+    /// Write the render's exact sums as a partial film (.npz), for `lumo merge`.
+    #[arg(long, value_name = "PART.npz")]
+    pub film: Option<PathBuf>,
+    /// Keep a checkpoint (a partial film, .npz) to resume from; written every
+    /// `--checkpoint-every` and when the render is interrupted.
+    #[arg(long, value_name = "CK.npz")]
+    pub checkpoint: Option<PathBuf>,
+    /// How often to write the checkpoint (default 5m).
+    #[arg(long, value_parser = parse_duration, requires = "checkpoint")]
+    pub checkpoint_every: Option<f32>,
+    /// Continue the render saved in this checkpoint, to `--spp` or else to its own target; the
+    /// result is bit-identical to an uninterrupted render.
+    #[arg(long, value_name = "CK.npz", conflicts_with = "samples")]
+    pub resume: Option<PathBuf>,
     /// Image width in pixels (overrides the scene).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
     pub width: Option<u32>,
@@ -226,6 +270,19 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         } => convert_cmd(&input, &output, camera.as_deref(), lights),
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
+        Command::Merge {
+            parts,
+            output,
+            film,
+            allow_partial,
+            tonemap,
+        } => split::merge_cmd(
+            &parts,
+            output.as_deref(),
+            film.as_deref(),
+            allow_partial,
+            tonemap,
+        ),
         Command::Converge(args) => converge::run(&args).map(|_| ()),
     }
 }
@@ -373,7 +430,49 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
 }
 
 fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
-    lumo::output::format_of(&args.output).map_err(|e| CliError::invalid(e.to_string()))?;
+    // Everything that can be checked before rendering is.
+    if let Some(o) = &args.output {
+        lumo::output::format_of(o).map_err(|e| CliError::invalid(e.to_string()))?;
+        split::check_writable(o, "output")?;
+    }
+    if let Some(p) = &args.error_image {
+        lumo::output::format_of(p).map_err(|e| CliError::invalid(e.to_string()))?;
+        split::check_writable(p, "error image")?;
+    }
+    if let Some(f) = &args.film {
+        split::check_film_path(f, "film")?;
+    }
+    let checkpoint = match (&args.checkpoint, &args.output) {
+        (Some(c), _) => Some(c.clone()),
+        (None, Some(o)) => Some(split::default_checkpoint(o)),
+        (None, None) => None,
+    };
+    if let Some(c) = &args.checkpoint {
+        split::check_film_path(c, "checkpoint")?;
+    }
+    let split_mode = args.samples.is_some() || args.crop.is_some() || args.film.is_some();
+    if split_mode && (args.adaptive || args.target_error.is_some() || args.time.is_some()) {
+        return Err(CliError::invalid(
+            "--samples, --crop and --film render fixed sample ranges; --adaptive, --target-error \
+             and --time decide samples from the whole image as it renders, so they cannot be \
+             split (render without them, or drive the passes yourself with lumo merge)",
+        ));
+    }
+    let resumed = match &args.resume {
+        Some(p) => Some(split::read_film(p)?),
+        None => None,
+    };
+    if let Some(r) = &resumed {
+        if r.header.samples.len() != 1 {
+            return Err(CliError::invalid(format!(
+                "{}: a checkpoint holds one range of samples, this film holds {}",
+                args.resume
+                    .as_ref()
+                    .map_or(String::new(), |p| p.display().to_string()),
+                lumo::partial_film::ranges_text(&r.header.samples)
+            )));
+        }
+    }
     let options = LoadOptions {
         lights: args.lights,
         camera: args.camera.as_deref().map(camera_choice),
@@ -394,6 +493,10 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     loaded.edit(|s| {
         if let Some(v) = args.spp {
             s.render.spp = v;
+        } else if let Some((a, b)) = args.samples {
+            s.render.spp = b - a;
+        } else if let Some(t) = resumed.as_ref().and_then(|r| r.header.target_spp) {
+            s.render.spp = t;
         }
         if let Some(v) = args.width {
             s.image.width = v;
@@ -430,7 +533,15 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
             // Asked for a time or an error, not a sample count: let the budget decide.
             s.render.spp = schema::MAX_SPP;
         }
+        if let Some(left) = resumed.as_ref().and_then(|r| r.header.time_left_s) {
+            if args.time.is_none() {
+                s.render.time_budget_s = Some(left as f32);
+            }
+        }
     })?;
+    let scene_hash = loaded
+        .content_hash()
+        .map_err(|e| CliError::failure(e.to_string()))?;
     let s = &*loaded.description.scene;
     let reference = match &args.reference {
         Some(p) => Some(lumo::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
@@ -456,6 +567,63 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     let (scene, warnings) = loaded
         .build()
         .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
+    let (width, height) = (scene.settings.width, scene.settings.height);
+    let window = args
+        .crop
+        .unwrap_or(lumo::render::Window::full(width, height));
+    if window.x1 > width || window.y1 > height {
+        return Err(CliError::invalid(format!(
+            "--crop {},{},{},{} is not inside the {width}×{height} image",
+            window.x0, window.y0, window.x1, window.y1
+        )));
+    }
+    let first_sample = match (&resumed, args.samples) {
+        (Some(r), _) => r.header.samples[0][0],
+        (None, Some((a, _))) => a,
+        (None, None) => 0,
+    };
+    let header_for =
+        |samples: Vec<[u32; 2]>, time_left_s: Option<f64>| lumo::partial_film::FilmHeader {
+            format: lumo::partial_film::FORMAT.to_string(),
+            format_version: lumo::partial_film::FORMAT_VERSION,
+            lumo_version: env!("CARGO_PKG_VERSION").to_string(),
+            build_id: lumo::partial_film::build_id(),
+            scene_hash: scene_hash.clone(),
+            width,
+            height,
+            crop: [window.x0, window.y0, window.x1, window.y1],
+            seed: scene.settings.seed,
+            sampler: lumo_schema::Keyword::keyword(s.render.sampler).to_string(),
+            samples,
+            target_spp: Some(scene.settings.spp),
+            time_left_s,
+        };
+    if let Some(r) = &resumed {
+        let here = header_for(r.header.samples.clone(), None);
+        let ck = args
+            .resume
+            .as_ref()
+            .map_or(String::new(), |p| p.display().to_string());
+        if let Some(m) = r.header.mismatch(&here) {
+            return Err(CliError::invalid(format!(
+                "{ck}: cannot resume this render from it: {m} (\"here\" is this command's scene)"
+            )));
+        }
+        if r.header.crop != here.crop {
+            return Err(CliError::invalid(format!(
+                "{ck}: the checkpoint covers pixels {:?}, this render {:?} (give the same --crop)",
+                r.header.crop, here.crop
+            )));
+        }
+        if r.header.spp() >= u64::from(scene.settings.spp) && scene.settings.time_budget_s.is_none()
+        {
+            eprintln!(
+                "note: {ck} already holds {} samples per pixel; nothing left to render to {}",
+                r.header.spp(),
+                scene.settings.spp
+            );
+        }
+    }
     for w in warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
@@ -476,11 +644,47 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     );
     bar.enable_steady_tick(Duration::from_millis(200));
     let progress = |n: u64| bar.set_position(n);
+    let signals = split::Signals::install()?;
+    let uniform_film = !args.adaptive;
+    let render_start = std::time::Instant::now();
+    let budget = scene.settings.time_budget_s.map(f64::from);
+    let checkpoint_header = |film: &lumo::render::Film| {
+        let taken = film.pixel(0, 0).taken();
+        header_for(
+            vec![[first_sample, first_sample + taken]],
+            budget.map(|b| (b - render_start.elapsed().as_secs_f64()).max(0.0)),
+        )
+    };
+    let every = args
+        .checkpoint_every
+        .map_or(Duration::from_secs(300), |s| Duration::from_secs_f32(s));
+    let last_checkpoint = std::sync::Mutex::new(std::time::Instant::now());
+    let periodic = |film: &lumo::render::Film| {
+        let Some(path) = &args.checkpoint else { return };
+        let Ok(mut last) = last_checkpoint.lock() else {
+            return;
+        };
+        if last.elapsed() < every || film.pixel(0, 0).taken() == 0 {
+            return;
+        }
+        let ck = PartialFilm {
+            header: checkpoint_header(film),
+            film: film.clone(),
+        };
+        match ck.write(path) {
+            Ok(()) => *last = std::time::Instant::now(),
+            Err(e) => bar.suspend(|| eprintln!("warning: checkpoint not written: {e}")),
+        }
+    };
     let options = RenderOptions {
         progress: Some(&progress),
         target_rel_error: args.target_error,
         adaptive: args.adaptive,
-        ..Default::default()
+        crop: args.crop,
+        first_sample,
+        resume: resumed.as_ref().map(|r| &r.film),
+        cancel: Some(&signals.cancel),
+        on_pass: (args.checkpoint.is_some() && uniform_film).then_some(&periodic),
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0) as usize)
@@ -489,7 +693,97 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     let rendered = pool.install(|| render_with_error(&scene, &options));
     let (image, stats) = (&rendered.image, rendered.stats);
     bar.finish_and_clear();
-    write_image(image, &args.output, args.tonemap).map_err(|e| CliError::failure(e.to_string()))?;
+    let taken = rendered.film.pixel(0, 0).taken();
+    let uniform = uniform_film && rendered.film.counts().iter().all(|&c| c == taken);
+    let save_checkpoint = |path: &Path| -> Result<(), CliError> {
+        split::write_film(
+            &PartialFilm {
+                header: checkpoint_header(&rendered.film),
+                film: rendered.film.clone(),
+            },
+            path,
+        )
+    };
+    if rendered.interrupted {
+        let code = signals.exit_code();
+        let mut said = format!(
+            "interrupted after {taken} samples per pixel ({} in all)",
+            stats.samples
+        );
+        if let Some(o) = &args.output {
+            if taken > 0 {
+                let full = embed(image, &window, width, height);
+                write_image(&full, o, args.tonemap)
+                    .map_err(|e| CliError::failure(e.to_string()))?;
+                said += &format!("; wrote {}", o.display());
+            }
+        }
+        if let (Some(c), true) = (&checkpoint, uniform && taken > 0) {
+            save_checkpoint(c)?;
+            said += &format!(
+                "; checkpoint {} (resume with --resume {})",
+                c.display(),
+                c.display()
+            );
+        } else if !uniform {
+            said += "; adaptive renders keep no checkpoint";
+        }
+        return Err(CliError {
+            code,
+            message: said,
+        });
+    }
+    if let Some(f) = &args.film {
+        split::write_film(
+            &PartialFilm {
+                header: header_for(vec![[first_sample, first_sample + taken]], None),
+                film: rendered.film.clone(),
+            },
+            f,
+        )?;
+        if args.output.is_none() {
+            eprintln!(
+                "rendered samples {first_sample}..{} of pixels {}..{} × {}..{} in {:.2} s → {}",
+                first_sample + taken,
+                window.x0,
+                window.x1,
+                window.y0,
+                window.y1,
+                stats.elapsed.as_secs_f64(),
+                f.display()
+            );
+            return Ok(());
+        }
+    }
+    let Some(output) = &args.output else {
+        return Ok(());
+    };
+    let full = embed(image, &window, width, height);
+    if let Err(e) = write_image(&full, output, args.tonemap) {
+        // Keep the samples: a checkpoint beside the output, or in the temporary folder.
+        let mut kept = String::new();
+        if uniform {
+            for place in [
+                checkpoint.clone(),
+                Some(
+                    std::env::temp_dir()
+                        .join(format!("lumo-{}.checkpoint.npz", std::process::id())),
+                ),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                if save_checkpoint(&place).is_ok() {
+                    kept = format!(
+                        " (the samples are kept in {}: lumo merge it, or --resume from it)",
+                        place.display()
+                    );
+                    break;
+                }
+            }
+        }
+        return Err(CliError::failure(format!("{e}{kept}")));
+    }
     if let Some(path) = &args.error_image {
         write_image(&rendered.std_error, path, ToneMap::Clamp)
             .map_err(|e| CliError::failure(e.to_string()))?;
@@ -517,7 +811,32 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         stats.rays as f64 / secs / 1e6,
         stats.samples as f64 / secs / 1e6,
         stats.estimated_rel_error,
-        args.output.display()
+        output.display()
     );
     Ok(())
+}
+
+/// The image of a window placed in a black `width` × `height` image (the image itself when the
+/// window is all of it).
+fn embed(
+    image: &lumo::image::Image,
+    window: &lumo::render::Window,
+    width: u32,
+    height: u32,
+) -> lumo::image::Image {
+    if (window.width(), window.height()) == (width, height) {
+        return image.clone();
+    }
+    let mut pixels = vec![glam::Vec3::ZERO; (width * height) as usize];
+    for y in 0..window.height() {
+        for x in 0..window.width() {
+            pixels[((window.y0 + y) * width + window.x0 + x) as usize] =
+                image.pixels[(y * window.width() + x) as usize];
+        }
+    }
+    lumo::image::Image {
+        width,
+        height,
+        pixels,
+    }
 }

@@ -143,6 +143,53 @@ impl Loaded {
         files
     }
 
+    /// A hash of what the render of this scene depends on, whatever the files are called or
+    /// where they are: SHA-256 of the scene (after overrides) as lumo JSON with every file
+    /// reference replaced by the SHA-256 of the file's bytes, then of the bytes of every other
+    /// file read (glTF buffers and images), in the order of their hashes. The sample count and
+    /// time budget are left out (sample ranges of one render, or a checkpoint resumed with a new
+    /// target, are the same scene).
+    pub fn content_hash(&self) -> std::io::Result<String> {
+        use crate::partial_film::{hex, sha256};
+        let d = &self.description;
+        let file_hash = |f: &str| -> std::io::Result<String> {
+            let path = d.base_dir.join(f);
+            let bytes = std::fs::read(&path)
+                .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
+            Ok(format!("sha256:{}", hex(&sha256(&bytes))))
+        };
+        let mut scene = (*d.scene).clone();
+        scene.render.spp = 1;
+        scene.render.time_budget_s = None;
+        for t in scene.textures.values_mut() {
+            t.file = file_hash(&t.file)?;
+        }
+        for o in &mut scene.objects {
+            if let schema::Object::Mesh(m) = o {
+                match &mut m.source {
+                    schema::MeshSource::Obj(f) => *f = file_hash(f)?,
+                    schema::MeshSource::Gltf(g) => g.file = file_hash(&g.file)?,
+                    schema::MeshSource::Inline(_) => {}
+                }
+            }
+        }
+        if let Some(image) = &mut scene.background.image {
+            *image = file_hash(image)?;
+        }
+        let mut others = Vec::new();
+        for f in self.assets.files() {
+            let bytes = std::fs::read(f)
+                .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", f.display())))?;
+            others.push(sha256(&bytes));
+        }
+        others.sort_unstable();
+        let mut all = schema::to_json(&scene).into_bytes();
+        for h in others {
+            all.extend_from_slice(&h);
+        }
+        Ok(format!("sha256:{}", hex(&sha256(&all))))
+    }
+
     /// See [`SceneFile::edit`]. Overrides must not change what the scene references: the
     /// assets were read for the scene as loaded (a build then reports the missing asset).
     pub fn edit(&mut self, change: impl FnOnce(&mut schema::Scene)) -> Result<(), LoadError> {

@@ -208,7 +208,7 @@ impl Film {
     }
 
     /// The sums of pixel (x, y), to fill in.
-    pub(super) fn pixel_mut(&mut self, x: u32, y: u32) -> &mut PixelSum {
+    pub(crate) fn pixel_mut(&mut self, x: u32, y: u32) -> &mut PixelSum {
         &mut self.pixels[(y * self.width + x) as usize]
     }
 
