@@ -7,7 +7,11 @@ mod cli;
 fn main() {
     let cli = cli::Cli::parse();
     if let Err(e) = cli::run(cli) {
-        eprintln!("error: {}", e.message);
+        if e.code == cli::split::EXIT_SIGINT || e.code == cli::split::EXIT_SIGTERM {
+            eprintln!("{}", e.message);
+        } else {
+            eprintln!("error: {}", e.message);
+        }
         std::process::exit(e.code);
     }
 }

@@ -75,16 +75,12 @@ pub fn write_image(img: &Image, path: &Path, tone: ToneMap) -> Result<(), ImageI
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".lumo-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| {
-            io(format!(
-                "cannot create a temporary file in {}: {e}",
-                dir.display()
-            ))
-        })?;
+    let mut tmp = temp_file_in(dir).map_err(|e| {
+        io(format!(
+            "cannot create a temporary file in {}: {e}",
+            dir.display()
+        ))
+    })?;
     {
         let mut writer = BufWriter::new(tmp.as_file_mut());
         match format {
@@ -152,4 +148,17 @@ pub fn read_image(path: &Path) -> Result<Image, ImageIoError> {
         height: rgb.height(),
         pixels,
     })
+}
+
+/// A temporary file in `dir` for an atomic write (named `.lumo-*.tmp`, renamed over the target
+/// once complete), readable by everyone like a file written directly (0644 on Unix).
+pub fn temp_file_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".lumo-").suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    builder.tempfile_in(dir)
 }

@@ -281,7 +281,7 @@ impl PartialFilm {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
         };
-        let tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| fail(&e))?;
+        let tmp = crate::output::temp_file_in(dir).map_err(|e| fail(&e))?;
         let mut zip = zip::ZipWriter::new(std::io::BufWriter::new(tmp));
         let options = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Deflated)

@@ -1,5 +1,6 @@
 //! The command-line interface: argument parsing and the subcommands.
 
+pub mod bundle;
 pub mod converge;
 pub mod split;
 
@@ -132,6 +133,14 @@ pub enum Command {
         #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
         tonemap: ToneMap,
     },
+    /// Pack a scene (any input kind, with render overrides baked in) and every file it reads into
+    /// one zip, for machines that share no filesystem; prints its content hash as JSON.
+    #[command(
+        after_help = "Example:\n  lumo bundle DamagedHelmet.glb --env ../shared/hdri/studio.exr -o helmet.zip"
+    )]
+    Bundle(BundleArgs),
+    /// Print lumo's version and build id (SHA-256 of the executable) as JSON.
+    Version,
     /// Print the JSON Schema of scene files (draft 2020-12).
     #[command(after_help = "Example:\n  lumo schema -o schema/scene.schema.json")]
     Schema {
@@ -139,6 +148,49 @@ pub enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
+}
+
+/// Arguments of `lumo bundle`.
+#[derive(Debug, clap::Args)]
+pub struct BundleArgs {
+    /// The scene to pack.
+    pub scene: PathBuf,
+    /// The bundle to write (.zip).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Image width in pixels (overrides the scene).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
+    pub width: Option<u32>,
+    /// Image height in pixels (overrides the scene).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
+    pub height: Option<u32>,
+    /// Random seed (overrides the scene).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Maximum path depth (overrides the scene).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub max_depth: Option<u32>,
+    /// Light-transport algorithm (overrides the scene).
+    #[arg(long, value_parser = keyword::<schema::Integrator>())]
+    pub integrator: Option<schema::Integrator>,
+    /// Sample sequence (overrides the scene).
+    #[arg(long, value_parser = keyword::<schema::SamplerKind>())]
+    pub sampler: Option<schema::SamplerKind>,
+    /// Legacy `.txt` scenes: the `Lights` block policy.
+    #[arg(long, value_parser = keyword::<LightsPolicy>(), default_value = "auto")]
+    pub lights: LightsPolicy,
+    /// glTF input: the camera to use, by name or index.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub camera: Option<String>,
+    /// Light the scene with this equirectangular HDR image instead of its own background.
+    #[arg(long, value_name = "FILE.exr")]
+    pub env: Option<PathBuf>,
+    /// Multiplies the environment's radiance.
+    #[arg(long, value_name = "S")]
+    pub env_strength: Option<f32>,
+    /// Rotates the --env image about +y, in degrees.
+    #[arg(long, value_name = "DEG", requires = "env")]
+    pub env_rotation: Option<f32>,
 }
 
 /// Arguments of `lumo render`.
@@ -270,6 +322,24 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         } => convert_cmd(&input, &output, camera.as_deref(), lights),
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
+        Command::Version => bundle::version_cmd(),
+        Command::Bundle(a) => bundle::bundle_cmd(
+            &a.scene,
+            &Overrides {
+                width: a.width,
+                height: a.height,
+                seed: a.seed,
+                max_depth: a.max_depth,
+                integrator: a.integrator,
+                sampler: a.sampler,
+                lights: a.lights,
+                camera: a.camera.as_deref(),
+                env: a.env.as_deref(),
+                env_strength: a.env_strength,
+                env_rotation: a.env_rotation,
+            },
+            &a.output,
+        ),
         Command::Merge {
             parts,
             output,
@@ -394,7 +464,7 @@ pub fn write_text_atomically(path: &Path, text: &str) -> Result<(), CliError> {
         _ => Path::new("."),
     };
     let fail = |e: std::io::Error| CliError::failure(format!("{}: {e}", path.display()));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
+    let mut tmp = lumo::output::temp_file_in(dir).map_err(fail)?;
     std::io::Write::write_all(&mut tmp, text.as_bytes()).map_err(fail)?;
     tmp.persist(path).map_err(|e| fail(e.error))?;
     Ok(())
@@ -427,6 +497,84 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
             message: report.trim_end().to_string(),
         })
     }
+}
+
+/// Command-line changes to a scene that change its pixels (besides the sample count and budget).
+pub struct Overrides<'a> {
+    /// `--width`.
+    pub width: Option<u32>,
+    /// `--height`.
+    pub height: Option<u32>,
+    /// `--seed`.
+    pub seed: Option<u64>,
+    /// `--max-depth`.
+    pub max_depth: Option<u32>,
+    /// `--integrator`.
+    pub integrator: Option<schema::Integrator>,
+    /// `--sampler`.
+    pub sampler: Option<schema::SamplerKind>,
+    /// `--lights` (legacy input).
+    pub lights: LightsPolicy,
+    /// `--camera` (glTF input).
+    pub camera: Option<&'a str>,
+    /// `--env`.
+    pub env: Option<&'a Path>,
+    /// `--env-strength`.
+    pub env_strength: Option<f32>,
+    /// `--env-rotation`.
+    pub env_rotation: Option<f32>,
+}
+
+/// Loads a scene of any input kind and applies the overrides.
+pub fn load_overridden(scene: &Path, o: &Overrides) -> Result<lumo::load::Loaded, CliError> {
+    let options = LoadOptions {
+        lights: o.lights,
+        camera: o.camera.map(camera_choice),
+        scene_dir: None,
+    };
+    let mut loaded = lumo::load(scene, &options)?;
+    // The environment file is named relative to the working directory; the scene's paths are
+    // relative to its folder, so it goes in as an absolute path.
+    let env_file = match o.env {
+        Some(p) => Some(
+            std::path::absolute(p)
+                .map_err(|e| CliError::invalid(format!("{}: {e}", p.display())))?
+                .to_string_lossy()
+                .into_owned(),
+        ),
+        None => None,
+    };
+    loaded.edit(|s| {
+        if let Some(v) = o.width {
+            s.image.width = v;
+        }
+        if let Some(v) = o.height {
+            s.image.height = v;
+        }
+        if let Some(v) = o.seed {
+            s.render.seed = v;
+        }
+        if let Some(v) = o.max_depth {
+            s.render.max_depth = v;
+        }
+        if let Some(i) = o.integrator {
+            s.render.integrator = i;
+        }
+        if let Some(k) = o.sampler {
+            s.render.sampler = k;
+        }
+        if let Some(file) = &env_file {
+            s.background = schema::Background {
+                image: Some(file.clone()),
+                rotation_deg: o.env_rotation.unwrap_or(0.0),
+                ..schema::Background::default()
+            };
+        }
+        if let Some(k) = o.env_strength {
+            s.background.strength = k;
+        }
+    })?;
+    Ok(loaded)
 }
 
 fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
@@ -473,23 +621,22 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
             )));
         }
     }
-    let options = LoadOptions {
-        lights: args.lights,
-        camera: args.camera.as_deref().map(camera_choice),
-        scene_dir: None,
-    };
-    let mut loaded = lumo::load(&args.scene, &options)?;
-    // The environment file is named relative to the working directory; the scene's paths are
-    // relative to its folder, so it goes in as an absolute path.
-    let env_file = match &args.env {
-        Some(p) => Some(
-            std::path::absolute(p)
-                .map_err(|e| CliError::invalid(format!("{}: {e}", p.display())))?
-                .to_string_lossy()
-                .into_owned(),
-        ),
-        None => None,
-    };
+    let mut loaded = load_overridden(
+        &args.scene,
+        &Overrides {
+            width: args.width,
+            height: args.height,
+            seed: args.seed,
+            max_depth: args.max_depth,
+            integrator: args.integrator,
+            sampler: args.sampler,
+            lights: args.lights,
+            camera: args.camera.as_deref(),
+            env: args.env.as_deref(),
+            env_strength: args.env_strength,
+            env_rotation: args.env_rotation,
+        },
+    )?;
     loaded.edit(|s| {
         if let Some(v) = args.spp {
             s.render.spp = v;
@@ -498,36 +645,8 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         } else if let Some(t) = resumed.as_ref().and_then(|r| r.header.target_spp) {
             s.render.spp = t;
         }
-        if let Some(v) = args.width {
-            s.image.width = v;
-        }
-        if let Some(v) = args.height {
-            s.image.height = v;
-        }
-        if let Some(v) = args.seed {
-            s.render.seed = v;
-        }
-        if let Some(v) = args.max_depth {
-            s.render.max_depth = v;
-        }
-        if let Some(i) = args.integrator {
-            s.render.integrator = i;
-        }
-        if let Some(k) = args.sampler {
-            s.render.sampler = k;
-        }
         if let Some(t) = args.time {
             s.render.time_budget_s = Some(t);
-        }
-        if let Some(file) = &env_file {
-            s.background = schema::Background {
-                image: Some(file.clone()),
-                rotation_deg: args.env_rotation.unwrap_or(0.0),
-                ..schema::Background::default()
-            };
-        }
-        if let Some(k) = args.env_strength {
-            s.background.strength = k;
         }
         if (args.time.is_some() || args.target_error.is_some()) && args.spp.is_none() {
             // Asked for a time or an error, not a sample count: let the budget decide.

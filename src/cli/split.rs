@@ -59,7 +59,7 @@ pub fn check_writable(path: &Path, what: &str) -> Result<(), CliError> {
             dir.display()
         )));
     }
-    tempfile::NamedTempFile::new_in(dir).map_err(|e| {
+    lumo::output::temp_file_in(dir).map_err(|e| {
         CliError::invalid(format!(
             "{}: cannot write the {what} in {}: {e}",
             path.display(),
