@@ -15,9 +15,11 @@
 //! | `finite` | `uint32` | (h, w) | samples in the sums |
 //! | `dropped` | `uint32` | (h, w) | samples dropped (NaN, infinite, or a channel ≥ 2³²) |
 //!
-//! h × w is the crop window's size. A pixel's mean is sum / 2⁶⁴ / finite. The zip's CRC-32 of
-//! every member catches corruption; every field is checked on reading, and a file that does not
-//! match gives an error naming the file and what is wrong.
+//! h × w is the crop window's size. A pixel's mean is sum / 2⁶⁴ / finite. The archive's comment
+//! is `lumo-sha256:` and the SHA-256 (hex) of every byte before it, so that any change to the file
+//! (not only to a member's data, which the zip's CRC-32s cover) is caught; every field is also
+//! checked on reading, and a file that does not match gives an error naming the file and what is
+//! wrong.
 
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -281,8 +283,7 @@ impl PartialFilm {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
         };
-        let tmp = crate::output::temp_file_in(dir).map_err(|e| fail(&e))?;
-        let mut zip = zip::ZipWriter::new(std::io::BufWriter::new(tmp));
+        let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
         let options = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Deflated)
             .compression_level(Some(1))
@@ -291,8 +292,10 @@ impl PartialFilm {
             zip.start_file(*name, options).map_err(|e| fail(&e))?;
             zip.write_all(bytes).map_err(|e| fail(&e))?;
         }
-        let buffered = zip.finish().map_err(|e| fail(&e))?;
-        let tmp = buffered.into_inner().map_err(|e| fail(&e.error()))?;
+        let mut bytes = zip.finish().map_err(|e| fail(&e))?.into_inner();
+        seal(&mut bytes).map_err(|e| fail(&e))?;
+        let mut tmp = crate::output::temp_file_in(dir).map_err(|e| fail(&e))?;
+        tmp.write_all(&bytes).map_err(|e| fail(&e))?;
         tmp.as_file().sync_all().map_err(|e| fail(&e))?;
         tmp.persist(path).map_err(|e| fail(&e.error))?;
         Ok(())
@@ -315,6 +318,7 @@ impl PartialFilm {
 
     /// [`read`](Self::read) from the file's bytes.
     pub fn from_bytes(bytes: &[u8]) -> Result<PartialFilm, String> {
+        let bytes = unseal(bytes)?;
         let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes))
             .map_err(|e| format!("not a readable .npz (zip) archive ({e})"))?;
         let mut member = |name: &str, limit: u64| -> Result<Vec<u8>, String> {
@@ -405,6 +409,45 @@ impl PartialFilm {
         let film = Film::from_pixels(w as u32, h as u32, pixels).ok_or("inconsistent size")?;
         Ok(PartialFilm { header, film })
     }
+}
+
+/// The archive comment that seals a film: this prefix, then the SHA-256 of every byte before it.
+const SEAL_PREFIX: &[u8] = b"lumo-sha256:";
+const SEAL_LEN: usize = 12 + 64;
+
+/// Appends the seal to a zip archive written without a comment: sets the end-of-central-directory
+/// record's comment length (its last two bytes), then appends the comment.
+fn seal(zip: &mut Vec<u8>) -> Result<(), String> {
+    let n = zip.len();
+    if n < 22 || zip[n - 22..n - 18] != [0x50, 0x4b, 0x05, 0x06] || zip[n - 2..] != [0, 0] {
+        return Err("internal error: unexpected end of the zip archive".into());
+    }
+    zip[n - 2..].copy_from_slice(&(SEAL_LEN as u16).to_le_bytes());
+    let digest = hex(&sha256(zip));
+    zip.extend_from_slice(SEAL_PREFIX);
+    zip.extend_from_slice(digest.as_bytes());
+    Ok(())
+}
+
+/// Checks the seal and returns the archive.
+fn unseal(bytes: &[u8]) -> Result<&[u8], String> {
+    if bytes.len() < SEAL_LEN + 22 {
+        return Err(format!(
+            "not a readable .npz (zip) archive (only {} bytes: truncated?)",
+            bytes.len()
+        ));
+    }
+    let (body, comment) = bytes.split_at(bytes.len() - SEAL_LEN);
+    if !comment.starts_with(SEAL_PREFIX) {
+        if zip::ZipArchive::new(std::io::Cursor::new(bytes)).is_err() {
+            return Err("not a readable .npz (zip) archive (truncated, or not a film)".into());
+        }
+        return Err("its lumo checksum is missing (truncated, or not written by lumo)".into());
+    }
+    if comment[SEAL_PREFIX.len()..] != *hex(&sha256(body)).as_bytes() {
+        return Err("it is corrupt: its SHA-256 does not match the one it was written with".into());
+    }
+    Ok(bytes)
 }
 
 /// The payload of the `header` member (a `uint8` vector).

@@ -190,7 +190,7 @@ pub fn merge_cmd(
             parts[0].display()
         ))
     })?;
-    if !merged.gaps.is_empty() && !allow_partial {
+    if output.is_some() && !merged.gaps.is_empty() && !allow_partial {
         return Err(CliError::invalid(format!(
             "the films do not make a complete render:\n  {}\n(pass --allow-partial to merge them anyway: each pixel then averages the samples it has)",
             merged.gaps.join("\n  ")
