@@ -28,6 +28,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::render::{Film, PixelSum, Window};
 
+/// Sample indices `[start, end)`.
+pub type SampleRange = [u32; 2];
+
 /// The extension of partial-film files.
 pub const EXTENSION: &str = "npz";
 /// The `format` field of every header.
@@ -321,23 +324,7 @@ impl PartialFilm {
         let bytes = unseal(bytes)?;
         let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes))
             .map_err(|e| format!("not a readable .npz (zip) archive ({e})"))?;
-        let mut member = |name: &str, limit: u64| -> Result<Vec<u8>, String> {
-            let file = zip
-                .by_name(name)
-                .map_err(|e| format!("member {name}: {e}"))?;
-            if file.size() > limit {
-                return Err(format!(
-                    "member {name} is too large ({} bytes)",
-                    file.size()
-                ));
-            }
-            let mut out = Vec::with_capacity(file.size() as usize);
-            file.take(limit + 1)
-                .read_to_end(&mut out)
-                .map_err(|e| format!("member {name} is corrupt ({e})"))?;
-            Ok(out)
-        };
-        let header_npy = member("header.npy", 1 << 20)?;
+        let header_npy = member(&mut zip, "header.npy", 1 << 20)?;
         let header_bytes = npy_header_payload(&header_npy)?;
         let header: FilmHeader = serde_json::from_slice(header_bytes)
             .map_err(|e| format!("its header is not valid: {e}"))?;
@@ -361,22 +348,12 @@ impl PartialFilm {
         let (w, h) = ((x1 - x0) as usize, (y1 - y0) as usize);
         let n = w * h;
         let limit = (n as u64) * 24 + 4096;
-        let read = |zip_member: &mut dyn FnMut(&str, u64) -> Result<Vec<u8>, String>,
-                    name: &str,
-                    descr: &str,
-                    shape: &[usize]|
-         -> Result<Vec<u8>, String> {
-            let bytes = zip_member(&format!("{name}.npy"), limit)?;
-            npy_data(&bytes, descr, shape)
-                .map(<[u8]>::to_vec)
-                .map_err(|e| format!("member {name}.npy: {e}"))
-        };
-        let sum_hi = read(&mut member, "sum_hi", "<i8", &[h, w, 3])?;
-        let sum_lo = read(&mut member, "sum_lo", "<u8", &[h, w, 3])?;
-        let sq_hi = read(&mut member, "sum_sq_hi", "<i8", &[h, w, 3])?;
-        let sq_lo = read(&mut member, "sum_sq_lo", "<u8", &[h, w, 3])?;
-        let finite = read(&mut member, "finite", "<u4", &[h, w])?;
-        let dropped = read(&mut member, "dropped", "<u4", &[h, w])?;
+        let sum_hi = array(&mut zip, limit, "sum_hi", "<i8", &[h, w, 3])?;
+        let sum_lo = array(&mut zip, limit, "sum_lo", "<u8", &[h, w, 3])?;
+        let sq_hi = array(&mut zip, limit, "sum_sq_hi", "<i8", &[h, w, 3])?;
+        let sq_lo = array(&mut zip, limit, "sum_sq_lo", "<u8", &[h, w, 3])?;
+        let finite = array(&mut zip, limit, "finite", "<u4", &[h, w])?;
+        let dropped = array(&mut zip, limit, "dropped", "<u4", &[h, w])?;
         let word = |b: &[u8], i: usize| {
             u64::from_le_bytes(b[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]))
         };
@@ -450,6 +427,40 @@ fn unseal(bytes: &[u8]) -> Result<&[u8], String> {
     Ok(bytes)
 }
 
+type Archive<'a> = zip::ZipArchive<std::io::Cursor<&'a [u8]>>;
+
+/// The bytes of a member of at most `limit` bytes (a corrupt one fails its CRC-32).
+fn member(zip: &mut Archive, name: &str, limit: u64) -> Result<Vec<u8>, String> {
+    let file = zip
+        .by_name(name)
+        .map_err(|e| format!("member {name}: {e}"))?;
+    if file.size() > limit {
+        return Err(format!(
+            "member {name} is too large ({} bytes)",
+            file.size()
+        ));
+    }
+    let mut out = Vec::with_capacity(file.size() as usize);
+    file.take(limit + 1)
+        .read_to_end(&mut out)
+        .map_err(|e| format!("member {name} is corrupt ({e})"))?;
+    Ok(out)
+}
+
+/// The data of the array member `name`.npy, checked to have this dtype and shape.
+fn array(
+    zip: &mut Archive,
+    limit: u64,
+    name: &str,
+    descr: &str,
+    shape: &[usize],
+) -> Result<Vec<u8>, String> {
+    let bytes = member(zip, &format!("{name}.npy"), limit)?;
+    npy_data(&bytes, descr, shape)
+        .map(<[u8]>::to_vec)
+        .map_err(|e| format!("member {name}.npy: {e}"))
+}
+
 /// The payload of the `header` member (a `uint8` vector).
 fn npy_header_payload(bytes: &[u8]) -> Result<&[u8], String> {
     let len = bytes.len();
@@ -485,7 +496,9 @@ fn check_ranges(ranges: &[[u32; 2]]) -> Result<(), String> {
 }
 
 /// Sorted, coalesced union of sample ranges, or the first overlap found.
-pub fn union_ranges(sets: &[&[[u32; 2]]]) -> Result<Vec<[u32; 2]>, ([u32; 2], [u32; 2])> {
+pub fn union_ranges(
+    sets: &[&[SampleRange]],
+) -> Result<Vec<SampleRange>, (SampleRange, SampleRange)> {
     let mut all: Vec<[u32; 2]> = sets.iter().flat_map(|s| s.iter().copied()).collect();
     all.sort_unstable();
     let mut out: Vec<[u32; 2]> = Vec::new();

@@ -578,6 +578,8 @@ pub fn load_overridden(scene: &Path, o: &Overrides) -> Result<lumo::load::Loaded
 }
 
 fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
+    // From here on, Ctrl-C stops the render and keeps what it has (nothing, while loading).
+    let signals = split::Signals::install()?;
     // Everything that can be checked before rendering is.
     if let Some(o) = &args.output {
         lumo::output::format_of(o).map_err(|e| CliError::invalid(e.to_string()))?;
@@ -763,7 +765,6 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     );
     bar.enable_steady_tick(Duration::from_millis(200));
     let progress = |n: u64| bar.set_position(n);
-    let signals = split::Signals::install()?;
     let uniform_film = !args.adaptive;
     let render_start = std::time::Instant::now();
     let budget = scene.settings.time_budget_s.map(f64::from);
@@ -776,7 +777,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     };
     let every = args
         .checkpoint_every
-        .map_or(Duration::from_secs(300), |s| Duration::from_secs_f32(s));
+        .map_or(Duration::from_secs(300), Duration::from_secs_f32);
     let last_checkpoint = std::sync::Mutex::new(std::time::Instant::now());
     let periodic = |film: &lumo::render::Film| {
         let Some(path) = &args.checkpoint else { return };
@@ -921,14 +922,21 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         ),
         None => String::new(),
     };
+    // Samples taken by this process (a resumed render's checkpoint brought the others).
+    let resumed_samples = resumed.as_ref().map_or(0, |r| r.film.samples_taken());
+    let new_samples = stats.samples - resumed_samples;
+    let resumed_note = match &resumed {
+        Some(r) => format!(" (resumed from {} spp)", r.header.spp()),
+        None => String::new(),
+    };
     eprintln!(
-        "rendered {}×{} at {} spp in {:.2} s: {:.2} M rays/s, {:.2} M samples/s, estimated relative error {:.4}{vs_reference}{nan} → {}",
+        "rendered {}×{} at {} spp{resumed_note} in {:.2} s: {:.2} M rays/s, {:.2} M samples/s, estimated relative error {:.4}{vs_reference}{nan} → {}",
         image.width,
         image.height,
         stats.spp,
         secs,
         stats.rays as f64 / secs / 1e6,
-        stats.samples as f64 / secs / 1e6,
+        new_samples as f64 / secs / 1e6,
         stats.estimated_rel_error,
         output.display()
     );
