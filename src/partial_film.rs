@@ -232,15 +232,16 @@ fn npy_data<'a>(bytes: &'a [u8], descr: &str, shape: &[usize]) -> Result<&'a [u8
             return Err(format!("expected {key} {want}, found {got}…"));
         }
     }
-    let items: usize = shape.iter().product();
+    let items = shape
+        .iter()
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .ok_or("its shape is too large")?;
     let size = descr[2..].parse::<usize>().map_err(|_| "bad dtype")?;
     let data = &bytes[end..];
-    if data.len() != items * size {
+    if Some(data.len()) != items.checked_mul(size) {
         return Err(format!(
-            "holds {} bytes of data, expected {} ({} × {size})",
-            data.len(),
-            items * size,
-            items
+            "holds {} bytes of data, expected {items} items of {size} bytes",
+            data.len()
         ));
     }
     Ok(data)
@@ -321,7 +322,13 @@ impl PartialFilm {
 
     /// [`read`](Self::read) from the file's bytes.
     pub fn from_bytes(bytes: &[u8]) -> Result<PartialFilm, String> {
-        let bytes = unseal(bytes)?;
+        Self::from_archive_bytes(unseal(bytes)?)
+    }
+
+    /// [`from_bytes`](Self::from_bytes) without the whole-file checksum: the archive's own
+    /// checks only. For fuzzing the parser past the checksum, which random bytes never match.
+    #[doc(hidden)]
+    pub fn from_archive_bytes(bytes: &[u8]) -> Result<PartialFilm, String> {
         let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes))
             .map_err(|e| format!("not a readable .npz (zip) archive ({e})"))?;
         let header_npy = member(&mut zip, "header.npy", 1 << 20)?;
@@ -335,6 +342,13 @@ impl PartialFilm {
             return Err(format!(
                 "format version {} (this lumo reads version {FORMAT_VERSION})",
                 header.format_version
+            ));
+        }
+        let max = lumo_schema::MAX_IMAGE_SIDE;
+        if header.width > max || header.height > max {
+            return Err(format!(
+                "its image is {}×{}, larger than lumo renders ({max} per side)",
+                header.width, header.height
             ));
         }
         let [x0, y0, x1, y1] = header.crop;

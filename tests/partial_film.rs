@@ -444,3 +444,28 @@ fn a_bundle_renders_films_that_merge_with_the_original_scene() {
         std::fs::read(&reference).expect("ref")
     );
 }
+
+#[test]
+fn an_output_that_cannot_be_written_at_the_end_keeps_the_samples() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    // A folder where the image should go: every check before rendering passes (the folder it
+    // is in exists and is writable), the final rename fails.
+    let blocked = dir.path().join("frame.exr");
+    std::fs::create_dir(&blocked).expect("folder");
+    let scene = scene();
+    let mut args = vec!["render", p(&scene), "--spp", "5", "-q", "-o", p(&blocked)];
+    args.extend(SIZE);
+    let out = lumo().args(&args).output().expect("lumo runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let kept = dir.path().join("frame.exr.checkpoint.npz");
+    assert!(
+        err.contains("the samples are kept in") && err.contains(p(&kept)),
+        "{err}"
+    );
+    // The checkpoint merges into the image the render would have written.
+    let merged_image = dir.path().join("merged.exr");
+    ok(&["merge", p(&kept), "-o", p(&merged_image)]);
+    let reference = full_render(dir.path(), 5, "2");
+    assert_eq!(std::fs::read(&merged_image).expect("merged"), reference);
+}

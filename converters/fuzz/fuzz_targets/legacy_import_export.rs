@@ -11,7 +11,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };
     match legacy::import_str(text, Path::new("fuzz/in.txt"), &ImportOptions::default()) {
         Ok(imported) => {
-            if let Ok(out) = legacy::export(&imported.scene) {
+            if let Ok(out) = legacy::export(&imported.scene, Path::new("fuzz")) {
                 if let Err(e) = legacy::import_str(&out, Path::new("fuzz/in.txt"), &ImportOptions::default()) {
                     panic!("exported text does not import again: {e}\n{out}");
                 }
