@@ -321,3 +321,63 @@ fn a_resumed_time_budget_continues_with_the_time_that_was_left() {
         "took {took} s with {left} s left"
     );
 }
+
+#[test]
+fn an_interrupted_sample_range_resumes_into_the_same_film() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let scene = scene();
+    let (film, ck, whole) = (
+        d.join("part.npz"),
+        d.join("part.ck.npz"),
+        d.join("whole.npz"),
+    );
+    let render = |extra: &[&str]| {
+        let mut c = lumo();
+        c.args(["render", p(&scene), "-q"]).args(SIZE).args(extra);
+        c
+    };
+    let mut child = Guard(
+        render(&[
+            "--samples",
+            "40..200",
+            "--film",
+            p(&film),
+            "--checkpoint",
+            p(&ck),
+            "--checkpoint-every",
+            "50ms",
+        ])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("lumo starts"),
+    );
+    wait_for_progress(&mut child, &ck, None, &mut Moments(9), 60);
+    child.signal("INT");
+    let (status, err) = child.wait();
+    if status.code() == Some(130) {
+        assert!(!film.exists(), "an interrupted range wrote its film: {err}");
+        let kept = PartialFilm::read(&ck).expect("checkpoint");
+        assert_eq!(kept.header.samples[0][0], 40);
+        let status = render(&["--resume", p(&ck), "--film", p(&film)])
+            .status()
+            .expect("lumo runs");
+        assert!(status.success());
+    } else {
+        assert!(status.success(), "{err}");
+    }
+    let status = render(&["--samples", "40..200", "--film", p(&whole)])
+        .status()
+        .expect("lumo runs");
+    assert!(status.success());
+    let (a, b) = (
+        PartialFilm::read(&film).expect("resumed film"),
+        PartialFilm::read(&whole).expect("film"),
+    );
+    assert_eq!(a.header.samples, vec![[40, 200]]);
+    assert_eq!(
+        a.film, b.film,
+        "the resumed range differs from the uninterrupted one"
+    );
+}

@@ -595,7 +595,8 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     let checkpoint = match (&args.checkpoint, &args.output) {
         (Some(c), _) => Some(c.clone()),
         (None, Some(o)) => Some(split::default_checkpoint(o)),
-        (None, None) => None,
+        // A sample range rendered for `lumo merge`: beside the film.
+        (None, None) => args.film.as_deref().map(split::default_checkpoint),
     };
     if let Some(c) = &args.checkpoint {
         split::check_film_path(c, "checkpoint")?;
