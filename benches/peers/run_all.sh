@@ -1,20 +1,34 @@
 #!/usr/bin/env bash
 # Runs every peer benchmark in sequence (one at a time: they all use every core) and the
-# comparison. Assumes setup.sh has run. Extra arguments go to the two renderers (e.g. --spp 1,4).
+# comparison, with every peer at its best unbiased settings: Mitsuba 3 with its two stratified
+# samplers (ldsampler, multijitter; the independent sampler of the built-in scene only as a
+# labelled extra row), Cycles with Blender's default sampling pattern, lumo with its default
+# (Owen-scrambled Sobol); no clamping anywhere, the same depth. Assumes setup.sh has run and
+# target/release/lumo is built. The equal-error target is Mitsuba ldsampler's 64-spp error.
 #
-#   bash benches/peers/setup.sh && bash benches/peers/run_all.sh
+#   bash benches/peers/setup.sh && cargo build --release && bash benches/peers/run_all.sh
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 PY="$HERE/.venv/bin/python"
 cd "$HERE"
-echo "== $(date -u +%FT%TZ) load: $(cut -d' ' -f1-3 /proc/loadavg)"
-"$PY" mitsuba_cornell.py --variant llvm_ad_rgb "$@"
-echo "== load: $(cut -d' ' -f1-3 /proc/loadavg)"
-"$PY" mitsuba_cornell.py --variant scalar_rgb "$@"
-echo "== load: $(cut -d' ' -f1-3 /proc/loadavg)"
-"$PY" cycles_cornell.py "$@"
-echo "== load: $(cut -d' ' -f1-3 /proc/loadavg)"
-"$PY" compare.py
-echo "== load: $(cut -d' ' -f1-3 /proc/loadavg)"
-"$PY" embree_rays.py
-echo "== $(date -u +%FT%TZ) load: $(cut -d' ' -f1-3 /proc/loadavg)"
+load() { echo "== $(date -u +%FT%TZ) load: $(cut -d' ' -f1-3 /proc/loadavg)"; }
+rm -rf out/mitsuba-* out/cycles out/lumo
+load
+# ldsampler needs square powers of two; the same ladder for the other Mitsuba samplers.
+"$PY" mitsuba_cornell.py --variant llvm_ad_rgb --sampler ldsampler --spp 4,16,64,256
+load
+"$PY" mitsuba_cornell.py --variant llvm_ad_rgb --sampler multijitter --spp 4,16,64,256
+load
+"$PY" mitsuba_cornell.py --variant llvm_ad_rgb --sampler independent --spp 4,16,64,256
+load
+"$PY" cycles_cornell.py
+load
+"$PY" lumo_cornell.py --time-regex 'spp in ([0-9.]+) s'
+load
+"$PY" compare.py --target-peer mitsuba-llvm-ldsampler --target-spp 64
+load
+# The ray-throughput table against Embree (LUMO_PEERS_EMBREE=0 skips it).
+if [ "${LUMO_PEERS_EMBREE:-1}" = 1 ]; then
+    "$PY" embree_rays.py
+    load
+fi
