@@ -1,0 +1,199 @@
+"""Speed against error on real glTF assets: lumo and Blender Cycles side by side, under an HDR
+environment, each renderer's error measured against its own high-spp render (the two renderers
+differ slightly by design, `docs/gltf.md`, so a common reference would measure that difference,
+not convergence).
+
+    .venv/bin/python gltf_bench.py [--models DamagedHelmet,GlassVaseFlowers] [--size 160]
+        [--ladder 4,16,64,256] [--ref-spp 4096] [--env ../shared/hdri/studio.exr]
+        [--lumo target/release/lumo] [--repeats 2] [--reuse-references]
+
+Scene and settings: exactly those of the glTF comparison (`cycles_gltf.py --env`): lumo's camera
+for the file (its first camera or lumo's framing), Blender's bundled importer, the environment as
+an Environment Texture at strength 1 with Blender's default mapping (lumo: `--env`, rotation 0),
+Cycles on the CPU with both threads, no denoising, no adaptive sampling, no clamping, Box filter
+1 px, max bounces 6 against lumo's `--max-depth 8` (the same paths), Blender's default sampling
+pattern; lumo with its defaults (Owen-scrambled Sobol, NEE + MIS).
+
+For each model and renderer: a reference of --ref-spp samples (Cycles: passes of 256 spp with
+seeds 1000 + k, averaged; lumo: one render with seed 1000000), then the ladder, each rung timed
+--repeats times with the same seed (= its spp) and the fastest kept. Times are the renderers' own
+render times (Cycles: render_pre to render_post handlers, with Persistent Data on and one
+untimed 1-spp render first, so that scene sync, BVH build and texture upload are not counted;
+lumo: the time it prints), scene import and loading excluded. RMSE over all pixels and channels against the renderer's own reference.
+
+Output: ``out/gltf/<model>/{cycles,lumo}_{ref,<spp>spp}.exr`` and ``out/gltf/results.csv``
+(model, peer, spp, seconds, samples_per_second, rmse, load1); the equal-spp and equal-error
+tables (target: Cycles' 64-spp error) are printed as Markdown.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+import common
+import cycles_gltf as cg
+from cycles_cornell import Timer
+
+OUT = common.HERE / "out" / "gltf"
+MODELS = ("DamagedHelmet", "GlassVaseFlowers")
+REF_PASS_SPP = 256
+CYCLES_REF_SEED = 1000
+LUMO_REF_SEED = 1_000_000
+LUMO_MAX_DEPTH = 8  # = Cycles' 6 bounces (tests/gltf_cycles.rs)
+
+
+def rmse(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2)))
+
+
+def lumo_render(lumo: str, model: Path, env: Path, size: int, spp: int, seed: int,
+                out: Path) -> float:
+    """Renders with lumo; returns the render time it prints."""
+    cmd = [lumo, "render", str(model), "--env", str(env), "--width", str(size), "--height",
+           str(size), "--spp", str(spp), "--seed", str(seed), "--max-depth",
+           str(LUMO_MAX_DEPTH), "-q", "-o", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stderr}")
+    m = re.search(r"spp in ([0-9.]+) s", proc.stderr)
+    if not m:
+        raise SystemExit(f"no render time in lumo's output:\n{proc.stderr}")
+    return float(m.group(1))
+
+
+def interpolate_time(rungs: list[tuple[float, float]], target: float) -> tuple[float, bool]:
+    """Seconds to reach RMSE `target` along (seconds, rmse) rungs, log-log; (t, extrapolated)."""
+    rungs = sorted(rungs)
+    for (t0, e0), (t1, e1) in zip(rungs, rungs[1:]):
+        if e1 <= target <= e0:
+            f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))), False
+    (t0, e0), (t1, e1) = (rungs[-2], rungs[-1]) if target < rungs[-1][1] else (rungs[0], rungs[1])
+    f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+    return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))), True
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--models", default=",".join(MODELS))
+    ap.add_argument("--size", type=int, default=160)
+    ap.add_argument("--ladder", default="4,16,64,256")
+    ap.add_argument("--ref-spp", type=int, default=4096)
+    ap.add_argument("--env", type=Path, default=common.REPO_ROOT.parent / "shared" / "hdri" / "studio.exr")
+    ap.add_argument("--lumo", default=str(common.REPO_ROOT / "target" / "release" / "lumo"))
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--reuse-references", action="store_true",
+                    help="keep references already in out/gltf (same size and spp)")
+    args = ap.parse_args()
+    ladder = common.parse_ladder(args.ladder)
+    if args.ref_spp % REF_PASS_SPP:
+        raise SystemExit(f"--ref-spp must be a multiple of {REF_PASS_SPP}")
+    env = args.env.resolve()
+    import bpy
+
+    cg.WIDTH = cg.HEIGHT = args.size  # render_passes checks the image size against these
+    managed_ext = cg.importer_extensions()
+    ns = SimpleNamespace(gltf_root=cg.DEFAULT_GLTF_ROOT.resolve(), prefer="glb", lumo=args.lumo,
+                         env=env)
+    rows = []
+    print(f"== {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())} load {common.load1():.2f}")
+    for model in [m.strip() for m in args.models.split(",") if m.strip()]:
+        folder = OUT / model
+        folder.mkdir(parents=True, exist_ok=True)
+        model_file = cg.find_model_file(ns.gltf_root, model, prefer_binary=True)
+
+        # Cycles.
+        ctx = cg.prepare_job(bpy, model, ns, managed_ext, args.size, args.size)
+        # Persistent Data: the scene (BVH, textures) is synced by the first render and kept, so
+        # that a timed render measures sampling, as lumo's printed time does (without it, every
+        # render of DamagedHelmet re-uploads its textures: 0.6 s at any spp).
+        ctx["scene"].render.use_persistent_data = True
+        cg.render_passes(bpy, ctx["scene"], Timer(bpy), 1, [999_983], "gltf_bench_warmup_")
+        timer = Timer(bpy)
+        ref_path = folder / "cycles_ref.exr"
+        if not (args.reuse_references and ref_path.is_file()):
+            passes = args.ref_spp // REF_PASS_SPP
+            stack, secs, _, _ = cg.render_passes(
+                bpy, ctx["scene"], timer, REF_PASS_SPP,
+                [CYCLES_REF_SEED + k for k in range(passes)], "gltf_bench_")
+            common.write_exr(ref_path, stack.mean(axis=0))
+            print(f"{model}: cycles reference {args.ref_spp} spp in {secs:.1f} s")
+        ref = common.read_exr(ref_path)
+        for spp in ladder:
+            best = None
+            for _ in range(args.repeats):
+                timer = Timer(bpy)
+                stack, secs, _, _ = cg.render_passes(bpy, ctx["scene"], timer, spp, [spp],
+                                                     "gltf_bench_")
+                if best is None or secs < best[0]:
+                    best = (secs, stack[0])
+            secs, img = best
+            common.write_exr(folder / f"cycles_{spp}spp.exr", img)
+            rows.append({"model": model, "peer": "cycles", "spp": spp, "seconds": round(secs, 4),
+                         "samples_per_second": round(args.size ** 2 * spp / secs, 1),
+                         "rmse": round(rmse(img, ref), 6), "load1": round(common.load1(), 2)})
+            print(f"{model}: cycles {spp:5d} spp {secs:8.3f} s RMSE {rows[-1]['rmse']:.5f} "
+                  f"(load {rows[-1]['load1']})", flush=True)
+
+        # lumo.
+        ref_path = folder / "lumo_ref.exr"
+        if not (args.reuse_references and ref_path.is_file()):
+            secs = lumo_render(args.lumo, model_file, env, args.size, args.ref_spp, LUMO_REF_SEED,
+                               ref_path)
+            print(f"{model}: lumo reference {args.ref_spp} spp in {secs:.1f} s")
+        ref = common.read_exr(ref_path)
+        with tempfile.TemporaryDirectory() as tmp:
+            lumo_render(args.lumo, model_file, env, args.size, 1, 999_983, Path(tmp) / "w.exr")
+        for spp in ladder:
+            path = folder / f"lumo_{spp}spp.exr"
+            secs = min(lumo_render(args.lumo, model_file, env, args.size, spp, spp, path)
+                       for _ in range(args.repeats))
+            img = common.read_exr(path)
+            rows.append({"model": model, "peer": "lumo", "spp": spp, "seconds": secs,
+                         "samples_per_second": round(args.size ** 2 * spp / secs, 1),
+                         "rmse": round(rmse(img, ref), 6), "load1": round(common.load1(), 2)})
+            print(f"{model}: lumo   {spp:5d} spp {secs:8.3f} s RMSE {rows[-1]['rmse']:.5f} "
+                  f"(load {rows[-1]['load1']})", flush=True)
+
+    with open(OUT / "results.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    print(f"\nwrote {OUT / 'results.csv'}; {time.strftime('%H:%M:%SZ', time.gmtime())} "
+          f"load {common.load1():.2f}\n")
+
+    for model in dict.fromkeys(r["model"] for r in rows):
+        mine = [r for r in rows if r["model"] == model]
+        print(f"**{model}**, {args.size}², equal spp (seconds / RMSE against the renderer's own "
+              f"{args.ref_spp}-spp render):\n")
+        print("| renderer | " + " | ".join(f"{s} spp" for s in ladder) + " |")
+        print("|---|" + "---:|" * len(ladder))
+        for peer in ("lumo", "cycles"):
+            cells = [f"{r['seconds']:.3g} / {r['rmse']:.4f}" for s in ladder for r in mine
+                     if r["peer"] == peer and r["spp"] == s]
+            print(f"| {peer} | " + " | ".join(cells) + " |")
+        target = next(r["rmse"] for r in mine if r["peer"] == "cycles" and r["spp"] == 64)
+        times = {}
+        for peer in ("lumo", "cycles"):
+            times[peer] = interpolate_time(
+                [(r["seconds"], r["rmse"]) for r in mine if r["peer"] == peer], target)
+        print(f"\nEqual error (Cycles' 64-spp RMSE {target:.5f}): lumo "
+              f"{times['lumo'][0]:.3g} s{'*' if times['lumo'][1] else ''}, Cycles "
+              f"{times['cycles'][0]:.3g} s; lumo's time ÷ Cycles' = "
+              f"{times['lumo'][0] / times['cycles'][0]:.2f}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
