@@ -196,6 +196,23 @@ impl Light {
                 two_sided,
                 ..
             } => {
+                if !two_sided && n.dot(p - v[0]) <= 0.0 {
+                    return None; // behind a one-sided emitter
+                }
+                if let Some(st) = SphericalTriangle::seen_from(p, v) {
+                    return st
+                        .sample(p, v, n, u)
+                        .map(|(wi, q, d, (b1, b2))| LightSample {
+                            wi,
+                            distance: d,
+                            point: q,
+                            normal: n,
+                            uv: uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2,
+                            li: Vec3::ZERO,
+                            pdf: 1.0 / st.solid_angle,
+                            delta: false,
+                        });
+                }
                 // Uniform point on the triangle (pbrt-v4's square-root mapping).
                 let su = u.x.sqrt();
                 let (b0, b1) = (1.0 - su, u.y * su);
@@ -241,7 +258,10 @@ impl Light {
     /// Solid-angle pdf of [`Light::sample`] producing the point `q` with normal `n` seen from `p`.
     pub fn pdf(&self, p: Vec3, q: Vec3, n: Vec3) -> f32 {
         match *self {
-            Light::Triangle { area, .. } => {
+            Light::Triangle { area, v, .. } => {
+                if let Some(st) = SphericalTriangle::seen_from(p, v) {
+                    return 1.0 / st.solid_angle;
+                }
                 let w = q - p;
                 let d2 = w.length_squared();
                 let cos = n.dot(w.normalize()).abs();
@@ -263,6 +283,128 @@ impl Light {
             }
             _ => 0.0,
         }
+    }
+}
+
+/// Triangles that subtend at least this solid angle (sr) from the shading point are sampled
+/// uniformly in solid angle; smaller ones uniformly by area. Near a light, area sampling's
+/// density in solid angle varies across the light with distance² / cos, which solid-angle sampling
+/// removes; far away the two agree and area sampling is cheaper. Measured (docs/performance.md):
+/// at 0.02 sr the Cornell box loses 11 % MSE at equal time (−1.8 % RMSE per sample for +15 %
+/// time); at 0.2 sr it is unchanged while a large light 0.2 above a floor gains 23 % MSE at equal
+/// time.
+pub const SPHERICAL_SAMPLING_MIN_SOLID_ANGLE: f32 = 0.2;
+
+/// A triangle seen from a point as a spherical triangle (unit vectors to its corners), for
+/// uniform solid-angle sampling (Arvo 1995, "Stratified sampling of spherical triangles", in the
+/// form of pbrt-v4 §6.5.4). Computed in f64: the formulas subtract nearly equal angles.
+struct SphericalTriangle {
+    a: glam::DVec3,
+    b: glam::DVec3,
+    c: glam::DVec3,
+    /// Interior angle at `a`.
+    alpha: f64,
+    /// Solid angle (= spherical excess α + β + γ − π).
+    solid_angle: f32,
+}
+
+impl SphericalTriangle {
+    /// The triangle `v` seen from `p`, when it subtends at least
+    /// [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] and is not degenerate; `None` means area sampling.
+    /// Both [`Light::sample`] and [`Light::pdf`] decide with this, so they always agree.
+    fn seen_from(p: Vec3, v: [Vec3; 3]) -> Option<SphericalTriangle> {
+        let p = p.as_dvec3();
+        let a = (v[0].as_dvec3() - p).normalize_or_zero();
+        let b = (v[1].as_dvec3() - p).normalize_or_zero();
+        let c = (v[2].as_dvec3() - p).normalize_or_zero();
+        // Van Oosterom and Strackee (1983): a cheap test first.
+        let omega = 2.0
+            * a.dot(b.cross(c))
+                .abs()
+                .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+        // (A NaN solid angle fails this too.)
+        if omega.is_nan() || omega < f64::from(SPHERICAL_SAMPLING_MIN_SOLID_ANGLE) {
+            return None;
+        }
+        let (nab, nbc, nca) = (a.cross(b), b.cross(c), c.cross(a));
+        if nab.length_squared() == 0.0 || nbc.length_squared() == 0.0 || nca.length_squared() == 0.0
+        {
+            return None;
+        }
+        let (nab, nbc, nca) = (nab.normalize(), nbc.normalize(), nca.normalize());
+        let angle = |x: glam::DVec3, y: glam::DVec3| x.dot(y).clamp(-1.0, 1.0).acos();
+        let alpha = angle(nab, -nca);
+        let beta = angle(nbc, -nab);
+        let gamma = angle(nca, -nbc);
+        let area = alpha + beta + gamma - std::f64::consts::PI;
+        if !(area > 0.0 && area.is_finite()) {
+            return None;
+        }
+        Some(SphericalTriangle {
+            a,
+            b,
+            c,
+            alpha,
+            solid_angle: area as f32,
+        })
+    }
+
+    /// A direction uniform over the spherical triangle, the point where it meets the plane of
+    /// the triangle `v` (normal `n`), its distance from `p`, and the point's barycentrics
+    /// (b1, b2) for texture coordinates; `None` when rounding puts the direction off the plane.
+    #[allow(clippy::type_complexity)]
+    fn sample(
+        &self,
+        p: Vec3,
+        v: [Vec3; 3],
+        n: Vec3,
+        u: Vec2,
+    ) -> Option<(Vec3, Vec3, f32, (f32, f32))> {
+        use std::f64::consts::PI;
+        let (a, b, c) = (self.a, self.b, self.c);
+        let (u0, u1) = (f64::from(u.x), f64::from(u.y));
+        // Choose the sub-triangle area A' = u0·A, i.e. the angle α + β' + γ' = A' + π …
+        let ap_pi = PI + u0 * f64::from(self.solid_angle);
+        let (sin_alpha, cos_alpha) = self.alpha.sin_cos();
+        let (sin_app, cos_app) = ap_pi.sin_cos();
+        let sin_phi = sin_app * cos_alpha - cos_app * sin_alpha;
+        let cos_phi = cos_app * cos_alpha + sin_app * sin_alpha;
+        let k1 = cos_phi + cos_alpha;
+        let k2 = sin_phi - sin_alpha * a.dot(b);
+        // … whose third corner c' on the arc from a to c has cos of its distance to a:
+        let cos_bp = ((k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha)
+            / ((k2 * sin_phi + k1 * cos_phi) * sin_alpha))
+            .clamp(-1.0, 1.0);
+        let sin_bp = (1.0 - cos_bp * cos_bp).max(0.0).sqrt();
+        let cp = cos_bp * a + sin_bp * (c - c.dot(a) * a).normalize_or_zero();
+        // Then a point on the arc from b to c', uniform in the sub-triangle's area.
+        let cos_theta = 1.0 - u1 * (1.0 - cp.dot(b));
+        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+        let w = (cos_theta * b + sin_theta * (cp - cp.dot(b) * b).normalize_or_zero()).normalize();
+        if !w.is_finite() {
+            return None;
+        }
+        let wi = w.as_vec3();
+        let denom = n.dot(wi);
+        let t = n.dot(v[0] - p) / denom;
+        if !(t > 0.0 && t.is_finite()) {
+            return None;
+        }
+        let q = p + wi * t;
+        // Barycentrics of q (for the emission texture), clamped into the triangle.
+        let (e1, e2, eq) = (v[1] - v[0], v[2] - v[0], q - v[0]);
+        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let (dq1, dq2) = (eq.dot(e1), eq.dot(e2));
+        let det = d11 * d22 - d12 * d12;
+        let (b1, b2) = if det > 0.0 {
+            (
+                ((d22 * dq1 - d12 * dq2) / det).clamp(0.0, 1.0),
+                ((d11 * dq2 - d12 * dq1) / det).clamp(0.0, 1.0),
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        Some((wi, q, t, (b1, b2)))
     }
 }
 
@@ -414,6 +556,217 @@ impl LightSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The triangle light of corners `v` (one-sided, facing +z for counter-clockwise corners).
+    fn triangle(v: [Vec3; 3]) -> Light {
+        let c = (v[1] - v[0]).cross(v[2] - v[0]);
+        Light::Triangle {
+            instance: 0,
+            prim: 0,
+            v,
+            uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
+            n: c.normalize(),
+            area: 0.5 * c.length(),
+            emission: Vec3::ONE,
+            two_sided: false,
+        }
+    }
+
+    /// Where the ray from `p` along `w` meets the triangle (Möller–Trumbore), if it does.
+    fn hit(p: Vec3, w: Vec3, v: [Vec3; 3]) -> Option<Vec3> {
+        let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+        let h = w.cross(e2);
+        let det = e1.dot(h);
+        if det.abs() < 1e-12 {
+            return None;
+        }
+        let s = p - v[0];
+        let b1 = s.dot(h) / det;
+        let q = s.cross(e1);
+        let b2 = w.dot(q) / det;
+        let t = e2.dot(q) / det;
+        let eps = 1e-5;
+        (b1 >= -eps && b2 >= -eps && b1 + b2 <= 1.0 + eps && t > 0.0).then(|| p + w * t)
+    }
+
+    /// χ² test of triangle-light sampling against its pdf, binned on the triangle itself: the
+    /// unit square (s, t) maps onto it by b1 = s(1 − t), b2 = st (Jacobian 2·area·s), so bins
+    /// never straddle its edges. A sampler of solid-angle density pdf_ω puts density
+    /// pdf_ω·cos θ_l / d² per unit area there. Cases close to the light (sampled in solid
+    /// angle) and farther or grazing (sampled by area); behind the one-sided light nothing is
+    /// sampled.
+    #[test]
+    fn triangle_light_samples_follow_their_pdf() {
+        use crate::bsdf::chi2;
+        const BINS: usize = 24;
+        const SUB: usize = 8;
+        const N: usize = 200_000;
+        let v = [
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.5, -0.8, 0.0),
+            Vec3::new(-0.4, 1.2, 0.0),
+        ];
+        // (name, shading point, sampled in solid angle): the solid angles are 3.5, 0.46 and 0.27
+        // sr for the first three, 0.048, 0.064 and less for the others.
+        let cases = [
+            ("close, overhead", Vec3::new(0.1, 0.0, 0.4), true),
+            ("close, off to the side", Vec3::new(0.9, 0.5, 0.2), true),
+            ("near a corner", Vec3::new(1.6, -1.2, 0.3), true),
+            ("off to the side", Vec3::new(2.0, 1.5, 0.3), false),
+            (
+                "beside a corner, grazing",
+                Vec3::new(1.6, -1.2, 0.05),
+                false,
+            ),
+            ("oblique", Vec3::new(0.0, -3.0, 0.5), false),
+            ("farther", Vec3::new(0.0, -9.0, 1.5), false),
+        ];
+        let light = triangle(v);
+        let Light::Triangle { n, area, .. } = light else {
+            unreachable!()
+        };
+        let point = |s: f64, t: f64| {
+            let (b1, b2) = (s * (1.0 - t), s * t);
+            v[0].as_dvec3() * (1.0 - b1 - b2) + v[1].as_dvec3() * b1 + v[2].as_dvec3() * b2
+        };
+        let mut ps = Vec::new();
+        for (name, p, spherical) in cases {
+            let omega = SphericalTriangle::seen_from(p, v).map(|s| s.solid_angle);
+            assert_eq!(omega.is_some(), spherical, "{name}: solid angle {omega:?}");
+            let mut observed = vec![0.0f64; BINS * BINS];
+            let mut rng = crate::sampler::Pcg32::new(7, 3);
+            for _ in 0..N {
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                let Some(ls) = light.sample(p, u) else {
+                    continue;
+                };
+                assert!((ls.pdf - light.pdf(p, ls.point, n)).abs() <= 1e-3 * ls.pdf);
+                // (s, t) of the sampled point.
+                let (e1, e2, eq) = (v[1] - v[0], v[2] - v[0], ls.point - v[0]);
+                let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+                let (dq1, dq2) = (eq.dot(e1), eq.dot(e2));
+                let det = d11 * d22 - d12 * d12;
+                let b1 = f64::from((d22 * dq1 - d12 * dq2) / det);
+                let b2 = f64::from((d11 * dq2 - d12 * dq1) / det);
+                let s = (b1 + b2).clamp(0.0, 1.0);
+                let t = if s > 0.0 {
+                    (b2 / s).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let (i, j) = (
+                    ((s * BINS as f64) as usize).min(BINS - 1),
+                    ((t * BINS as f64) as usize).min(BINS - 1),
+                );
+                observed[i * BINS + j] += 1.0;
+            }
+            // Expected counts: N ∫ pdf_area over each bin (midpoint rule on a sub-grid).
+            let pa = p.as_dvec3();
+            let density = |q: glam::DVec3| {
+                let w = q - pa;
+                let d2 = w.length_squared();
+                let cos = n.as_dvec3().dot(-w / d2.sqrt()).max(0.0);
+                match omega {
+                    Some(o) => cos / d2 / f64::from(o),
+                    None => 1.0 / f64::from(area),
+                }
+            };
+            let mut expected = vec![0.0f64; BINS * BINS];
+            let h = 1.0 / (BINS * SUB) as f64;
+            for i in 0..BINS {
+                for j in 0..BINS {
+                    let mut sum = 0.0;
+                    for a in 0..SUB {
+                        for b in 0..SUB {
+                            let s = (i * SUB + a) as f64 * h + 0.5 * h;
+                            let t = (j * SUB + b) as f64 * h + 0.5 * h;
+                            sum += density(point(s, t)) * 2.0 * f64::from(area) * s;
+                        }
+                    }
+                    expected[i * BINS + j] = sum * h * h * N as f64;
+                }
+            }
+            let total: f64 = expected.iter().sum::<f64>() / N as f64;
+            assert!(
+                (total - 1.0).abs() < 2e-3,
+                "{name}: pdf integrates to {total}"
+            );
+            ps.push((
+                name.to_string(),
+                chi2::p_value_of_counts(name, &observed, &expected),
+            ));
+            if name == "close, overhead" {
+                // The test has power: the same samples against area sampling's density fail.
+                let by_area: Vec<f64> = (0..BINS * BINS)
+                    .map(|k| {
+                        let s = ((k / BINS) as f64 + 0.5) / BINS as f64;
+                        2.0 * s * N as f64 / (BINS * BINS) as f64
+                    })
+                    .collect();
+                let p_area = chi2::p_value_of_counts(name, &observed, &by_area);
+                assert!(
+                    p_area < 1e-6,
+                    "{name}: area density not rejected (p = {p_area})"
+                );
+            }
+            // Behind the one-sided light nothing is sampled.
+            let behind = Vec3::new(p.x, p.y, -p.z);
+            assert!(light.sample(behind, Vec2::new(0.3, 0.6)).is_none());
+        }
+        chi2::assert_all_pass(&ps);
+    }
+
+    /// Solid-angle sampling lands on the triangle, and its solid angle is the integral of the
+    /// area pdf's inverse (a closed form check: Ω = ∫ cos/d² dA).
+    #[test]
+    fn spherical_triangle_solid_angle_matches_the_area_integral() {
+        let v = [
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.5, -0.8, 0.0),
+            Vec3::new(-0.4, 1.2, 0.0),
+        ];
+        let p = Vec3::new(0.2, 0.1, 0.5);
+        let st = SphericalTriangle::seen_from(p, v).expect("large");
+        // ∫ cos θ / d² dA by the midpoint rule on a fine barycentric grid.
+        let k = 600;
+        let (mut sum, area) = (
+            0.0f64,
+            0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length() as f64,
+        );
+        for i in 0..k {
+            for j in 0..k - i {
+                for (di, dj) in [(1.0 / 3.0, 1.0 / 3.0), (2.0 / 3.0, 2.0 / 3.0)] {
+                    let (b1, b2) = ((i as f64 + di) / k as f64, (j as f64 + dj) / k as f64);
+                    if b1 + b2 > 1.0 {
+                        continue;
+                    }
+                    let q = v[0].as_dvec3() * (1.0 - b1 - b2)
+                        + v[1].as_dvec3() * b1
+                        + v[2].as_dvec3() * b2;
+                    let w = q - p.as_dvec3();
+                    sum += w.z.abs() / w.length().powi(3);
+                }
+            }
+        }
+        let omega = sum * area / (k * k) as f64;
+        assert!(
+            (f64::from(st.solid_angle) - omega).abs() < 2e-3 * omega,
+            "{} vs {omega}",
+            st.solid_angle
+        );
+        for k in 0..1000 {
+            let u = Vec2::new(
+                (k as f32 + 0.5) / 1000.0,
+                ((k * 7919) % 1000) as f32 / 1000.0,
+            );
+            let (w, q, _, _) = st.sample(p, v, Vec3::Z, u).expect("a direction");
+            let on = hit(p, w, v);
+            assert!(
+                on.is_some_and(|h| (h - q).length() < 1e-4),
+                "{u:?}: {w:?} misses"
+            );
+        }
+    }
 
     #[test]
     fn selection_follows_power() {

@@ -162,6 +162,13 @@ pub fn p_value(
         (total - rate).abs() < 0.02 + 4.0 * (rate * (1.0 - rate) / n as f64).sqrt(),
         "{name}: pdf integrates to {total}, but {rate} of the samples succeeded"
     );
+    p_value_of_counts(name, &observed, &expected)
+}
+
+/// Pearson's test of observed against expected counts per bin (bins expected to receive fewer
+/// than [`MIN_EXPECTED`] samples pooled); returns the p-value. Panics when a bin whose expected
+/// count is zero received samples.
+pub fn p_value_of_counts(name: &str, observed: &[f64], expected: &[f64]) -> f64 {
     // Pool the bins with small expected counts (Mitsuba: sorted by expectation, merged until the
     // pool itself is large enough).
     let mut order: Vec<usize> = (0..expected.len()).collect();
