@@ -313,6 +313,22 @@ impl SphericalTriangle {
     /// [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] and is not degenerate; `None` means area sampling.
     /// Both [`Light::sample`] and [`Light::pdf`] decide with this, so they always agree.
     fn seen_from(p: Vec3, v: [Vec3; 3]) -> Option<SphericalTriangle> {
+        // Most shading points see most lights small: bound the solid angle first by that of the
+        // triangle's bounding sphere (centroid, farthest corner), 2π(1 − cos α) with
+        // sin α = r / d, written r²/d² / (1 + cos α) to stay accurate when small.
+        let centroid = (v[0] + v[1] + v[2]) / 3.0;
+        let r2 = v
+            .iter()
+            .map(|c| (*c - centroid).length_squared())
+            .fold(0.0f32, f32::max);
+        let d2 = (p - centroid).length_squared();
+        if d2 > r2 {
+            let sin2 = r2 / d2;
+            let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
+            if bound < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE {
+                return None;
+            }
+        }
         let p = p.as_dvec3();
         let a = (v[0].as_dvec3() - p).normalize_or_zero();
         let b = (v[1].as_dvec3() - p).normalize_or_zero();
