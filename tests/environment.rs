@@ -128,7 +128,8 @@ fn env_flag_replaces_the_environment_for_every_input_kind() {
     ] {
         let render = |extra: &[&str], out: &std::path::Path| {
             let mut c = assert_cmd::Command::cargo_bin("lumo").unwrap();
-            c.arg("render")
+            let done = c
+                .arg("render")
                 .arg(&input)
                 .args(["--width", "24", "--height", "24", "--spp", "4", "-q"])
                 .args(extra)
@@ -136,6 +137,14 @@ fn env_flag_replaces_the_environment_for_every_input_kind() {
                 .arg(out)
                 .assert()
                 .success();
+            // The glTF file's default-environment warning is given only when it applies.
+            let stderr = String::from_utf8_lossy(&done.get_output().stderr).to_string();
+            let warned = stderr.contains(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING);
+            assert_eq!(
+                warned,
+                name == "gltf" && extra.is_empty(),
+                "{name} {extra:?}: {stderr}"
+            );
         };
         let plain = dir.path().join(format!("{name}.exr"));
         let lit = dir.path().join(format!("{name}_env.exr"));

@@ -684,6 +684,10 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         }
     }
     for w in &loaded.description.warnings {
+        // With --env the default environment the warning talks about is gone.
+        if args.env.is_some() && w.starts_with(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING) {
+            continue;
+        }
         eprintln!("warning: {}: {w}", args.scene.display());
     }
     let (scene, warnings) = loaded

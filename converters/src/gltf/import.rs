@@ -58,6 +58,11 @@ pub struct ImportOptions {
     pub scene_dir: Option<PathBuf>,
 }
 
+/// The start of the warning given when a file without punctual lights gets lumo's default
+/// environment (a caller that replaces the environment, like `lumo render --env`, drops it).
+pub const DEFAULT_ENVIRONMENT_WARNING: &str =
+    "no punctual lights: lit by a uniform white environment";
+
 /// The result of [`import`].
 #[derive(Debug, Clone)]
 pub struct Imported {
@@ -270,11 +275,9 @@ impl Importer<'_> {
                 ..b
             },
             None if self.lights.is_empty() => {
-                self.warnings.push(
-                    "no punctual lights: lit by a uniform white environment (radiance 1; \
-                     replace it with --env FILE.exr)"
-                        .to_string(),
-                );
+                self.warnings.push(format!(
+                    "{DEFAULT_ENVIRONMENT_WARNING} (radiance 1; replace it with --env FILE.exr)"
+                ));
                 Background {
                     color: [1.0; 3],
                     ..Background::default()

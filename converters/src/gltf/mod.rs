@@ -24,7 +24,7 @@ mod tessellate;
 
 pub use error::GltfError;
 pub use export::export;
-pub use import::{import, CameraChoice, ImportOptions, Imported};
+pub use import::{import, CameraChoice, ImportOptions, Imported, DEFAULT_ENVIRONMENT_WARNING};
 pub use lumo_schema::geometry::paths::relative as relative_path;
 pub use mesh::{load_image, load_mesh_primitive, GltfFile, MeshData};
 pub use pbr::LUMENS_PER_WATT;
