@@ -837,7 +837,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         );
         if let Some(o) = &args.output {
             if taken > 0 {
-                let full = embed(image, &window, width, height);
+                let full = split::embed(image, &window, width, height);
                 write_image(&full, o, args.tonemap)
                     .map_err(|e| CliError::failure(e.to_string()))?;
                 said += &format!("; wrote {}", o.display());
@@ -883,7 +883,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     let Some(output) = &args.output else {
         return Ok(());
     };
-    let full = embed(image, &window, width, height);
+    let full = split::embed(image, &window, width, height);
     if let Err(e) = write_image(&full, output, args.tonemap) {
         // Keep the samples: a checkpoint beside the output, or in the temporary folder.
         let mut kept = String::new();
@@ -946,29 +946,4 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         output.display()
     );
     Ok(())
-}
-
-/// The image of a window placed in a black `width` × `height` image (the image itself when the
-/// window is all of it).
-fn embed(
-    image: &lumo::image::Image,
-    window: &lumo::render::Window,
-    width: u32,
-    height: u32,
-) -> lumo::image::Image {
-    if (window.width(), window.height()) == (width, height) {
-        return image.clone();
-    }
-    let mut pixels = vec![glam::Vec3::ZERO; (width * height) as usize];
-    for y in 0..window.height() {
-        for x in 0..window.width() {
-            pixels[((window.y0 + y) * width + window.x0 + x) as usize] =
-                image.pixels[(y * window.width() + x) as usize];
-        }
-    }
-    lumo::image::Image {
-        width,
-        height,
-        pixels,
-    }
 }

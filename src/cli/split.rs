@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use lumo::image::Image;
 use lumo::output::{write_image, ToneMap};
-use lumo::partial_film::{self, FilmHeader, PartialFilm};
+use lumo::partial_film::{self, PartialFilm};
 use lumo::render::Window;
 
 use super::{CliError, EXIT_INVALID};
@@ -146,20 +146,22 @@ pub fn write_film(film: &PartialFilm, path: &Path) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(e.to_string()))
 }
 
-/// The full image of a merged window: the window's means, black elsewhere.
-fn full_image(header: &FilmHeader, film: &lumo::render::Film) -> Image {
-    let w = header.window();
-    let inner = film.image();
-    let mut pixels = vec![glam::Vec3::ZERO; (header.width * header.height) as usize];
-    for y in 0..w.height() {
-        for x in 0..w.width() {
-            pixels[((w.y0 + y) * header.width + w.x0 + x) as usize] =
-                inner.pixels[(y * w.width() + x) as usize];
+/// The image of a window placed in a black `width` × `height` image (the image itself when the
+/// window is all of it).
+pub fn embed(image: &Image, window: &Window, width: u32, height: u32) -> Image {
+    if (window.width(), window.height()) == (width, height) {
+        return image.clone();
+    }
+    let mut pixels = vec![glam::Vec3::ZERO; (width * height) as usize];
+    for y in 0..window.height() {
+        for x in 0..window.width() {
+            pixels[((window.y0 + y) * width + window.x0 + x) as usize] =
+                image.pixels[(y * window.width() + x) as usize];
         }
     }
     Image {
-        width: header.width,
-        height: header.height,
+        width,
+        height,
         pixels,
     }
 }
@@ -214,7 +216,12 @@ pub fn merge_cmd(
         eprintln!("wrote {}", f.display());
     }
     if let Some(o) = output {
-        let image = full_image(&merged.header, &merged.film);
+        let image = embed(
+            &merged.film.image(),
+            &merged.header.window(),
+            merged.header.width,
+            merged.header.height,
+        );
         write_image(&image, o, tonemap).map_err(|e| CliError::failure(e.to_string()))?;
         eprintln!(
             "merged {} films ({} samples per pixel{}) → {}",
