@@ -152,11 +152,24 @@ impl Loaded {
     pub fn content_hash(&self) -> std::io::Result<String> {
         use crate::partial_film::{hex, sha256};
         let d = &self.description;
+        let read_hash = |path: &Path| -> std::io::Result<[u8; 32]> {
+            std::fs::read(path)
+                .map(|bytes| sha256(&bytes))
+                .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+        };
+        // Every file read, hashed once (the scene's references are among them, under the
+        // paths the loader resolved: base_dir joined with the reference).
+        let mut read: Vec<(&PathBuf, [u8; 32])> = Vec::new();
+        for f in self.assets.files() {
+            read.push((f, read_hash(f)?));
+        }
         let file_hash = |f: &str| -> std::io::Result<String> {
             let path = d.base_dir.join(f);
-            let bytes = std::fs::read(&path)
-                .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
-            Ok(format!("sha256:{}", hex(&sha256(&bytes))))
+            let hash = match read.iter().find(|(p, _)| **p == path) {
+                Some((_, h)) => *h,
+                None => read_hash(&path)?,
+            };
+            Ok(format!("sha256:{}", hex(&hash)))
         };
         let mut scene = (*d.scene).clone();
         scene.render.spp = 1;
@@ -176,12 +189,7 @@ impl Loaded {
         if let Some(image) = &mut scene.background.image {
             *image = file_hash(image)?;
         }
-        let mut others = Vec::new();
-        for f in self.assets.files() {
-            let bytes = std::fs::read(f)
-                .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", f.display())))?;
-            others.push(sha256(&bytes));
-        }
+        let mut others: Vec<[u8; 32]> = read.iter().map(|(_, h)| *h).collect();
         others.sort_unstable();
         let mut all = schema::to_json(&scene).into_bytes();
         for h in others {
