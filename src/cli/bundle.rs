@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use lumo_schema as schema;
 
-use super::{load_overridden, CliError, Overrides};
+use super::{load_overridden, CliError, SceneOverrides};
 
 /// The scene file at the root of every bundle.
 pub const BUNDLE_SCENE: &str = "scene.json";
@@ -52,7 +52,11 @@ fn common_root(paths: &[PathBuf]) -> PathBuf {
 /// references rewritten to `files/…`, and the files) and prints one line of JSON: the scene's
 /// content hash (the `scene_hash` of every film rendered from the bundle or from the original),
 /// its resolution, the number of files and their bytes.
-pub fn bundle_cmd(scene_path: &Path, overrides: &Overrides, output: &Path) -> Result<(), CliError> {
+pub fn bundle_cmd(
+    scene_path: &Path,
+    overrides: &SceneOverrides,
+    output: &Path,
+) -> Result<(), CliError> {
     if lumo_schema::geometry::paths::lowercase_extension(output) != "zip" {
         return Err(CliError::invalid(format!(
             "{}: a bundle is a zip file; name it *.zip",

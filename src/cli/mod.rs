@@ -80,7 +80,7 @@ fn keyword<T: Keyword + Send + Sync>() -> impl clap::builder::TypedValueParser<V
 pub enum Command {
     /// Render a scene to an image (PNG, EXR, HDR or BMP, by extension).
     #[command(after_help = "Example:\n  lumo render scenes/cornell.json -o cornell.png --spp 256")]
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Check scene files and report every problem found (exit code 0 valid, 2 invalid, 1 I/O error).
     #[command(after_help = "Example:\n  lumo validate scenes/*.json")]
     Validate {
@@ -150,14 +150,10 @@ pub enum Command {
     },
 }
 
-/// Arguments of `lumo bundle`.
+/// Command-line changes to a scene that change its pixels (besides the sample count and time
+/// budget), shared by `lumo render` and `lumo bundle`.
 #[derive(Debug, clap::Args)]
-pub struct BundleArgs {
-    /// The scene to pack.
-    pub scene: PathBuf,
-    /// The bundle to write (.zip).
-    #[arg(short, long)]
-    pub output: PathBuf,
+pub struct SceneOverrides {
     /// Image width in pixels (overrides the scene).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
     pub width: Option<u32>,
@@ -167,7 +163,7 @@ pub struct BundleArgs {
     /// Random seed (overrides the scene).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Maximum path depth (overrides the scene).
+    /// Maximum path depth (overrides the scene; 1 = emitters only, 2 = direct light).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub max_depth: Option<u32>,
     /// Light-transport algorithm (overrides the scene).
@@ -176,21 +172,36 @@ pub struct BundleArgs {
     /// Sample sequence (overrides the scene).
     #[arg(long, value_parser = keyword::<schema::SamplerKind>())]
     pub sampler: Option<schema::SamplerKind>,
-    /// Legacy `.txt` scenes: the `Lights` block policy.
+    /// Legacy `.txt` scenes: keep, drop, or decide per scene (keep when nothing emits) whether
+    /// to use the file's Lights block.
     #[arg(long, value_parser = keyword::<LightsPolicy>(), default_value = "auto")]
     pub lights: LightsPolicy,
-    /// glTF input: the camera to use, by name or index.
+    /// glTF input: the camera to use, by name or index into `cameras` (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     pub camera: Option<String>,
-    /// Light the scene with this equirectangular HDR image instead of its own background.
+    /// Light the scene with this equirectangular HDR image (.exr, .hdr) instead of its own
+    /// background, whatever the input kind.
     #[arg(long, value_name = "FILE.exr")]
     pub env: Option<PathBuf>,
-    /// Multiplies the environment's radiance.
+    /// Multiplies the environment's radiance (with --env, or the scene's own background).
     #[arg(long, value_name = "S")]
     pub env_strength: Option<f32>,
-    /// Rotates the --env image about +y, in degrees.
+    /// Rotates the --env image about +y, in degrees, counter-clockwise seen from above.
     #[arg(long, value_name = "DEG", requires = "env")]
     pub env_rotation: Option<f32>,
+}
+
+/// Arguments of `lumo bundle`.
+#[derive(Debug, clap::Args)]
+pub struct BundleArgs {
+    /// The scene to pack.
+    pub scene: PathBuf,
+    /// The bundle to write (.zip).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Changes to the scene, baked into the bundle.
+    #[command(flatten)]
+    pub overrides: SceneOverrides,
 }
 
 /// Arguments of `lumo render`.
@@ -224,34 +235,16 @@ pub struct RenderArgs {
     /// result is bit-identical to an uninterrupted render.
     #[arg(long, value_name = "CK.npz", conflicts_with = "samples")]
     pub resume: Option<PathBuf>,
-    /// Image width in pixels (overrides the scene).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
-    pub width: Option<u32>,
-    /// Image height in pixels (overrides the scene).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
-    pub height: Option<u32>,
-    /// Random seed (overrides the scene).
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Maximum path depth (overrides the scene; 1 = emitters only, 2 = direct light).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
-    pub max_depth: Option<u32>,
+    /// Changes to the scene (size, seed, depth, integrator, sampler, input choices,
+    /// environment).
+    #[command(flatten)]
+    pub overrides: SceneOverrides,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub threads: Option<u32>,
-    /// Light-transport algorithm (overrides the scene).
-    #[arg(long, value_parser = keyword::<schema::Integrator>())]
-    pub integrator: Option<schema::Integrator>,
-    /// Sample sequence (overrides the scene).
-    #[arg(long, value_parser = keyword::<schema::SamplerKind>())]
-    pub sampler: Option<schema::SamplerKind>,
     /// Tone mapping for 8-bit outputs (PNG, BMP); EXR and HDR stay linear.
     #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
     pub tonemap: ToneMap,
-    /// Legacy `.txt` scenes: keep, drop, or decide per scene (keep when nothing emits) whether
-    /// to use the file's Lights block.
-    #[arg(long, value_parser = keyword::<LightsPolicy>(), default_value = "auto")]
-    pub lights: LightsPolicy,
     /// Render progressive passes for this long (e.g. `30s`, `2m`, `500ms`); `--spp`, when
     /// given, still caps the samples.
     #[arg(long, value_parser = parse_duration)]
@@ -273,19 +266,6 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
-    /// glTF input: the camera to use, by name or index into `cameras` (default: the first).
-    #[arg(long, value_name = "NAME|INDEX")]
-    pub camera: Option<String>,
-    /// Light the scene with this equirectangular HDR image (.exr, .hdr) instead of its own
-    /// background, whatever the input kind.
-    #[arg(long, value_name = "FILE.exr")]
-    pub env: Option<PathBuf>,
-    /// Multiplies the environment's radiance (with --env, or the scene's own background).
-    #[arg(long, value_name = "S")]
-    pub env_strength: Option<f32>,
-    /// Rotates the --env image about +y, in degrees, counter-clockwise seen from above.
-    #[arg(long, value_name = "DEG", requires = "env")]
-    pub env_rotation: Option<f32>,
 }
 
 /// Parses `30s`, `2m`, `1.5h`, `500ms` or a plain number of seconds.
@@ -323,23 +303,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
         Command::Version => bundle::version_cmd(),
-        Command::Bundle(a) => bundle::bundle_cmd(
-            &a.scene,
-            &Overrides {
-                width: a.width,
-                height: a.height,
-                seed: a.seed,
-                max_depth: a.max_depth,
-                integrator: a.integrator,
-                sampler: a.sampler,
-                lights: a.lights,
-                camera: a.camera.as_deref(),
-                env: a.env.as_deref(),
-                env_strength: a.env_strength,
-                env_rotation: a.env_rotation,
-            },
-            &a.output,
-        ),
+        Command::Bundle(a) => bundle::bundle_cmd(&a.scene, &a.overrides, &a.output),
         Command::Merge {
             parts,
             output,
@@ -499,43 +463,17 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
     }
 }
 
-/// Command-line changes to a scene that change its pixels (besides the sample count and budget).
-pub struct Overrides<'a> {
-    /// `--width`.
-    pub width: Option<u32>,
-    /// `--height`.
-    pub height: Option<u32>,
-    /// `--seed`.
-    pub seed: Option<u64>,
-    /// `--max-depth`.
-    pub max_depth: Option<u32>,
-    /// `--integrator`.
-    pub integrator: Option<schema::Integrator>,
-    /// `--sampler`.
-    pub sampler: Option<schema::SamplerKind>,
-    /// `--lights` (legacy input).
-    pub lights: LightsPolicy,
-    /// `--camera` (glTF input).
-    pub camera: Option<&'a str>,
-    /// `--env`.
-    pub env: Option<&'a Path>,
-    /// `--env-strength`.
-    pub env_strength: Option<f32>,
-    /// `--env-rotation`.
-    pub env_rotation: Option<f32>,
-}
-
 /// Loads a scene of any input kind and applies the overrides.
-pub fn load_overridden(scene: &Path, o: &Overrides) -> Result<lumo::load::Loaded, CliError> {
+pub fn load_overridden(scene: &Path, o: &SceneOverrides) -> Result<lumo::load::Loaded, CliError> {
     let options = LoadOptions {
         lights: o.lights,
-        camera: o.camera.map(camera_choice),
+        camera: o.camera.as_deref().map(camera_choice),
         scene_dir: None,
     };
     let mut loaded = lumo::load(scene, &options)?;
     // The environment file is named relative to the working directory; the scene's paths are
     // relative to its folder, so it goes in as an absolute path.
-    let env_file = match o.env {
+    let env_file = match &o.env {
         Some(p) => Some(
             std::path::absolute(p)
                 .map_err(|e| CliError::invalid(format!("{}: {e}", p.display())))?
@@ -624,22 +562,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
             )));
         }
     }
-    let mut loaded = load_overridden(
-        &args.scene,
-        &Overrides {
-            width: args.width,
-            height: args.height,
-            seed: args.seed,
-            max_depth: args.max_depth,
-            integrator: args.integrator,
-            sampler: args.sampler,
-            lights: args.lights,
-            camera: args.camera.as_deref(),
-            env: args.env.as_deref(),
-            env_strength: args.env_strength,
-            env_rotation: args.env_rotation,
-        },
-    )?;
+    let mut loaded = load_overridden(&args.scene, &args.overrides)?;
     loaded.edit(|s| {
         if let Some(v) = args.spp {
             s.render.spp = v;
@@ -685,7 +608,9 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     }
     for w in &loaded.description.warnings {
         // With --env the default environment the warning talks about is gone.
-        if args.env.is_some() && w.starts_with(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING) {
+        if args.overrides.env.is_some()
+            && w.starts_with(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING)
+        {
             continue;
         }
         eprintln!("warning: {}: {w}", args.scene.display());
