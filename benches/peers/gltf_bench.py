@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 import re
 import subprocess
 import sys
@@ -43,6 +42,7 @@ import numpy as np
 
 import common
 import cycles_gltf as cg
+from compare import Rung, time_to_error
 from cycles_cornell import Timer
 
 OUT = common.HERE / "out" / "gltf"
@@ -70,18 +70,6 @@ def lumo_render(lumo: str, model: Path, env: Path, size: int, spp: int, seed: in
     if not m:
         raise SystemExit(f"no render time in lumo's output:\n{proc.stderr}")
     return float(m.group(1))
-
-
-def interpolate_time(rungs: list[tuple[float, float]], target: float) -> tuple[float, bool]:
-    """Seconds to reach RMSE `target` along (seconds, rmse) rungs, log-log; (t, extrapolated)."""
-    rungs = sorted(rungs)
-    for (t0, e0), (t1, e1) in zip(rungs, rungs[1:]):
-        if e1 <= target <= e0:
-            f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
-            return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))), False
-    (t0, e0), (t1, e1) = (rungs[-2], rungs[-1]) if target < rungs[-1][1] else (rungs[0], rungs[1])
-    f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
-    return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))), True
 
 
 def main() -> int:
@@ -186,8 +174,9 @@ def main() -> int:
         target = next(r["rmse"] for r in mine if r["peer"] == "cycles" and r["spp"] == 64)
         times = {}
         for peer in ("lumo", "cycles"):
-            times[peer] = interpolate_time(
-                [(r["seconds"], r["rmse"]) for r in mine if r["peer"] == peer], target)
+            times[peer] = time_to_error(
+                [Rung(peer, r["spp"], r["seconds"], r["samples_per_second"], str(r["load1"]),
+                      Path(), rmse=r["rmse"]) for r in mine if r["peer"] == peer], target)
         print(f"\nEqual error (Cycles' 64-spp RMSE {target:.5f}): lumo "
               f"{times['lumo'][0]:.3g} s{'*' if times['lumo'][1] else ''}, Cycles "
               f"{times['cycles'][0]:.3g} s; lumo's time ÷ Cycles' = "
