@@ -171,14 +171,20 @@ pub(crate) fn hex(bytes: &[u8]) -> String {
 
 const NPY_MAGIC: &[u8] = b"\x93NUMPY";
 
-/// One `.npy` array: format 1.0 header (padded to a multiple of 64 bytes) and data.
-fn npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
+/// A shape as the Python tuple .npy headers write, `(3,)` or `(h, w, 3)`, with `sep` between
+/// dimensions.
+fn shape_tuple(shape: &[usize], sep: &str) -> String {
     let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
-    let shape = if dims.len() == 1 {
+    if dims.len() == 1 {
         format!("({},)", dims[0])
     } else {
-        format!("({})", dims.join(", "))
-    };
+        format!("({})", dims.join(sep))
+    }
+}
+
+/// One `.npy` array: format 1.0 header (padded to a multiple of 64 bytes) and data.
+fn npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
+    let shape = shape_tuple(shape, ", ");
     let mut dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
     let unpadded = NPY_MAGIC.len() + 2 + 2 + dict.len() + 1;
     dict.push_str(&" ".repeat(unpadded.next_multiple_of(64) - unpadded));
@@ -212,12 +218,7 @@ fn npy_data<'a>(bytes: &'a [u8], descr: &str, shape: &[usize]) -> Result<&'a [u8
     let dict =
         std::str::from_utf8(&bytes[start..end]).map_err(|_| "the .npy header is not text")?;
     let compact: String = dict.chars().filter(|c| !c.is_whitespace()).collect();
-    let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
-    let want_shape = if dims.len() == 1 {
-        format!("({},)", dims[0])
-    } else {
-        format!("({})", dims.join(","))
-    };
+    let want_shape = shape_tuple(shape, ",");
     for (key, want) in [
         ("'descr':", format!("'{descr}'")),
         ("'fortran_order':", "False".to_string()),
