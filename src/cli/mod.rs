@@ -2,6 +2,7 @@
 
 pub mod bundle;
 pub mod converge;
+pub mod preview;
 pub mod split;
 
 use std::path::{Path, PathBuf};
@@ -139,6 +140,12 @@ pub enum Command {
         after_help = "Example:\n  lumo bundle DamagedHelmet.glb --env ../shared/hdri/studio.exr -o helmet.zip"
     )]
     Bundle(BundleArgs),
+    /// Serve a live, progressive render of a scene on a local web page that follows the scene's
+    /// files: edit the scene (or a texture) and the page shows the new render.
+    #[command(
+        after_help = "Example:\n  lumo preview scenes/cornell.json        # then open http://127.0.0.1:8000/"
+    )]
+    Preview(Box<preview::PreviewArgs>),
     /// Print lumo's version and build id (SHA-256 of the executable) as JSON.
     Version,
     /// Print the JSON Schema of scene files (draft 2020-12).
@@ -151,8 +158,8 @@ pub enum Command {
 }
 
 /// Command-line changes to a scene that change its pixels (besides the sample count and time
-/// budget), shared by `lumo render` and `lumo bundle`.
-#[derive(Debug, clap::Args)]
+/// budget), shared by `lumo render`, `lumo preview` and `lumo bundle`.
+#[derive(Debug, Clone, clap::Args)]
 pub struct SceneOverrides {
     /// Image width in pixels (overrides the scene).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
@@ -303,6 +310,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Validate { files } => validate_cmd(&files),
         Command::Schema { output } => schema_cmd(output.as_deref()),
         Command::Version => bundle::version_cmd(),
+        Command::Preview(args) => preview::preview_cmd(&args),
         Command::Bundle(a) => bundle::bundle_cmd(&a.scene, &a.overrides, &a.output),
         Command::Merge {
             parts,

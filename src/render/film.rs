@@ -152,11 +152,11 @@ impl PixelSum {
 
 /// The image's error as predicted from the per-pixel sample variances.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct ErrorEstimate {
+pub struct ErrorEstimate {
     /// Estimated root-mean-square error over pixels and channels.
-    pub(super) rmse: f64,
+    pub rmse: f64,
     /// √(estimated relative MSE), the figure error targets are checked against.
-    pub(super) rel_error: f64,
+    pub rel_error: f64,
 }
 
 /// The running sums of every pixel of an image (or of a window of it), row-major, top row first.
@@ -269,7 +269,7 @@ impl Film {
     }
 
     /// The image's estimated error from its per-pixel variances.
-    pub(super) fn estimate(&self) -> ErrorEstimate {
+    pub fn estimate(&self) -> ErrorEstimate {
         let n = self.pixels.len() as f64;
         let mse = self
             .pixels

@@ -20,7 +20,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use adaptive::{AdaptiveAllocator, ErrorSource};
-pub use film::{Film, PixelSum, MAX_SAMPLE};
+pub use film::{ErrorEstimate, Film, PixelSum, MAX_SAMPLE};
 use pass::PassContext;
 pub use pass::TILE;
 use pixel::render_samples;

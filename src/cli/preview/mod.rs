@@ -1,0 +1,425 @@
+//! `lumo preview`: a live, progressive render in the browser that follows the scene file.
+//!
+//! Three parts, one thread each (plus the render's worker pool):
+//! - the **session** (this file) loads the scene with the render command's overrides, renders a
+//!   quick ray-cast pass at a quarter of the resolution, then path traces pass by pass, publishing
+//!   every pass into [`Shared`]; it waits for the watcher's next trigger when done, and shows a
+//!   load error (or a caught panic) instead of an image when the scene does not load;
+//! - the **watcher** (`watch.rs`) watches the folders of every file the scene read and, on a
+//!   change, cancels the render at once and triggers a reload once the files are quiet;
+//! - the **server** (`server.rs`) serves the embedded page, a server-sent event stream of the
+//!   status, the latest frame as linear floats, and the save button's POST.
+
+mod server;
+mod watch;
+
+use std::net::SocketAddr;
+use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Instant;
+
+use lumo::output::ToneMap;
+use lumo::render::{render_with_error, Film, Image, RenderOptions};
+use lumo::scene::IntegratorKind;
+use serde::Serialize;
+
+use super::{keyword, load_overridden, CliError, SceneOverrides};
+
+/// Arguments of `lumo preview`.
+#[derive(Debug, clap::Args)]
+pub struct PreviewArgs {
+    /// The scene to preview (.json, legacy .txt, .gltf, .glb).
+    pub scene: PathBuf,
+    /// Port to serve the page on (0: any free port; the address is printed).
+    #[arg(long, default_value_t = 8000)]
+    pub port: u16,
+    /// Address to listen on. The default serves this machine only; another address exposes the
+    /// preview (and the save button) to the network.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub bind: std::net::IpAddr,
+    /// Where the page's save button writes the image (default: the scene's path with `.png`).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Samples per pixel to refine to (overrides the scene).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(lumo_schema::MAX_SPP)))]
+    pub spp: Option<u32>,
+    /// Changes to the scene, as for `lumo render`.
+    #[command(flatten)]
+    pub overrides: SceneOverrides,
+    /// Worker threads for rendering (default: all cores).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub threads: Option<u32>,
+    /// The page's initial tone mapping (the save button writes what the page shows).
+    #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
+    pub tonemap: ToneMap,
+}
+
+/// What the page shows besides the image, pushed to it on every change.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct Status {
+    /// The scene file, as given on the command line.
+    scene: String,
+    /// `loading`, `rendering`, `done`, `invalid` (the scene does not load: see `error`) or
+    /// `failed` (an I/O error or a bug).
+    state: &'static str,
+    /// Loads started so far (1 for the first).
+    renders: u64,
+    /// Number of the latest frame (0: none yet); the page fetches `/frame` when it changes.
+    frame: u64,
+    /// Whether the latest frame is the quick ray-cast pass.
+    quick: bool,
+    /// Size of the latest frame.
+    width: u32,
+    /// Size of the latest frame.
+    height: u32,
+    /// Full image size of the scene being rendered.
+    image_width: u32,
+    /// Full image size of the scene being rendered.
+    image_height: u32,
+    /// Samples per pixel in the latest frame.
+    spp: u32,
+    /// Samples per pixel the render refines to.
+    target_spp: u32,
+    /// Seconds since the render (after loading) started.
+    elapsed_s: f64,
+    /// Samples per second of the path tracer so far.
+    samples_per_s: f64,
+    /// Estimated relative error of the latest frame (from the samples' variance).
+    rel_error: f64,
+    /// The located report when the scene does not load (as `lumo validate` prints it).
+    error: Option<String>,
+    /// Warnings of the last load.
+    warnings: Vec<String>,
+    /// Where the save button writes.
+    output: String,
+    /// The page's initial tone mapping.
+    tonemap: &'static str,
+}
+
+/// The latest frame: linear radiance and its per-pixel standard error, RGB floats, row-major.
+pub(crate) struct Frame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Mean radiance per pixel.
+    pub image: Image,
+    /// Standard error of each pixel's mean.
+    pub std_error: Image,
+    /// Whether this is the quick ray-cast pass (not saved by the save button).
+    pub quick: bool,
+}
+
+/// State shared by the session, the watcher and the server.
+pub(crate) struct Shared {
+    status: Mutex<Status>,
+    frame: Mutex<Option<Arc<Frame>>>,
+    /// Bumped on every status change; the event streams follow it.
+    changed: tokio::sync::watch::Sender<u64>,
+    /// Set when a watched file changes: the render stops taking tiles.
+    cancel: AtomicBool,
+    /// Changes seen so far (the session compares it before and after resetting `cancel`).
+    changes: AtomicU64,
+    /// Where the save button writes.
+    output: PathBuf,
+}
+
+/// Locks a mutex, recovering the data if a thread panicked while holding it (the status is
+/// plain data, always consistent between statements).
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+impl Shared {
+    /// Changes the status and tells the event streams.
+    fn update(&self, change: impl FnOnce(&mut Status)) {
+        change(&mut lock(&self.status));
+        self.changed.send_modify(|n| *n += 1);
+    }
+
+    /// The status as JSON.
+    pub(crate) fn status_json(&self) -> String {
+        serde_json::to_string(&*lock(&self.status)).unwrap_or_else(|_| "{}".to_string())
+    }
+
+    /// The latest frame.
+    pub(crate) fn frame(&self) -> Option<Arc<Frame>> {
+        lock(&self.frame).clone()
+    }
+
+    /// A file changed: stop the render now (the reload waits until the files are quiet).
+    pub(crate) fn note_change(&self) {
+        self.changes.fetch_add(1, Ordering::SeqCst);
+        self.cancel.store(true, Ordering::SeqCst);
+    }
+
+    /// Publishes a frame.
+    fn publish(&self, frame: Frame, stats: impl FnOnce(&mut Status)) {
+        let (width, height, quick) = (frame.width, frame.height, frame.quick);
+        *lock(&self.frame) = Some(Arc::new(frame));
+        self.update(|s| {
+            s.frame += 1;
+            s.width = width;
+            s.height = height;
+            s.quick = quick;
+            stats(s);
+        });
+    }
+
+    /// Where the save button writes.
+    pub(crate) fn output(&self) -> &Path {
+        &self.output
+    }
+}
+
+/// Runs `lumo preview` until the process is stopped.
+pub fn preview_cmd(args: &PreviewArgs) -> Result<(), CliError> {
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| args.scene.with_extension("png"));
+    lumo::output::format_of(&output).map_err(|e| CliError::invalid(e.to_string()))?;
+    super::split::check_writable(&output, "output")?;
+    let (changed, _) = tokio::sync::watch::channel(0u64);
+    let shared = Arc::new(Shared {
+        status: Mutex::new(Status {
+            scene: args.scene.display().to_string(),
+            state: "loading",
+            renders: 0,
+            frame: 0,
+            quick: false,
+            width: 0,
+            height: 0,
+            image_width: 0,
+            image_height: 0,
+            spp: 0,
+            target_spp: 0,
+            elapsed_s: 0.0,
+            samples_per_s: 0.0,
+            rel_error: 0.0,
+            error: None,
+            warnings: Vec::new(),
+            output: output.display().to_string(),
+            tonemap: lumo_schema::Keyword::keyword(args.tonemap),
+        }),
+        frame: Mutex::new(None),
+        changed,
+        cancel: AtomicBool::new(false),
+        changes: AtomicU64::new(0),
+        output,
+    });
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0) as usize)
+        .build()
+        .map_err(|e| CliError::failure(format!("cannot start worker threads: {e}")))?;
+    let watcher = watch::Watcher::start(Arc::clone(&shared), &args.scene)
+        .map_err(|e| CliError::failure(format!("cannot watch files: {e}")))?;
+    let address = SocketAddr::new(args.bind, args.port);
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| CliError::failure(format!("cannot start the server: {e}")))?;
+    let listener = runtime
+        .block_on(tokio::net::TcpListener::bind(address))
+        .map_err(|e| CliError::failure(format!("cannot listen on {address}: {e}")))?;
+    let bound = listener
+        .local_addr()
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    eprintln!(
+        "lumo preview: serving {} on http://{bound}/ (Ctrl-C to stop)",
+        args.scene.display()
+    );
+    let session_shared = Arc::clone(&shared);
+    let triggers = watcher.triggers;
+    let files = watcher.files;
+    let session_args = SessionArgs {
+        scene: args.scene.clone(),
+        spp: args.spp,
+        overrides: args.overrides.clone(),
+    };
+    std::thread::Builder::new()
+        .name("lumo-preview-session".into())
+        .spawn(move || session(session_args, &pool, &session_shared, &triggers, &files))
+        .map_err(|e| CliError::failure(format!("cannot start the render thread: {e}")))?;
+    runtime
+        .block_on(server::serve(listener, shared))
+        .map_err(|e| CliError::failure(format!("the server stopped: {e}")))
+}
+
+/// What the session thread needs of the arguments (the thread outlives the borrow).
+struct SessionArgs {
+    scene: PathBuf,
+    spp: Option<u32>,
+    overrides: SceneOverrides,
+}
+
+/// How one load and render ended.
+enum Outcome {
+    /// All samples taken.
+    Done,
+    /// A file changed during the render.
+    Interrupted,
+}
+
+/// Loads and renders, then waits for the watcher's trigger, forever.
+fn session(
+    args: SessionArgs,
+    pool: &rayon::ThreadPool,
+    shared: &Shared,
+    triggers: &Receiver<()>,
+    files: &Mutex<watch::Files>,
+) {
+    loop {
+        let seen = shared.changes.load(Ordering::SeqCst);
+        shared.cancel.store(false, Ordering::SeqCst);
+        // A change between reading `seen` and the reset must still stop this render.
+        if shared.changes.load(Ordering::SeqCst) != seen {
+            shared.cancel.store(true, Ordering::SeqCst);
+        }
+        shared.update(|s| {
+            s.renders += 1;
+            s.state = "loading";
+        });
+        let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            pool.install(|| load_and_render(&args, shared, files))
+        }));
+        match outcome {
+            Ok(Ok(Outcome::Done)) => shared.update(|s| s.state = "done"),
+            Ok(Ok(Outcome::Interrupted)) => {}
+            Ok(Err(e)) => shared.update(|s| {
+                s.state = if e.code == super::EXIT_INVALID {
+                    "invalid"
+                } else {
+                    "failed"
+                };
+                s.error = Some(e.message);
+            }),
+            Err(panic) => {
+                let what = panic
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| panic.downcast_ref::<&str>().map(|s| (*s).to_string()))
+                    .unwrap_or_else(|| "unknown panic".to_string());
+                shared.update(|s| {
+                    s.state = "failed";
+                    s.error = Some(format!(
+                        "internal error (a bug in lumo, please report it): {what}"
+                    ));
+                });
+            }
+        }
+        // Wait for the next change; a burst of triggers is one reload.
+        if triggers.recv().is_err() {
+            return;
+        }
+        while triggers.try_recv().is_ok() {}
+    }
+}
+
+/// Loads the scene, renders the quick pass, then path traces pass by pass.
+fn load_and_render(
+    args: &SessionArgs,
+    shared: &Shared,
+    files: &Mutex<watch::Files>,
+) -> Result<Outcome, CliError> {
+    let loaded = match load_overridden(&args.scene, &args.overrides) {
+        Ok(l) => l,
+        Err(e) => {
+            lock(files).load_failed();
+            return Err(e);
+        }
+    };
+    lock(files).set(loaded.files());
+    let mut loaded = loaded;
+    if let Some(spp) = args.spp {
+        loaded.edit(|s| s.render.spp = spp)?;
+    }
+    // A preview refines to a sample count: a time budget would stop it early for no one.
+    loaded.edit(|s| s.render.time_budget_s = None)?;
+    let (mut scene, mut warnings) = loaded
+        .build()
+        .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
+    let mut all_warnings: Vec<String> = loaded.description.warnings.clone();
+    if args.overrides.env.is_some() {
+        all_warnings.retain(|w| !w.starts_with(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING));
+    }
+    all_warnings.append(&mut warnings);
+    let full = scene.settings;
+    shared.update(|s| {
+        s.state = "rendering";
+        s.error = None;
+        s.warnings = all_warnings;
+        s.image_width = full.width;
+        s.image_height = full.height;
+        s.target_spp = full.spp;
+        s.spp = 0;
+        s.elapsed_s = 0.0;
+        s.samples_per_s = 0.0;
+    });
+    let cancelled = || shared.cancel.load(Ordering::SeqCst);
+    // Quick pass: primary rays and direct light at a quarter of the resolution, in a few ms.
+    scene.settings.width = full.width.div_ceil(4);
+    scene.settings.height = full.height.div_ceil(4);
+    scene.settings.integrator = IntegratorKind::Raycast;
+    scene.settings.spp = 1;
+    let quick = render_with_error(
+        &scene,
+        &RenderOptions {
+            cancel: Some(&shared.cancel),
+            ..RenderOptions::default()
+        },
+    );
+    scene.settings = full;
+    if quick.interrupted || cancelled() {
+        return Ok(Outcome::Interrupted);
+    }
+    shared.publish(
+        Frame {
+            width: quick.image.width,
+            height: quick.image.height,
+            image: quick.image,
+            std_error: quick.std_error,
+            quick: true,
+        },
+        |_| {},
+    );
+    // The path tracer at full resolution, pass by pass.
+    let start = Instant::now();
+    let on_pass = |film: &Film| {
+        let estimate = film.estimate();
+        let samples = film.samples_taken();
+        let pixels = film.pixels().len().max(1) as u64;
+        let elapsed = start.elapsed().as_secs_f64();
+        shared.publish(
+            Frame {
+                width: film.width(),
+                height: film.height(),
+                image: film.image(),
+                std_error: film.std_error(),
+                quick: false,
+            },
+            |s| {
+                s.spp = (samples / pixels) as u32;
+                s.elapsed_s = elapsed;
+                s.samples_per_s = samples as f64 / elapsed.max(1e-9);
+                s.rel_error = estimate.rel_error;
+            },
+        );
+    };
+    let rendered = render_with_error(
+        &scene,
+        &RenderOptions {
+            cancel: Some(&shared.cancel),
+            on_pass: Some(&on_pass),
+            ..RenderOptions::default()
+        },
+    );
+    if rendered.interrupted {
+        return Ok(Outcome::Interrupted);
+    }
+    Ok(Outcome::Done)
+}
