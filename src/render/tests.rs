@@ -148,3 +148,69 @@ fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
         assert!((a.sum() - b.sum()).abs().max_element() < 1e-9);
     }
 }
+
+/// After a cancel, each thread finishes at most the tile it is on: no tile starts after the
+/// cancel, at most one tile per thread is still in flight, and the pass in flight is dropped
+/// (the film keeps whole passes only). Counted, not timed.
+#[test]
+fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
+    use std::collections::HashSet;
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+    use std::sync::Mutex;
+
+    const THREADS: usize = 4;
+    let (w, h) = (128u32, 96u32);
+    let plan = Plan {
+        width: w,
+        height: h,
+        spp: 64,
+        budget: None,
+        seed: 1,
+    };
+    let tile_of = |x: u32, y: u32| (y / TILE) * w.div_ceil(TILE) + x / TILE;
+    for cancel_at in [1u64, 700, 5_000, 20_000] {
+        let cancel = AtomicBool::new(false);
+        let calls = AtomicU64::new(0);
+        let before: Mutex<HashSet<u32>> = Mutex::new(HashSet::new());
+        let after: Mutex<HashSet<u32>> = Mutex::new(HashSet::new());
+        let sample = |x: u32, y: u32, range: Range<u32>, stats: &mut TraceStats| {
+            // Read the flag before counting: a call that saw no cancel belongs to `before`.
+            let cancelled = cancel.load(Ordering::SeqCst);
+            let set = if cancelled { &after } else { &before };
+            set.lock().unwrap().insert(tile_of(x, y));
+            if calls.fetch_add(1, Ordering::SeqCst) + 1 == cancel_at {
+                cancel.store(true, Ordering::SeqCst);
+            }
+            synthetic(w, 1)(x, y, range, stats)
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(THREADS)
+            .build()
+            .unwrap();
+        let options = RenderOptions {
+            cancel: Some(&cancel),
+            ..Default::default()
+        };
+        let (film, _, interrupted) =
+            pool.install(|| run_passes(&plan, &options, ErrorSource::Neighbours, sample));
+        assert!(interrupted, "cancel at call {cancel_at}: not interrupted");
+        let (before, after) = (before.into_inner().unwrap(), after.into_inner().unwrap());
+        let started_after: Vec<_> = after.difference(&before).collect();
+        assert!(
+            started_after.is_empty(),
+            "cancel at call {cancel_at}: tiles {started_after:?} started after the cancel"
+        );
+        assert!(
+            after.len() <= THREADS,
+            "cancel at call {cancel_at}: {} tiles still sampled after it, more than {THREADS} \
+             threads",
+            after.len()
+        );
+        let pass_pixels = u64::from(w * h);
+        assert_eq!(
+            film.samples_taken() % pass_pixels,
+            0,
+            "cancel at call {cancel_at}: the film holds part of a pass"
+        );
+    }
+}

@@ -263,6 +263,8 @@ enum Outcome {
     Done,
     /// A file changed during the render.
     Interrupted,
+    /// A file changed during the load, unseen by the watcher: load again now.
+    Stale,
 }
 
 /// Loads and renders, then waits for the watcher's trigger, forever.
@@ -290,6 +292,7 @@ fn session(
         match outcome {
             Ok(Ok(Outcome::Done)) => shared.update(|s| s.state = "done"),
             Ok(Ok(Outcome::Interrupted)) => {}
+            Ok(Ok(Outcome::Stale)) => continue,
             Ok(Err(e)) => shared.update(|s| {
                 s.state = if e.code == super::EXIT_INVALID {
                     "invalid"
@@ -326,6 +329,7 @@ fn load_and_render(
     shared: &Shared,
     files: &Mutex<watch::Files>,
 ) -> Result<Outcome, CliError> {
+    let loaded_at = std::time::SystemTime::now();
     let loaded = match load_overridden(&args.scene, &args.overrides) {
         Ok(l) => l,
         Err(e) => {
@@ -333,7 +337,10 @@ fn load_and_render(
             return Err(e);
         }
     };
-    lock(files).set(loaded.files());
+    if lock(files).set(loaded.files(), loaded_at) {
+        // A file changed while it was being read, before its folder was watched.
+        return Ok(Outcome::Stale);
+    }
     let mut loaded = loaded;
     if let Some(spp) = args.spp {
         loaded.edit(|s| s.render.spp = spp)?;

@@ -6,7 +6,7 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 use notify::{EventKind, RecursiveMode, Watcher as _};
 
@@ -28,8 +28,9 @@ pub(crate) struct Files {
     relaxed: bool,
     /// Files never to react to: the save button's output.
     ignored: HashSet<PathBuf>,
-    /// Whether `dirs` changed since the watcher last looked.
-    dirty: bool,
+    /// The OS watcher: folders are added and removed as the scene's files change, at once, so
+    /// that a change right after a load is not missed.
+    watcher: notify::RecommendedWatcher,
 }
 
 /// `path` with its folder canonicalised (the file itself may not exist).
@@ -45,29 +46,46 @@ fn key(path: &Path) -> PathBuf {
 }
 
 impl Files {
-    fn new(scene: &Path, output: &Path) -> Files {
+    fn new(scene: &Path, output: &Path, watcher: notify::RecommendedWatcher) -> Files {
         let mut f = Files {
             files: HashSet::new(),
             dirs: HashSet::new(),
             relaxed: false,
             ignored: HashSet::from([key(output)]),
-            dirty: true,
+            watcher,
         };
-        f.set(vec![scene.to_path_buf()]);
+        f.set(vec![scene.to_path_buf()], SystemTime::now());
         f
     }
 
-    /// The files the scene read, after a successful load (the scene file among them).
-    pub(crate) fn set(&mut self, files: Vec<PathBuf>) {
+    /// The files the scene read, after a successful load that started at `loaded_at` (the
+    /// scene file among them). Returns whether one of them changed since then in a folder that
+    /// was not watched yet: such a change had no event, and the load is stale.
+    pub(crate) fn set(&mut self, files: Vec<PathBuf>, loaded_at: SystemTime) -> bool {
         self.files = files.iter().map(|f| key(f)).collect();
         let dirs: HashSet<PathBuf> = self
             .files
             .iter()
             .filter_map(|f| f.parent().map(Path::to_path_buf))
             .collect();
-        self.dirty |= dirs != self.dirs;
+        for d in self.dirs.difference(&dirs) {
+            let _ = self.watcher.unwatch(d);
+        }
+        let mut stale = false;
+        for d in dirs.difference(&self.dirs) {
+            if let Err(e) = self.watcher.watch(d, RecursiveMode::NonRecursive) {
+                eprintln!("warning: cannot watch {}: {e}", d.display());
+            }
+            stale |= self.files.iter().any(|f| {
+                f.parent() == Some(d.as_path())
+                    && std::fs::metadata(f)
+                        .and_then(|m| m.modified())
+                        .is_ok_and(|t| t > loaded_at)
+            });
+        }
         self.dirs = dirs;
         self.relaxed = false;
+        stale
     }
 
     /// The load failed: keep watching what was watched, and react to any change there.
@@ -104,47 +122,30 @@ pub(crate) struct Watcher {
 impl Watcher {
     /// Starts watching the scene file (the session adds what the scene reads once loaded).
     pub(crate) fn start(shared: Arc<Shared>, scene: &Path) -> notify::Result<Watcher> {
-        let files = Arc::new(Mutex::new(Files::new(scene, shared.output())));
         let (events_tx, events) = channel();
         let watcher = notify::recommended_watcher(move |event| {
             let _ = events_tx.send(event);
         })?;
+        let files = Arc::new(Mutex::new(Files::new(scene, shared.output(), watcher)));
         let (triggers_tx, triggers) = channel();
         let thread_files = Arc::clone(&files);
         std::thread::Builder::new()
             .name("lumo-preview-watch".into())
-            .spawn(move || run(watcher, &events, &triggers_tx, &thread_files, &shared))?;
+            .spawn(move || run(&events, &triggers_tx, &thread_files, &shared))?;
         Ok(Watcher { triggers, files })
     }
 }
 
-/// The watcher thread: follows the folders to watch, stops the render on every relevant
-/// change, and triggers a reload once the files have been quiet for [`QUIET`].
+/// The watcher thread: stops the render on every relevant change, and triggers a reload once
+/// the files have been quiet for [`QUIET`].
 fn run(
-    mut watcher: notify::RecommendedWatcher,
     events: &Receiver<notify::Result<notify::Event>>,
     triggers: &Sender<()>,
     files: &Mutex<Files>,
     shared: &Shared,
 ) {
-    let mut watched: HashSet<PathBuf> = HashSet::new();
     let mut last_change: Option<Instant> = None;
     loop {
-        {
-            let mut f = lock(files);
-            if f.dirty {
-                f.dirty = false;
-                for d in watched.difference(&f.dirs) {
-                    let _ = watcher.unwatch(d);
-                }
-                for d in f.dirs.difference(&watched) {
-                    if let Err(e) = watcher.watch(d, RecursiveMode::NonRecursive) {
-                        eprintln!("warning: cannot watch {}: {e}", d.display());
-                    }
-                }
-                watched = f.dirs.clone();
-            }
-        }
         if last_change.is_some_and(|t| t.elapsed() >= QUIET) {
             last_change = None;
             if triggers.send(()).is_err() {
@@ -153,7 +154,7 @@ fn run(
         }
         let wait = match last_change {
             Some(t) => QUIET.saturating_sub(t.elapsed()),
-            None => Duration::from_millis(200),
+            None => Duration::from_secs(3600),
         };
         match events.recv_timeout(wait) {
             Ok(Ok(event)) => {
