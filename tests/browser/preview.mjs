@@ -92,6 +92,20 @@ try {
     throw new Error(`the stats line lacks spp, samples/s or error: ${stats}`);
   }
 
+  step("exposure and the error view");
+  const mean = (m) => (m.left[0] + m.left[1] + m.left[2] + m.right[0] + m.right[1] + m.right[2]) / 6;
+  await page.locator("#exposure").fill("-2");
+  const darker = await measure();
+  if (!(mean(darker) < 0.8 * mean(first))) throw new Error(`exposure −2 did not darken: ${mean(first)} → ${mean(darker)}`);
+  await page.locator("#exposure").fill("0");
+  await page.selectOption("#kind", "error");
+  await page.waitForFunction(() => document.body.dataset.shownKind === "error", null, WAIT);
+  const error = await measure();
+  step(`walls ${mean(first).toFixed(0)} in the image, ${mean(error).toFixed(0)} in the error view`);
+  if (!(mean(error) < 0.7 * mean(first)) || error.max === 0) throw new Error("the error view does not show the standard error");
+  await page.selectOption("#kind", "image");
+  await page.waitForFunction(() => document.body.dataset.shownKind === "image", null, WAIT);
+
   step("recolour the left wall blue in the scene file");
   save(original.replace(RED, BLUE));
   await shownDone(2);
