@@ -15,8 +15,9 @@ use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
 use crate::light::{Light, LightSampler};
 use crate::load::{Assets, MeshData};
 use crate::material::{AlphaMode, Material};
-use crate::math::{srgb_to_linear, Affine3A, Vec2, Vec3};
+use crate::math::{srgb8_table, srgb8_to_linear, Affine3A, Vec2, Vec3};
 use crate::texture::{Texture, TextureRef, Wrap};
+use rayon::prelude::*;
 
 /// Most triangles a scene may hold (about 6 GiB with BVHs); larger scenes are refused.
 pub const MAX_TRIANGLES: usize = 64 << 20;
@@ -80,21 +81,16 @@ pub fn build(
             file: t.file.clone(),
         })?;
         let srgb = t.color_space == schema::ColorSpace::Srgb && !image.is_float;
-        let texels = image
-            .texels
-            .iter()
-            .map(|&c| {
-                if srgb {
-                    Vec3::new(
-                        srgb_to_linear(c.x),
-                        srgb_to_linear(c.y),
-                        srgb_to_linear(c.z),
-                    )
-                } else {
-                    c
-                }
-            })
-            .collect();
+        let texels = if srgb {
+            let table = srgb8_table();
+            image
+                .texels
+                .par_iter()
+                .map(|c| c.map(|v| srgb8_to_linear(v, table)))
+                .collect()
+        } else {
+            image.texels.to_vec()
+        };
         let wrap = |w: schema::Wrap| match w {
             schema::Wrap::Repeat => Wrap::Repeat,
             schema::Wrap::Mirror => Wrap::Mirror,
