@@ -5,8 +5,10 @@
 //! hit that does not jump) for the ray and for four copies whose origin is moved by 1e-6 of the
 //! lathe's size across the ray. Only rays within that band of an exact tangency (or of an
 //! edge) fail this; on all others the exact intersector must agree with the reference: no
-//! false misses, no false hits, relative distance error ≤ 1e-6, normals within 1e-4 rad.
-//! Every ray, ambiguous or not, must give finite output.
+//! false misses, no false hits, relative distance error ≤ 1e-6, normals within 1e-4 rad where
+//! the normal is defined: not where a copy's normal differs from the ray's by more than 0.01 rad
+//! (a sharp joint of the profile within the band, such as a cap's rim hit by a grazing ray; the
+//! smooth surfaces' normals turn far less over the band). Every ray, ambiguous or not, must give finite output.
 
 use super::reference::{RefCurve, RefHit, Reference, Rng};
 use super::{Lathe, LatheHit, PieceKind, Profile};
@@ -194,6 +196,8 @@ fn cases() -> Vec<Case> {
 struct Stats {
     rays: usize,
     ambiguous: usize,
+    /// Unambiguous rays whose hit is within the band of a sharp joint (normal not compared).
+    normal_undefined: usize,
     false_miss: usize,
     false_hit: usize,
     max_rel_err: f64,
@@ -211,22 +215,40 @@ fn finite(h: &LatheHit) -> bool {
         && h.dpdv.is_finite()
 }
 
+/// The reference's answer to a ray, unless the ray is within the 1e-6 band (see the module
+/// docs).
+struct Answer {
+    /// The nearest hit, if any.
+    hit: Option<RefHit>,
+    /// Whether the normal is determined within the band: false at a sharp joint of the
+    /// profile (the rim of a cap, a corner of a polyline), where a ray the band away hits the
+    /// other face. A grazing ray's band reaches along the surface much further than across
+    /// it, so the hit-or-miss and distance checks alone do not see such a joint.
+    normal_defined: bool,
+}
+
 /// Reference answer, or None when the ray is within the 1e-6 band (see the module docs).
-fn reference_answer(r: &Reference, o: DVec3, d: DVec3) -> Option<Option<RefHit>> {
+fn reference_answer(r: &Reference, o: DVec3, d: DVec3) -> Option<Answer> {
     let base = r.intersect(o, d, 0.0, f64::INFINITY);
     let dn = d.normalize();
     let e1 = dn.any_orthonormal_vector();
     let e2 = dn.cross(e1);
     let eps = 1e-6 * r.scale;
+    let mut normal_defined = true;
     for off in [e1, -e1, e2, -e2] {
         let p = r.intersect(o + eps * off, d, 0.0, f64::INFINITY);
         match (base, p) {
             (None, None) => {}
-            (Some(a), Some(b)) if ((a.s - b.s) * d.length()).abs() <= 1e-3 * r.scale => {}
+            (Some(a), Some(b)) if ((a.s - b.s) * d.length()).abs() <= 1e-3 * r.scale => {
+                normal_defined &= a.normal.angle_between(b.normal) <= 1e-2;
+            }
             _ => return None,
         }
     }
-    Some(base)
+    Some(Answer {
+        hit: base,
+        normal_defined,
+    })
 }
 
 fn check(lathe: &Lathe, r: &Reference, o: DVec3, d: DVec3, st: &mut Stats, label: &str) {
@@ -238,11 +260,14 @@ fn check(lathe: &Lathe, r: &Reference, o: DVec3, d: DVec3, st: &mut Stats, label
             return;
         }
     }
-    let Some(want) = reference_answer(r, o, d) else {
+    let Some(answer) = reference_answer(r, o, d) else {
         st.ambiguous += 1;
         return;
     };
-    match (got, want) {
+    if !answer.normal_defined {
+        st.normal_undefined += 1;
+    }
+    match (got, answer.hit) {
         (None, None) => {}
         (None, Some(w)) => {
             st.false_miss += 1;
@@ -267,8 +292,8 @@ fn check(lathe: &Lathe, r: &Reference, o: DVec3, d: DVec3, st: &mut Stats, label
                 );
             }
             st.max_rel_err = st.max_rel_err.max(rel);
-            // Normals are defined away from cusps (vanishing derivative) and poles.
-            if w.speed > 1e-3 * r.scale && w.radius > 1e-4 * r.scale {
+            // Normals are defined away from cusps (vanishing derivative), poles and joints.
+            if answer.normal_defined && w.speed > 1e-3 * r.scale && w.radius > 1e-4 * r.scale {
                 let ang = g.normal.angle_between(w.normal);
                 if ang > 1e-4 {
                     eprintln!(
@@ -471,6 +496,7 @@ fn agree_on_hard_cases(n: usize) -> Stats {
         }
         total.rays += st.rays;
         total.ambiguous += st.ambiguous;
+        total.normal_undefined += st.normal_undefined;
         total.false_miss += st.false_miss;
         total.false_hit += st.false_hit;
         total.nan += st.nan;
@@ -480,11 +506,17 @@ fn agree_on_hard_cases(n: usize) -> Stats {
     }
     eprintln!("total: {total:?}");
     assert!(failures.is_empty(), "{failures:#?}");
-    // The band must stay a band: most rays, grazing ones included, are decided.
+    // The band must stay a band: most rays, grazing ones included, are decided, normals too.
     assert!(
         total.ambiguous * 20 < total.rays,
         "too many ambiguous rays: {} of {}",
         total.ambiguous,
+        total.rays
+    );
+    assert!(
+        total.normal_undefined * 50 < total.rays,
+        "too many hits with an undefined normal: {} of {}",
+        total.normal_undefined,
         total.rays
     );
     total
