@@ -34,6 +34,7 @@ pub mod material;
 pub mod math;
 pub mod output;
 pub mod partial_film;
+pub mod phases;
 pub mod render;
 pub mod sampler;
 pub mod sampling;

@@ -15,6 +15,7 @@
 use std::mem::MaybeUninit;
 
 use glam::{BVec4A, Vec3A, Vec4};
+use rayon::prelude::*;
 
 use crate::bvh::pop_nearer;
 use crate::bvh::{Bvh, LeafCost};
@@ -150,16 +151,20 @@ struct PacketHits {
 }
 
 impl Packet {
-    fn new(corners: &[[Vec3A; 3]], first: usize, count: usize) -> Packet {
-        let mut v = [Vec4::ZERO; 9];
-        for lane in 0..4 {
-            let tri = corners[first + if lane < count { lane } else { 0 }];
-            for (c, corner) in tri.iter().enumerate() {
-                for axis in 0..3 {
-                    v[3 * c + axis][lane] = corner[axis];
-                }
-            }
-        }
+    /// The packet of slots `first..first + count` (at most four), `corners(slot)` giving each
+    /// slot's triangle.
+    fn new(corners: impl Fn(usize) -> [Vec3A; 3], first: usize, count: usize) -> Packet {
+        let tris: [[Vec3A; 3]; 4] =
+            std::array::from_fn(|lane| corners(first + if lane < count { lane } else { 0 }));
+        let v = std::array::from_fn(|k| {
+            let (c, axis) = (k / 3, k % 3);
+            Vec4::new(
+                tris[0][c][axis],
+                tris[1][c][axis],
+                tris[2][c][axis],
+                tris[3][c][axis],
+            )
+        });
         Packet {
             v,
             first: first as u32,
@@ -263,39 +268,77 @@ impl TriangleBvh {
     /// triangles are left out (they cannot be hit).
     pub fn new(corners: Vec<[Vec3A; 3]>, ids: Vec<[u32; 2]>) -> TriangleBvh {
         debug_assert_eq!(corners.len(), ids.len());
-        let boxes: Vec<Aabb> = corners
-            .iter()
-            .map(|c| {
-                let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+        TriangleBvh::build(corners.len(), |i| corners[i], |i| ids[i])
+    }
+
+    /// [`TriangleBvh::new`] over `count` triangles whose corners and ids the functions give
+    /// (called in parallel, `corners` twice per triangle: once for its box, once for its leaf),
+    /// so that no array of corners is made: the build holds 32 bytes per triangle (its box and
+    /// index) while it splits, then the binary nodes, the leaf packets and the ids.
+    pub fn build(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3A; 3] + Sync,
+        id: impl Fn(usize) -> [u32; 2] + Sync,
+    ) -> TriangleBvh {
+        let mut bin = Bvh::build_from(
+            count,
+            |i| {
+                let c = corners(i);
                 Aabb {
-                    min: lo.into(),
-                    max: hi.into(),
+                    min: c[0].min(c[1]).min(c[2]).into(),
+                    max: c[0].max(c[1]).max(c[2]).into(),
                 }
-            })
-            .collect();
-        let bin = Bvh::build_with(&boxes, LeafCost::PACKET4);
+            },
+            LeafCost::PACKET4,
+        );
         if bin.prims.is_empty() {
             return TriangleBvh::default();
         }
-        let slot_corners: Vec<[Vec3A; 3]> =
-            bin.prims.iter().map(|&p| corners[p as usize]).collect();
-        let ids = bin.prims.iter().map(|&p| ids[p as usize]).collect();
+        crate::phases::mark("bvh: binary SAH tree");
+        let prims = std::mem::take(&mut bin.prims);
+        let ids = prims.par_iter().map(|&p| id(p as usize)).collect();
+        // The leaves in slot order (a left-first walk meets them so), and each leaf's packet.
+        let mut packet_of = vec![u32::MAX; bin.nodes.len()];
+        let mut leaves = Vec::new();
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let n = bin.nodes[i];
+            if n.count() > 0 {
+                packet_of[i] = leaves.len() as u32;
+                leaves.push((n.first() as usize, n.count() as usize));
+            } else {
+                stack.push(n.first() as usize + 1);
+                stack.push(n.first() as usize);
+            }
+        }
+        let packets = leaves
+            .par_iter()
+            .map(|&(first, count)| Packet::new(|slot| corners(prims[slot] as usize), first, count))
+            .collect();
+        drop((leaves, prims));
+        crate::phases::mark("bvh: leaf packets");
         let mut out = TriangleBvh {
             bounds: bin.bounds(),
             ids,
+            packets,
             ..TriangleBvh::default()
         };
-        out.root = out.collapse(&bin, 0, &slot_corners, 1);
+        out.root = out.collapse(&bin, &packet_of, 0, 1);
+        crate::phases::mark(&format!(
+            "bvh: leaf packets and 4-wide nodes ({} triangles, {} binary nodes, {} packets, {} nodes)",
+            out.ids.len(),
+            bin.nodes.len(),
+            out.packets.len(),
+            out.nodes.len()
+        ));
         out
     }
 
     /// Turns binary node `index` (and its subtree) into 4-wide nodes; returns its reference.
-    fn collapse(&mut self, bin: &Bvh, index: usize, corners: &[[Vec3A; 3]], depth: usize) -> u32 {
+    fn collapse(&mut self, bin: &Bvh, packet_of: &[u32], index: usize, depth: usize) -> u32 {
         let n = bin.nodes[index];
         if n.count() > 0 {
-            self.packets
-                .push(Packet::new(corners, n.first() as usize, n.count() as usize));
-            return LEAF | (self.packets.len() - 1) as u32;
+            return LEAF | packet_of[index];
         }
         self.depth = self.depth.max(depth);
         // Open the interior child with the largest surface area until there are four children
@@ -321,7 +364,7 @@ impl TriangleBvh {
         self.nodes.push(Node4::EMPTY);
         let mut node = Node4::EMPTY;
         for (lane, &kid) in kids[..len].iter().enumerate() {
-            let child = self.collapse(bin, kid, corners, depth + 1);
+            let child = self.collapse(bin, packet_of, kid, depth + 1);
             node.set_child(lane, bin.nodes[kid].aabb(), child);
         }
         self.nodes[me] = node;
