@@ -123,6 +123,9 @@ pub struct Bvh {
 }
 
 const BINS: usize = 16;
+/// Nodes of at most this many primitives are binned into [`SMALL_BINS`] bins.
+const SMALL_NODE: usize = 16;
+const SMALL_BINS: usize = 8;
 /// Cost of one traversal step relative to one primitive test, for the SAH.
 const TRAVERSAL_COST: f32 = 1.0;
 /// Nodes with more primitives than this build their two halves in parallel.
@@ -473,21 +476,21 @@ impl Range {
 const PAR_BINNING: usize = 4 * PAR_CHUNK;
 const PAR_CHUNK: usize = 16 * 1024;
 
-/// Per-bin boxes, centroid boxes and counts along one axis.
+/// Per-bin boxes, centroid boxes and counts along one axis, `N` bins.
 #[derive(Clone, Copy)]
-struct Bins {
-    range: [Range; BINS],
-    count: [u32; BINS],
+struct Bins<const N: usize> {
+    range: [Range; N],
+    count: [u32; N],
 }
 
-impl Bins {
-    const EMPTY: Bins = Bins {
-        range: [Range::EMPTY; BINS],
-        count: [0; BINS],
+impl<const N: usize> Bins<N> {
+    const EMPTY: Bins<N> = Bins {
+        range: [Range::EMPTY; N],
+        count: [0; N],
     };
 
-    fn merge(mut self, o: Bins) -> Bins {
-        for i in 0..BINS {
+    fn merge(mut self, o: Bins<N>) -> Bins<N> {
+        for i in 0..N {
             self.range[i] = self.range[i].union(o.range[i]);
             self.count[i] += o.count[i];
         }
@@ -512,12 +515,22 @@ fn split(lc: LeafCost, refs: &mut [PrimRef], range: Range) -> Split {
     }
     let extent = range.cbounds.max - range.cbounds.min;
     // The axis as a constant: the per-primitive loops then read one lane without branching.
-    let split = if extent.x >= extent.y && extent.x >= extent.z {
-        split_along::<0>(lc, refs, range)
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
     } else if extent.y >= extent.z {
-        split_along::<1>(lc, refs, range)
+        1
     } else {
-        split_along::<2>(lc, refs, range)
+        2
+    };
+    // Small nodes bin coarser: they have few primitives to place, and the fixed cost of
+    // clearing and sweeping the bins dominates their split.
+    let split = match (axis, count <= SMALL_NODE) {
+        (0, false) => split_along::<0, BINS>(lc, refs, range),
+        (1, false) => split_along::<1, BINS>(lc, refs, range),
+        (_, false) => split_along::<2, BINS>(lc, refs, range),
+        (0, true) => split_along::<0, SMALL_BINS>(lc, refs, range),
+        (1, true) => split_along::<1, SMALL_BINS>(lc, refs, range),
+        (_, true) => split_along::<2, SMALL_BINS>(lc, refs, range),
     };
     if let Some(split) = split {
         return split;
@@ -532,7 +545,7 @@ fn split(lc: LeafCost, refs: &mut [PrimRef], range: Range) -> Split {
 
 /// [`split`] along axis `AXIS` by binned SAH; `None` when binning finds no split.
 #[inline(always)]
-fn split_along<const AXIS: usize>(
+fn split_along<const AXIS: usize, const BINS: usize>(
     lc: LeafCost,
     refs: &mut [PrimRef],
     range: Range,
@@ -546,9 +559,9 @@ fn split_along<const AXIS: usize>(
     if span > 0.0 {
         // Bin the centroids and sweep for the cheapest split (SAH).
         let scale = BINS as f32 / span;
-        let bin_of = |c: Vec3A| (((c.to_array()[AXIS] - lo) * scale) as usize).min(BINS - 1);
+        let bin_of = |c: Vec3A| ((c.to_array()[AXIS] - lo) * scale).min((BINS - 1) as f32) as usize;
         let bin = |refs: &[PrimRef]| {
-            let mut bins = Bins::EMPTY;
+            let mut bins = Bins::<BINS>::EMPTY;
             for r in refs {
                 let b = bin_of(r.center());
                 bins.range[b] = bins.range[b].add(r);
@@ -559,7 +572,7 @@ fn split_along<const AXIS: usize>(
         let bins = if count > PAR_BINNING {
             refs.par_chunks(PAR_CHUNK)
                 .map(bin)
-                .reduce(|| Bins::EMPTY, Bins::merge)
+                .reduce(|| Bins::<BINS>::EMPTY, Bins::merge)
         } else {
             bin(refs)
         };
@@ -592,7 +605,11 @@ fn split_along<const AXIS: usize>(
         let split_cost = TRAVERSAL_COST * bounds.half_area() + best.0;
         if best.0.is_finite() && (split_cost < leaf_cost || count > lc.max_leaf) {
             let threshold = best.1;
-            let mid = partition(refs, |r| bin_of(r.center()) <= threshold);
+            // bin_of(c) ≤ threshold, in floats: the bin is x = (c − lo)·scale ≥ 0 truncated, so
+            // it is at most `threshold` exactly when x < threshold + 1 (the same x, so
+            // the sides agree with the bins whose boxes they get).
+            let limit = (threshold + 1) as f32;
+            let mid = partition(refs, |r| (r.center().to_array()[AXIS] - lo) * scale < limit);
             let side = |bins: &[Range]| bins.iter().fold(Range::EMPTY, |a, &b| a.union(b));
             if mid > 0 && mid < count {
                 return Some(Split::At(
