@@ -245,18 +245,13 @@ impl Bvh {
         // A binary tree over n ≥ 1 primitives has at most 2n − 1 nodes. The array is reserved
         // at that size, but only the pages of the nodes written are ever touched, and it is
         // shrunk (in place) afterwards.
-        let mut nodes: Vec<Node> = Vec::with_capacity(2 * refs.len());
-        let arena = Arena {
-            ptr: nodes.as_mut_ptr(),
-            cap: nodes.capacity(),
-            len: AtomicUsize::new(1),
+        // SAFETY: `build_node` writes the node it is given and every index it takes.
+        let nodes = unsafe {
+            Arena::fill(2 * refs.len(), |arena| {
+                let root = arena.take(1);
+                build_node(leaf_cost, arena, root, &mut refs, range, 0);
+            })
         };
-        build_node(leaf_cost, &arena, 0, &mut refs, range, 0);
-        let len = arena.len.into_inner();
-        // SAFETY: nodes 0..len were all written: node 0 by the call above, and every pair
-        // `Arena::pair` hands out by the `build_node` call that asked for it.
-        unsafe { nodes.set_len(len) };
-        nodes.shrink_to_fit();
         let prims = refs.par_iter().map(PrimRef::id).collect();
         Bvh { nodes, prims }
     }
@@ -623,34 +618,57 @@ fn split_along<const AXIS: usize, const BINS: usize>(
     None
 }
 
-/// The node array of a build, written by many threads: each index is handed out once
-/// ([`Arena::pair`]) and written once, by the thread that asked for it.
-struct Arena {
-    ptr: *mut Node,
+/// An array written by many threads at once, as a tree builder fills its node array: each
+/// index is handed out once ([`Arena::take`]) and written once, by the thread that took it.
+pub(crate) struct Arena<T> {
+    ptr: *mut T,
     cap: usize,
     len: AtomicUsize,
 }
 
 // SAFETY: threads write disjoint indices (each handed out once by an atomic counter), and the
-// array is read only after all writers have joined.
-unsafe impl Sync for Arena {}
+// array is read only after `fill`'s closure, and so every writer, has returned.
+unsafe impl<T: Send> Sync for Arena<T> {}
 
-impl Arena {
-    /// Two adjacent fresh indices (siblings), the first returned.
-    fn pair(&self) -> usize {
-        let i = self.len.fetch_add(2, Ordering::Relaxed);
-        assert!(i + 2 <= self.cap, "BVH node array overflow");
+impl<T> Arena<T> {
+    /// Runs `build` over an arena of at most `cap` elements and returns the elements it took.
+    /// The capacity is reserved but only the pages written are touched, and the array is
+    /// shrunk (in place) afterwards.
+    ///
+    /// # Safety
+    /// `build` must write ([`Arena::set`]) every index it takes ([`Arena::take`]).
+    pub(crate) unsafe fn fill(cap: usize, build: impl FnOnce(&Arena<T>)) -> Vec<T> {
+        let mut v: Vec<T> = Vec::with_capacity(cap);
+        let arena = Arena {
+            ptr: v.as_mut_ptr(),
+            cap,
+            len: AtomicUsize::new(0),
+        };
+        build(&arena);
+        let len = arena.len.into_inner();
+        // SAFETY: `len` ≤ `cap` (checked by `take`), and the caller guarantees that every
+        // index below it, handed out by `take`, was written.
+        unsafe { v.set_len(len) };
+        v.shrink_to_fit();
+        v
+    }
+
+    /// `n` adjacent fresh indices (siblings), the first returned.
+    pub(crate) fn take(&self, n: usize) -> usize {
+        let i = self.len.fetch_add(n, Ordering::Relaxed);
+        assert!(i + n <= self.cap, "arena overflow");
         i
     }
 
-    /// Writes node `i`.
+    /// Writes element `i`.
     ///
     /// # Safety
-    /// `i` must be 0 or come from [`Arena::pair`], and no other thread may write it.
-    unsafe fn set(&self, i: usize, node: Node) {
-        assert!(i < self.cap);
-        // SAFETY: in bounds (checked); the caller guarantees no other thread writes `i`.
-        unsafe { self.ptr.add(i).write(node) };
+    /// `i` must come from [`Arena::take`], and no other call may write it.
+    pub(crate) unsafe fn set(&self, i: usize, x: T) {
+        assert!(i < self.len.load(Ordering::Relaxed));
+        // SAFETY: in bounds (below `len` ≤ `cap`); the caller guarantees that no other
+        // thread writes `i` and that it was not written before.
+        unsafe { self.ptr.add(i).write(x) };
     }
 }
 
@@ -660,12 +678,40 @@ impl Arena {
 /// timing, the tree does not.
 fn build_node(
     lc: LeafCost,
-    arena: &Arena,
+    arena: &Arena<Node>,
     index: usize,
     refs: &mut [PrimRef],
     range: Range,
     offset: usize,
 ) {
+    if refs.len() <= PARALLEL_THRESHOLD {
+        // Built by this thread alone into a local array (root first, then pairs of
+        // siblings), then copied into the arena with one `take`: no contended counter per
+        // node.
+        let mut local = vec![Node::new(&Bx::EMPTY, 0, 0)];
+        build_sequential(lc, &mut local, 0, refs, range, offset);
+        let base = if local.len() > 1 {
+            arena.take(local.len() - 1)
+        } else {
+            0
+        };
+        // Local node k ≥ 1 goes to base + k − 1; child links move with it.
+        let place = |mut n: Node| {
+            if n.count() == 0 {
+                n.lo.w = f32::from_bits((base + n.first() as usize - 1) as u32);
+            }
+            n
+        };
+        // SAFETY: `index` was handed to this call alone, and base.. base + len − 1 were
+        // taken by it just above.
+        unsafe {
+            arena.set(index, place(local[0]));
+            for (k, &n) in local.iter().enumerate().skip(1) {
+                arena.set(base + k - 1, place(n));
+            }
+        }
+        return;
+    }
     let (mid, lr, rr) = match split(lc, refs, range) {
         Split::Leaf => {
             let leaf = Node::new(&range.bounds, offset as u32, refs.len() as u32);
@@ -675,20 +721,39 @@ fn build_node(
         }
         Split::At(mid, lr, rr) => (mid, lr, rr),
     };
-    let first = arena.pair();
+    let first = arena.take(2);
     // SAFETY: as above.
     unsafe { arena.set(index, Node::new(&range.bounds, first as u32, 0)) };
-    let parallel = refs.len() > PARALLEL_THRESHOLD;
     let (lp, rp) = refs.split_at_mut(mid);
-    if parallel {
-        rayon::join(
-            || build_node(lc, arena, first, lp, lr, offset),
-            || build_node(lc, arena, first + 1, rp, rr, offset + mid),
-        );
-    } else {
-        build_node(lc, arena, first, lp, lr, offset);
-        build_node(lc, arena, first + 1, rp, rr, offset + mid);
-    }
+    rayon::join(
+        || build_node(lc, arena, first, lp, lr, offset),
+        || build_node(lc, arena, first + 1, rp, rr, offset + mid),
+    );
+}
+
+/// Builds the subtree over `refs` into `nodes`, its root at `nodes[index]`.
+fn build_sequential(
+    lc: LeafCost,
+    nodes: &mut Vec<Node>,
+    index: usize,
+    refs: &mut [PrimRef],
+    range: Range,
+    offset: usize,
+) {
+    let (mid, lr, rr) = match split(lc, refs, range) {
+        Split::Leaf => {
+            nodes[index] = Node::new(&range.bounds, offset as u32, refs.len() as u32);
+            return;
+        }
+        Split::At(mid, lr, rr) => (mid, lr, rr),
+    };
+    let first = nodes.len();
+    nodes.push(Node::new(&Bx::EMPTY, 0, 0));
+    nodes.push(Node::new(&Bx::EMPTY, 0, 0));
+    nodes[index] = Node::new(&range.bounds, first as u32, 0);
+    let (lp, rp) = refs.split_at_mut(mid);
+    build_sequential(lc, nodes, first, lp, lr, offset);
+    build_sequential(lc, nodes, first + 1, rp, rr, offset + mid);
 }
 
 /// Reorders `s` so elements satisfying `pred` come first (Hoare's scheme: each misplaced pair is

@@ -18,7 +18,7 @@ use glam::{BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use crate::bvh::pop_nearer;
-use crate::bvh::{Bvh, LeafCost};
+use crate::bvh::{Arena, Bvh, LeafCost};
 use crate::geometry::triangle::{shear_axes, TriHit};
 use crate::math::{Aabb, Vec3};
 
@@ -234,6 +234,64 @@ impl Packet {
     }
 }
 
+/// Tree levels above this depth collapse their children in parallel.
+const PARALLEL_COLLAPSE_DEPTH: usize = 6;
+
+/// Turns binary node `index` (and its subtree) into 4-wide nodes written to `nodes`; returns
+/// its reference and the deepest level of 4-wide nodes in it (`depth` is this node's level;
+/// 0 for a leaf).
+fn collapse(
+    bin: &Bvh,
+    packet_of: &[u32],
+    nodes: &Arena<Node4>,
+    index: usize,
+    depth: usize,
+) -> (u32, usize) {
+    let n = bin.nodes[index];
+    if n.count() > 0 {
+        return (LEAF | packet_of[index], 0);
+    }
+    // Open the interior child with the largest surface area until there are four children
+    // (the greedy collapse of Wald et al. 2008, "Getting Rid of Packets").
+    let mut kids = [n.first() as usize, n.first() as usize + 1, 0, 0];
+    let mut len = 2;
+    while len < 4 {
+        let widest = (0..len)
+            .filter(|&i| bin.nodes[kids[i]].count() == 0)
+            .max_by(|&a, &b| {
+                bin.nodes[kids[a]]
+                    .aabb()
+                    .half_area()
+                    .total_cmp(&bin.nodes[kids[b]].aabb().half_area())
+            });
+        let Some(i) = widest else { break };
+        let first = bin.nodes[kids[i]].first() as usize;
+        kids[i] = first;
+        kids[len] = first + 1;
+        len += 1;
+    }
+    let me = nodes.take(1);
+    let child = |&kid: &usize| collapse(bin, packet_of, nodes, kid, depth + 1);
+    let mut children = [(0, 0); 4];
+    if depth < PARALLEL_COLLAPSE_DEPTH {
+        let done: Vec<(u32, usize)> = kids[..len].par_iter().map(child).collect();
+        children[..len].copy_from_slice(&done);
+    } else {
+        for (c, kid) in children.iter_mut().zip(&kids[..len]) {
+            *c = child(kid);
+        }
+    }
+    let mut node = Node4::EMPTY;
+    let mut deepest = depth;
+    for (lane, (&kid, &(reference, d))) in kids[..len].iter().zip(&children).enumerate() {
+        node.set_child(lane, bin.nodes[kid].aabb(), reference);
+        deepest = deepest.max(d);
+    }
+    // SAFETY: `me` was taken by this call alone.
+    unsafe { nodes.set(me, node) };
+    (me as u32, deepest)
+}
+
 /// A BVH over triangles (see the module documentation). Each triangle carries a caller-defined
 /// id (for a mesh, its triangle index; for a scene's world-space set, the instance and the
 /// triangle index).
@@ -317,13 +375,22 @@ impl TriangleBvh {
             .collect();
         drop((leaves, prims));
         crate::phases::mark("bvh: leaf packets");
-        let mut out = TriangleBvh {
+        // A 4-wide node takes at least one binary interior node.
+        let mut root = (0, 0);
+        // SAFETY: `collapse` writes every node it takes.
+        let nodes = unsafe {
+            Arena::fill(bin.nodes.len(), |arena| {
+                root = collapse(&bin, &packet_of, arena, 0, 1);
+            })
+        };
+        let out = TriangleBvh {
             bounds: bin.bounds(),
             ids,
             packets,
-            ..TriangleBvh::default()
+            nodes,
+            root: root.0,
+            depth: root.1,
         };
-        out.root = out.collapse(&bin, &packet_of, 0, 1);
         crate::phases::mark(&format!(
             "bvh: leaf packets and 4-wide nodes ({} triangles, {} binary nodes, {} packets, {} nodes)",
             out.ids.len(),
@@ -332,43 +399,6 @@ impl TriangleBvh {
             out.nodes.len()
         ));
         out
-    }
-
-    /// Turns binary node `index` (and its subtree) into 4-wide nodes; returns its reference.
-    fn collapse(&mut self, bin: &Bvh, packet_of: &[u32], index: usize, depth: usize) -> u32 {
-        let n = bin.nodes[index];
-        if n.count() > 0 {
-            return LEAF | packet_of[index];
-        }
-        self.depth = self.depth.max(depth);
-        // Open the interior child with the largest surface area until there are four children
-        // (the greedy collapse of Wald et al. 2008, "Getting Rid of Packets").
-        let mut kids = [n.first() as usize, n.first() as usize + 1, 0, 0];
-        let mut len = 2;
-        while len < 4 {
-            let widest = (0..len)
-                .filter(|&i| bin.nodes[kids[i]].count() == 0)
-                .max_by(|&a, &b| {
-                    bin.nodes[kids[a]]
-                        .aabb()
-                        .half_area()
-                        .total_cmp(&bin.nodes[kids[b]].aabb().half_area())
-                });
-            let Some(i) = widest else { break };
-            let first = bin.nodes[kids[i]].first() as usize;
-            kids[i] = first;
-            kids[len] = first + 1;
-            len += 1;
-        }
-        let me = self.nodes.len();
-        self.nodes.push(Node4::EMPTY);
-        let mut node = Node4::EMPTY;
-        for (lane, &kid) in kids[..len].iter().enumerate() {
-            let child = self.collapse(bin, packet_of, kid, depth + 1);
-            node.set_child(lane, bin.nodes[kid].aabb(), child);
-        }
-        self.nodes[me] = node;
-        me as u32
     }
 
     /// Number of triangles.
