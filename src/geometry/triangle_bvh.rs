@@ -369,13 +369,9 @@ impl TriangleBvh {
                 stack.push(n.first() as usize);
             }
         }
-        let packets = leaves
-            .par_iter()
-            .map(|&(first, count)| Packet::new(|slot| corners(prims[slot] as usize), first, count))
-            .collect();
-        drop((leaves, prims));
-        crate::phases::mark("bvh: leaf packets");
-        // A 4-wide node takes at least one binary interior node.
+        // The 4-wide nodes first, so that the binary tree is freed before the packets are
+        // made: the two are never in memory together. A 4-wide node takes at least one binary
+        // interior node.
         let mut root = (0, 0);
         // SAFETY: `collapse` writes every node it takes.
         let nodes = unsafe {
@@ -383,8 +379,16 @@ impl TriangleBvh {
                 root = collapse(&bin, &packet_of, arena, 0, 1);
             })
         };
+        let (bounds, binary_nodes) = (bin.bounds(), bin.nodes.len());
+        drop((bin, packet_of));
+        crate::phases::mark("bvh: 4-wide nodes");
+        let packets = leaves
+            .par_iter()
+            .map(|&(first, count)| Packet::new(|slot| corners(prims[slot] as usize), first, count))
+            .collect();
+        drop((leaves, prims));
         let out = TriangleBvh {
-            bounds: bin.bounds(),
+            bounds,
             ids,
             packets,
             nodes,
@@ -392,9 +396,8 @@ impl TriangleBvh {
             depth: root.1,
         };
         crate::phases::mark(&format!(
-            "bvh: leaf packets and 4-wide nodes ({} triangles, {} binary nodes, {} packets, {} nodes)",
+            "bvh: leaf packets ({} triangles, {binary_nodes} binary nodes, {} packets, {} nodes)",
             out.ids.len(),
-            bin.nodes.len(),
             out.packets.len(),
             out.nodes.len()
         ));
