@@ -18,6 +18,7 @@
 
 #![warn(missing_docs)]
 
+pub mod alloc;
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
