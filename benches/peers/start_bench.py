@@ -1,8 +1,8 @@
 """Start time and peak memory on big meshes: lumo's whole start (load a .glb, build, render one
 sample) against Embree's BVH build over the same indexed triangles, side by side in one run.
 
-    .venv/bin/python start_bench.py [--lumo target/release/lumo] [--repeats 3]
-        [--levels 3,4,5,6,7,8] [--instanced 8] [--plot ../../docs/start_time_memory.svg]
+    .venv/bin/python start_bench.py [--lumo target/release/lumo] [--baseline OLD_LUMO]
+        [--repeats 3] [--levels 3,4,5,6,7,8] [--instanced 8] [--plot ../../docs/start.svg]
 
 Meshes: the unit icosphere of ``embree_rays.icosphere(n)`` (20 * 4^n triangles, the same
 vertices and triangles as ``lumo::geometry::mesh::icosphere``), written as a minimal binary glTF
@@ -22,6 +22,9 @@ Embree (embreex): ``EmbreeScene()`` + ``TriangleMesh(scene, V, F)`` + one ray (t
 commits the scene: ``rtcCommitScene``, the BVH build), timed in this process, on the same float32
 vertices and int32 indices that the .glb holds. Instanced case: the one level-8 mesh (what an
 instancing renderer builds; embreex has no instance API).
+
+``--baseline OLD_LUMO`` also times another lumo binary (an earlier build) the same way, right
+before the current one, for before/after ratios measured side by side.
 
 Each repeat runs every size, lumo then Embree, so both see the same machine state; reported are
 min-max ranges over --repeats and the 1-minute load average (2 cores: above ~2 means another job
@@ -180,6 +183,8 @@ def plot(rows: list[dict], path: Path) -> None:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--lumo", default=str(common.REPO_ROOT / "target" / "release" / "lumo"))
+    ap.add_argument("--baseline", default=None,
+                    help="an earlier lumo binary, timed the same way in the same run")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--levels", default="3,4,5,6,7,8")
     ap.add_argument("--instanced", type=int, default=8,
@@ -212,27 +217,33 @@ def main() -> int:
     rows = []
     for rep in range(args.repeats):
         for name, glb, v, f, k in cases:
+            base = run_lumo(args.baseline, glb) if args.baseline else None
             lumo = run_lumo(args.lumo, glb)
             emb = embree_build(v, f)
             tris = len(f) * k
             row = {"case": name, "repeat": rep, "triangles": tris, "stored_triangles": len(f),
                    "instances": k, "glb_bytes": glb.stat().st_size, "lumo_s": lumo["wall"],
                    "lumo_user_s": lumo["user"], "lumo_sys_s": lumo["sys"],
-                   "rss_bytes": lumo["rss"], "embree_s": emb, "load1": common.load1()}
+                   "rss_bytes": lumo["rss"], "embree_s": emb, "load1": common.load1(),
+                   "baseline_s": base["wall"] if base else "",
+                   "baseline_rss_bytes": base["rss"] if base else ""}
             rows.append(row)
             print(f"[{rep}] {name:8s} {tris:>10,} tris  lumo {lumo['wall']:.3f} s "
                   f"(user {lumo['user']:.2f} sys {lumo['sys']:.2f})  peak "
                   f"{lumo['rss'] / 2**20:7.1f} MiB = {lumo['rss'] / len(f):6.1f} B/stored tri  "
                   f"embree {emb:.3f} s  ratio {lumo['wall'] / emb:5.2f}  "
-                  f"load {row['load1']:.2f}", flush=True)
+                  + (f"baseline {base['wall']:.3f} s {base['rss'] / len(f):6.1f} B/tri  "
+                     if base else "")
+                  + f"load {row['load1']:.2f}", flush=True)
     with open(args.results, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     print(f"\nwrote {args.results}\n")
     print("| case | triangles | lumo start s | Embree build s | lumo / Embree | lumo user s | "
-          "peak MiB | peak B/stored triangle | load |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "peak MiB | peak B/stored triangle | load |"
+          + (" baseline start s | baseline B/stored triangle |" if args.baseline else ""))
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|---:|" if args.baseline else ""))
     for name, _, v, f, k in cases:
         rs = [r for r in rows if r["case"] == name]
         print(f"| {name} | {len(f) * k:,} | {rng([r['lumo_s'] for r in rs])} | "
@@ -241,7 +252,10 @@ def main() -> int:
               f"{rng([r['lumo_user_s'] for r in rs], '{:.2f}')} | "
               f"{rng([r['rss_bytes'] / 2**20 for r in rs], '{:.0f}')} | "
               f"{rng([r['rss_bytes'] / len(f) for r in rs], '{:.0f}')} | "
-              f"{rng([r['load1'] for r in rs], '{:.2f}')} |")
+              f"{rng([r['load1'] for r in rs], '{:.2f}')} |"
+              + (f" {rng([r['baseline_s'] for r in rs])} | "
+                 f"{rng([r['baseline_rss_bytes'] / len(f) for r in rs], '{:.0f}')} |"
+                 if args.baseline else ""))
     if args.plot:
         plot(rows, args.plot)
     return 0
