@@ -28,7 +28,8 @@ before the current one, for before/after ratios measured side by side.
 
 Each repeat runs every size, lumo then Embree, so both see the same machine state; reported are
 min-max ranges over --repeats and the 1-minute load average (2 cores: above ~2 means another job
-competes). Output: ``out/start/results.csv`` and a log-log plot of lumo's start time, Embree's
+competes); CPU times (lumo: user + system; Embree: this process's CPU time over the build)
+are far less inflated by other jobs than wall times. Output: ``out/start/results.csv`` and a log-log plot of lumo's start time, Embree's
 build time and lumo's peak bytes per triangle against triangle count.
 """
 
@@ -120,20 +121,21 @@ def run_lumo(lumo: str, glb: Path) -> dict:
             "rss": int(field("Maximum resident set size (kbytes)")) * 1024}
 
 
-def embree_build(v: np.ndarray, f: np.ndarray) -> float:
-    """Seconds for Embree to make the scene and build its BVH (committed by the first ray)."""
+def embree_build(v: np.ndarray, f: np.ndarray) -> tuple[float, float]:
+    """Wall and CPU seconds (all threads of this process) for Embree to make the scene and
+    build its BVH (committed by the first ray)."""
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
 
     o = np.zeros((1, 3), dtype=np.float32)
     d = np.array([[0, 0, 1]], dtype=np.float32)
-    t0 = time.perf_counter()
+    c0, t0 = time.process_time(), time.perf_counter()
     scene = rtcs.EmbreeScene()
     TriangleMesh(scene, v, f)
     scene.run(o, d, output=1)
-    dt = time.perf_counter() - t0
+    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
     del scene
-    return dt
+    return dt, cpu
 
 
 def rng(xs: list[float], fmt: str = "{:.3f}") -> str:
@@ -142,6 +144,8 @@ def rng(xs: list[float], fmt: str = "{:.3f}") -> str:
 
 
 def plot(rows: list[dict], path: Path) -> None:
+    """Log-log: start/build time and peak memory against rendered triangles (best of repeats);
+    memory per *stored* triangle (the instanced case stores one mesh)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -152,29 +156,36 @@ def plot(rows: list[dict], path: Path) -> None:
         by_case.setdefault(r["case"], []).append(r)
     cases = sorted(by_case.values(), key=lambda rs: rs[0]["triangles"])
     n = np.array([rs[0]["triangles"] for rs in cases], dtype=float)
-    lumo = np.array([min(r["lumo_s"] for r in rs) for rs in cases])
-    embree = np.array([min(r["embree_s"] for r in rs) for rs in cases])
-    bpt = np.array([min(r["rss_bytes"] for r in rs) for rs in cases]) / n
-    rss = np.array([min(r["rss_bytes"] for r in rs) for rs in cases])
+    stored = np.array([rs[0]["stored_triangles"] for rs in cases], dtype=float)
+    best = lambda key: np.array([min(r[key] for r in rs) for rs in cases], dtype=float)
+    has_base = all(r["baseline_s"] != "" for r in rows)
     inst = np.array([rs[0]["instances"] > 1 for rs in cases])
-    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
-    a.loglog(n, lumo, "o-", label="lumo start (load + build + 1 spp)")
-    a.loglog(n, embree, "s--", label="Embree BVH build (same triangles)")
+    load = f"load {min(r['load1'] for r in rows):.1f}–{max(r['load1'] for r in rows):.1f}"
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
+    a.loglog(n, best("lumo_s"), "o-", label="lumo start (load + build + 1 spp)")
+    if has_base:
+        a.loglog(n, best("baseline_s"), "o:", color="gray", label="lumo start, before")
+    a.loglog(n, best("embree_s"), "s--", label="Embree BVH build (same triangles)")
     if inst.any():
-        a.loglog(n[inst], lumo[inst], "o", mfc="none", ms=12, color="k", label="instanced")
-    a.set_xlabel("triangles")
+        a.loglog(n[inst], best("lumo_s")[inst], "o", mfc="none", ms=13, color="k",
+                 label="8 instances of 1.31 M")
+    a.set_xlabel("triangles rendered")
     a.set_ylabel("seconds (best of repeats)")
     a.grid(True, which="both", alpha=0.3)
     a.legend(fontsize=8)
-    b.loglog(n, rss / 2**20, "o-", label="lumo peak RSS (MiB)")
-    b.loglog(n, bpt, "^-", label="lumo peak bytes / triangle")
-    b.axhline(150, color="gray", ls=":", label="150 B/triangle")
+    b.loglog(n, best("rss_bytes") / 2**20, "o-", label="lumo peak RSS, MiB")
+    b.loglog(n, best("rss_bytes") / stored, "^-", label="lumo peak bytes / stored triangle")
+    if has_base:
+        b.loglog(n, best("baseline_rss_bytes") / stored, "^:", color="gray",
+                 label="bytes / stored triangle, before")
+    b.axhline(150, color="tab:red", ls=":", lw=1, label="150 B / triangle")
     if inst.any():
-        b.loglog(n[inst], bpt[inst], "o", mfc="none", ms=12, color="k", label="instanced")
-    b.set_xlabel("triangles")
+        b.loglog(n[inst], (best("rss_bytes") / stored)[inst], "o", mfc="none", ms=13,
+                 color="k", label="8 instances of 1.31 M")
+    b.set_xlabel("triangles rendered")
     b.grid(True, which="both", alpha=0.3)
     b.legend(fontsize=8)
-    fig.suptitle(f"lumo start vs Embree build, icosphere .glb, {os.cpu_count()} cores")
+    fig.suptitle(f"lumo start vs Embree build, icosphere .glb, {os.cpu_count()} cores, {load}")
     fig.tight_layout()
     fig.savefig(path)
     print(f"wrote {path}")
@@ -219,19 +230,20 @@ def main() -> int:
         for name, glb, v, f, k in cases:
             base = run_lumo(args.baseline, glb) if args.baseline else None
             lumo = run_lumo(args.lumo, glb)
-            emb = embree_build(v, f)
+            emb, emb_cpu = embree_build(v, f)
             tris = len(f) * k
             row = {"case": name, "repeat": rep, "triangles": tris, "stored_triangles": len(f),
                    "instances": k, "glb_bytes": glb.stat().st_size, "lumo_s": lumo["wall"],
                    "lumo_user_s": lumo["user"], "lumo_sys_s": lumo["sys"],
-                   "rss_bytes": lumo["rss"], "embree_s": emb, "load1": common.load1(),
+                   "rss_bytes": lumo["rss"], "embree_s": emb, "embree_cpu_s": emb_cpu,
+                   "load1": common.load1(),
                    "baseline_s": base["wall"] if base else "",
                    "baseline_rss_bytes": base["rss"] if base else ""}
             rows.append(row)
             print(f"[{rep}] {name:8s} {tris:>10,} tris  lumo {lumo['wall']:.3f} s "
                   f"(user {lumo['user']:.2f} sys {lumo['sys']:.2f})  peak "
                   f"{lumo['rss'] / 2**20:7.1f} MiB = {lumo['rss'] / len(f):6.1f} B/stored tri  "
-                  f"embree {emb:.3f} s  ratio {lumo['wall'] / emb:5.2f}  "
+                  f"embree {emb:.3f} s (cpu {emb_cpu:.2f})  ratio {lumo['wall'] / emb:5.2f}  "
                   + (f"baseline {base['wall']:.3f} s {base['rss'] / len(f):6.1f} B/tri  "
                      if base else "")
                   + f"load {row['load1']:.2f}", flush=True)
@@ -240,16 +252,18 @@ def main() -> int:
         w.writeheader()
         w.writerows(rows)
     print(f"\nwrote {args.results}\n")
-    print("| case | triangles | lumo start s | Embree build s | lumo / Embree | lumo user s | "
+    print("| case | triangles | lumo start s | Embree build s | lumo / Embree | lumo CPU s | "
+          "Embree CPU s | "
           "peak MiB | peak B/stored triangle | load |"
           + (" baseline start s | baseline B/stored triangle |" if args.baseline else ""))
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|---:|" if args.baseline else ""))
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|---:|" if args.baseline else ""))
     for name, _, v, f, k in cases:
         rs = [r for r in rows if r["case"] == name]
         print(f"| {name} | {len(f) * k:,} | {rng([r['lumo_s'] for r in rs])} | "
               f"{rng([r['embree_s'] for r in rs])} | "
               f"{rng([r['lumo_s'] / r['embree_s'] for r in rs], '{:.2f}')} | "
-              f"{rng([r['lumo_user_s'] for r in rs], '{:.2f}')} | "
+              f"{rng([r['lumo_user_s'] + r['lumo_sys_s'] for r in rs], '{:.2f}')} | "
+              f"{rng([r['embree_cpu_s'] for r in rs], '{:.2f}')} | "
               f"{rng([r['rss_bytes'] / 2**20 for r in rs], '{:.0f}')} | "
               f"{rng([r['rss_bytes'] / len(f) for r in rs], '{:.0f}')} | "
               f"{rng([r['load1'] for r in rs], '{:.2f}')} |"
