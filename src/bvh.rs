@@ -8,12 +8,16 @@
 //! *slots* (positions in [`Bvh::prims`]), so a caller that copies its primitive data into slot
 //! order (as the triangle sets do) reads it sequentially without an index indirection.
 //!
-//! Large builds run the two halves of every big node in parallel (`rayon::join`); the result is
-//! identical to the sequential build.
+//! The builder moves 32-byte primitive records (box + index, Embree's `PrimRef`) and partitions
+//! them in place, so it reads memory sequentially; each node's box and centroid box come from its
+//! parent's bins. Large builds bin big nodes in parallel chunks and run the two halves of every
+//! big node in parallel (`rayon::join`); the result is identical to the sequential build.
 
 use std::mem::MaybeUninit;
 
 use glam::{Vec3A, Vec4};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::math::{Aabb, Vec3};
 
@@ -55,10 +59,6 @@ impl Node {
             min: self.lo.truncate(),
             max: self.hi.truncate(),
         }
-    }
-
-    fn set_first(&mut self, first: u32) {
-        self.lo.w = f32::from_bits(first);
     }
 
     /// Entry distance of the ray into the box within (t_min, t_max), or +∞ when it misses.
@@ -123,6 +123,9 @@ pub struct Bvh {
 }
 
 const BINS: usize = 16;
+/// Nodes of at most this many primitives are binned into [`SMALL_BINS`] bins.
+const SMALL_NODE: usize = 16;
+const SMALL_BINS: usize = 8;
 /// Cost of one traversal step relative to one primitive test, for the SAH.
 const TRAVERSAL_COST: f32 = 1.0;
 /// Nodes with more primitives than this build their two halves in parallel.
@@ -200,32 +203,56 @@ impl Bvh {
 
     /// [`Bvh::build`] with a given leaf pricing.
     pub fn build_with(boxes: &[Aabb], leaf_cost: LeafCost) -> Bvh {
-        let bx: Vec<Bx> = boxes
-            .iter()
-            .map(|b| Bx {
-                min: b.min.into(),
-                max: b.max.into(),
+        Bvh::build_from(boxes.len(), |i| boxes[i], leaf_cost)
+    }
+
+    /// [`Bvh::build_with`] over `count` primitives whose boxes `box_of(i)` gives, so that a
+    /// caller need not keep an array of boxes (each box is asked for once, in parallel).
+    pub fn build_from(
+        count: usize,
+        box_of: impl Fn(usize) -> Aabb + Sync,
+        leaf_cost: LeafCost,
+    ) -> Bvh {
+        // Written in place (an indexed collect), then the unhittable ones (empty or
+        // non-finite boxes) are dropped, in the rare case that there are any.
+        let mut refs: Vec<PrimRef> = (0..count as u32)
+            .into_par_iter()
+            .map(|i| {
+                let b = box_of(i as usize);
+                PrimRef {
+                    lo: b.min.extend(f32::from_bits(i)),
+                    hi: b.max.extend(0.0),
+                }
             })
             .collect();
-        let mut prims: Vec<u32> = (0..boxes.len() as u32)
-            .filter(|&i| {
-                let b = boxes[i as usize];
-                !b.is_empty() && b.min.is_finite() && b.max.is_finite()
-            })
-            .collect();
-        if prims.is_empty() {
+        let valid = |r: &PrimRef| {
+            let b = Aabb {
+                min: r.lo.truncate(),
+                max: r.hi.truncate(),
+            };
+            !b.is_empty() && b.min.is_finite() && b.max.is_finite()
+        };
+        if !refs.par_iter().all(valid) {
+            refs.retain(valid);
+        }
+        if refs.is_empty() {
             return Bvh {
                 nodes: vec![Node::new(&Bx::EMPTY, 0, 0)],
-                prims,
+                prims: Vec::new(),
             };
         }
-        let centers: Vec<Vec3A> = bx.iter().map(|b| (b.min + b.max) * 0.5).collect();
-        let ctx = Ctx {
-            boxes: &bx,
-            centers: &centers,
-            leaf_cost,
+        let range = Range::of_par(&refs);
+        // A binary tree over n ≥ 1 primitives has at most 2n − 1 nodes. The array is reserved
+        // at that size, but only the pages of the nodes written are ever touched, and it is
+        // shrunk (in place) afterwards.
+        // SAFETY: `build_node` writes the node it is given and every index it takes.
+        let nodes = unsafe {
+            Arena::fill(2 * refs.len(), |arena| {
+                let root = arena.take(1);
+                build_node(leaf_cost, arena, root, &mut refs, range, 0);
+            })
         };
-        let nodes = build_subtree(&ctx, &mut prims, 0);
+        let prims = refs.par_iter().map(PrimRef::id).collect();
         Bvh { nodes, prims }
     }
 
@@ -371,33 +398,118 @@ pub(crate) unsafe fn pop_nearer(
     None
 }
 
-struct Ctx<'a> {
-    boxes: &'a [Bx],
-    centers: &'a [Vec3A],
-    leaf_cost: LeafCost,
+/// A primitive as the builder moves it: its box, with the primitive's index in the bits of the
+/// lower corner's `w` lane (Embree's `PrimRef`). The builder partitions these 32-byte records in
+/// place, so every pass over a node's primitives reads memory sequentially rather than through
+/// an index array.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(32))]
+struct PrimRef {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl PrimRef {
+    #[inline(always)]
+    fn id(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+    #[inline(always)]
+    fn bx(&self) -> Bx {
+        Bx {
+            min: Vec3A::from_vec4(self.lo),
+            max: Vec3A::from_vec4(self.hi),
+        }
+    }
+    #[inline(always)]
+    fn center(&self) -> Vec3A {
+        (Vec3A::from_vec4(self.lo) + Vec3A::from_vec4(self.hi)) * 0.5
+    }
+}
+
+/// The box of a node's primitives and the box of their centroids.
+#[derive(Debug, Clone, Copy)]
+struct Range {
+    bounds: Bx,
+    cbounds: Bx,
+}
+
+impl Range {
+    const EMPTY: Range = Range {
+        bounds: Bx::EMPTY,
+        cbounds: Bx::EMPTY,
+    };
+
+    #[inline]
+    fn add(self, r: &PrimRef) -> Range {
+        Range {
+            bounds: self.bounds.union(r.bx()),
+            cbounds: self.cbounds.grow(r.center()),
+        }
+    }
+
+    #[inline]
+    fn union(self, o: Range) -> Range {
+        Range {
+            bounds: self.bounds.union(o.bounds),
+            cbounds: self.cbounds.union(o.cbounds),
+        }
+    }
+
+    fn of(refs: &[PrimRef]) -> Range {
+        refs.iter().fold(Range::EMPTY, Range::add)
+    }
+
+    fn of_par(refs: &[PrimRef]) -> Range {
+        refs.par_chunks(PAR_CHUNK)
+            .map(Range::of)
+            .reduce(|| Range::EMPTY, Range::union)
+    }
+}
+
+/// Nodes with more primitives than this bin them in parallel chunks of `PAR_CHUNK`.
+const PAR_BINNING: usize = 4 * PAR_CHUNK;
+const PAR_CHUNK: usize = 16 * 1024;
+
+/// Per-bin boxes, centroid boxes and counts along one axis, `N` bins.
+#[derive(Clone, Copy)]
+struct Bins<const N: usize> {
+    range: [Range; N],
+    count: [u32; N],
+}
+
+impl<const N: usize> Bins<N> {
+    const EMPTY: Bins<N> = Bins {
+        range: [Range::EMPTY; N],
+        count: [0; N],
+    };
+
+    fn merge(mut self, o: Bins<N>) -> Bins<N> {
+        for i in 0..N {
+            self.range[i] = self.range[i].union(o.range[i]);
+            self.count[i] += o.count[i];
+        }
+        self
+    }
 }
 
 /// How a node's primitives are to be split.
 enum Split {
     Leaf,
-    At(usize),
+    /// The first `mid` primitives go left; the two children's ranges.
+    At(usize, Range, Range),
 }
 
-/// Decides whether to split `prims` (by binned SAH along the widest centroid axis) and, if so,
-/// partitions them; returns the node's box and the decision.
-fn split(ctx: &Ctx, prims: &mut [u32]) -> (Bx, Split) {
-    let (boxes, centers, lc) = (ctx.boxes, ctx.centers, ctx.leaf_cost);
-    let mut bounds = Bx::EMPTY;
-    let mut cbounds = Bx::EMPTY;
-    for &p in prims.iter() {
-        bounds = bounds.union(boxes[p as usize]);
-        cbounds = cbounds.grow(centers[p as usize]);
+/// Decides whether to split `refs` (by binned SAH along the widest centroid axis; `range` is
+/// theirs) and, if so, partitions them.
+fn split(lc: LeafCost, refs: &mut [PrimRef], range: Range) -> Split {
+    let count = refs.len();
+    // A leaf tested at once costs one test: no split can cost less (it pays a traversal step).
+    if count <= 1 || (count <= lc.max_leaf && lc.tests(count) <= 1.0) {
+        return Split::Leaf;
     }
-    let count = prims.len();
-    if count <= 1 {
-        return (bounds, Split::Leaf);
-    }
-    let extent = cbounds.max - cbounds.min;
+    let extent = range.cbounds.max - range.cbounds.min;
+    // The axis as a constant: the per-primitive loops then read one lane without branching.
     let axis = if extent.x >= extent.y && extent.x >= extent.z {
         0
     } else if extent.y >= extent.z {
@@ -405,26 +517,67 @@ fn split(ctx: &Ctx, prims: &mut [u32]) -> (Bx, Split) {
     } else {
         2
     };
-    let (lo, span) = (cbounds.min[axis], extent[axis]);
-    let mut mid = None;
+    // Small nodes bin coarser: they have few primitives to place, and the fixed cost of
+    // clearing and sweeping the bins dominates their split.
+    let split = match (axis, count <= SMALL_NODE) {
+        (0, false) => split_along::<0, BINS>(lc, refs, range),
+        (1, false) => split_along::<1, BINS>(lc, refs, range),
+        (_, false) => split_along::<2, BINS>(lc, refs, range),
+        (0, true) => split_along::<0, SMALL_BINS>(lc, refs, range),
+        (1, true) => split_along::<1, SMALL_BINS>(lc, refs, range),
+        (_, true) => split_along::<2, SMALL_BINS>(lc, refs, range),
+    };
+    if let Some(split) = split {
+        return split;
+    }
+    if count <= lc.max_leaf {
+        return Split::Leaf;
+    }
+    // All centroids coincide (or binning failed): split by index to keep leaves small.
+    let mid = count / 2;
+    Split::At(mid, Range::of(&refs[..mid]), Range::of(&refs[mid..]))
+}
+
+/// [`split`] along axis `AXIS` by binned SAH; `None` when binning finds no split.
+#[inline(always)]
+fn split_along<const AXIS: usize, const BINS: usize>(
+    lc: LeafCost,
+    refs: &mut [PrimRef],
+    range: Range,
+) -> Option<Split> {
+    let count = refs.len();
+    let Range { bounds, cbounds } = range;
+    let (lo, span) = (
+        cbounds.min.to_array()[AXIS],
+        (cbounds.max - cbounds.min).to_array()[AXIS],
+    );
     if span > 0.0 {
         // Bin the centroids and sweep for the cheapest split (SAH).
         let scale = BINS as f32 / span;
-        let bin_of = |p: u32| (((centers[p as usize][axis] - lo) * scale) as usize).min(BINS - 1);
-        let mut bin_box = [Bx::EMPTY; BINS];
-        let mut bin_count = [0usize; BINS];
-        for &p in prims.iter() {
-            let b = bin_of(p);
-            bin_box[b] = bin_box[b].union(boxes[p as usize]);
-            bin_count[b] += 1;
-        }
+        let bin_of = |c: Vec3A| ((c.to_array()[AXIS] - lo) * scale).min((BINS - 1) as f32) as usize;
+        let bin = |refs: &[PrimRef]| {
+            let mut bins = Bins::<BINS>::EMPTY;
+            for r in refs {
+                let b = bin_of(r.center());
+                bins.range[b] = bins.range[b].add(r);
+                bins.count[b] += 1;
+            }
+            bins
+        };
+        let bins = if count > PAR_BINNING {
+            refs.par_chunks(PAR_CHUNK)
+                .map(bin)
+                .reduce(|| Bins::<BINS>::EMPTY, Bins::merge)
+        } else {
+            bin(refs)
+        };
         let mut right_area = [0.0f32; BINS];
         let mut right_n = [0usize; BINS];
         let mut acc = Bx::EMPTY;
         let mut acc_n = 0;
         for i in (1..BINS).rev() {
-            acc = acc.union(bin_box[i]);
-            acc_n += bin_count[i];
+            acc = acc.union(bins.range[i].bounds);
+            acc_n += bins.count[i] as usize;
             right_area[i] = acc.half_area();
             right_n[i] = acc_n;
         }
@@ -432,8 +585,8 @@ fn split(ctx: &Ctx, prims: &mut [u32]) -> (Bx, Split) {
         let mut left_n = 0;
         let mut best = (f32::INFINITY, 0);
         for i in 0..BINS - 1 {
-            left = left.union(bin_box[i]);
-            left_n += bin_count[i];
+            left = left.union(bins.range[i].bounds);
+            left_n += bins.count[i] as usize;
             if left_n == 0 || right_n[i + 1] == 0 {
                 continue;
             }
@@ -447,89 +600,180 @@ fn split(ctx: &Ctx, prims: &mut [u32]) -> (Bx, Split) {
         let split_cost = TRAVERSAL_COST * bounds.half_area() + best.0;
         if best.0.is_finite() && (split_cost < leaf_cost || count > lc.max_leaf) {
             let threshold = best.1;
-            mid = Some(partition(prims, |p| bin_of(p) <= threshold));
+            // bin_of(c) ≤ threshold, in floats: the bin is x = (c − lo)·scale ≥ 0 truncated, so
+            // it is at most `threshold` exactly when x < threshold + 1 (the same x, so
+            // the sides agree with the bins whose boxes they get).
+            let limit = (threshold + 1) as f32;
+            let mid = partition(refs, |r| (r.center().to_array()[AXIS] - lo) * scale < limit);
+            let side = |bins: &[Range]| bins.iter().fold(Range::EMPTY, |a, &b| a.union(b));
+            if mid > 0 && mid < count {
+                return Some(Split::At(
+                    mid,
+                    side(&bins.range[..=threshold]),
+                    side(&bins.range[threshold + 1..]),
+                ));
+            }
         }
     }
-    let mid = match mid {
-        Some(m) if m > 0 && m < count => m,
-        _ if count <= lc.max_leaf => return (bounds, Split::Leaf),
-        // All centroids coincide (or binning failed): split by index to keep leaves small.
-        _ => count / 2,
-    };
-    (bounds, Split::At(mid))
+    None
 }
 
-/// Builds the subtree over `prims` (slots `offset..offset + prims.len()`); its root is node 0 of
-/// the returned array and child indices are local to it.
-fn build_subtree(ctx: &Ctx, prims: &mut [u32], offset: usize) -> Vec<Node> {
-    if prims.len() <= PARALLEL_THRESHOLD {
-        let mut nodes = Vec::with_capacity(2 * prims.len() / 2 + 1);
-        nodes.push(Node::new(&Bx::EMPTY, 0, 0));
-        build_sequential(ctx, &mut nodes, 0, prims, offset);
-        return nodes;
+/// An array written by many threads at once, as a tree builder fills its node array: each
+/// index is handed out once ([`Arena::take`]) and written once, by the thread that took it.
+pub(crate) struct Arena<T> {
+    ptr: *mut T,
+    cap: usize,
+    len: AtomicUsize,
+}
+
+// SAFETY: threads write disjoint indices (each handed out once by an atomic counter), and the
+// array is read only after `fill`'s closure, and so every writer, has returned.
+unsafe impl<T: Send> Sync for Arena<T> {}
+
+impl<T> Arena<T> {
+    /// Runs `build` over an arena of at most `cap` elements and returns the elements it took.
+    /// The capacity is reserved but only the pages written are touched, and the array is
+    /// shrunk (in place) afterwards.
+    ///
+    /// # Safety
+    /// `build` must write ([`Arena::set`]) every index it takes ([`Arena::take`]).
+    pub(crate) unsafe fn fill(cap: usize, build: impl FnOnce(&Arena<T>)) -> Vec<T> {
+        let mut v: Vec<T> = Vec::with_capacity(cap);
+        let arena = Arena {
+            ptr: v.as_mut_ptr(),
+            cap,
+            len: AtomicUsize::new(0),
+        };
+        build(&arena);
+        let len = arena.len.into_inner();
+        // SAFETY: `len` ≤ `cap` (checked by `take`), and the caller guarantees that every
+        // index below it, handed out by `take`, was written.
+        unsafe { v.set_len(len) };
+        v.shrink_to_fit();
+        v
     }
-    let (bounds, decision) = split(ctx, prims);
-    let mid = match decision {
-        Split::Leaf => return vec![Node::new(&bounds, offset as u32, prims.len() as u32)],
-        Split::At(mid) => mid,
-    };
-    let (lp, rp) = prims.split_at_mut(mid);
-    let (left, right) = rayon::join(
-        || build_subtree(ctx, lp, offset),
-        || build_subtree(ctx, rp, offset + mid),
-    );
-    // Layout: [this, left root, right root, rest of left, rest of right]. A child index c ≥ 1
-    // of the left array moves to c + 2, of the right array to c + left.len() + 1.
-    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
-    nodes.push(Node::new(&bounds, 1, 0));
-    let shift = |mut n: Node, by: usize| {
-        if n.count() == 0 {
-            n.set_first(n.first() + by as u32);
-        }
-        n
-    };
-    let (ls, rs) = (2, left.len() + 1);
-    nodes.push(shift(left[0], ls));
-    nodes.push(shift(right[0], rs));
-    nodes.extend(left[1..].iter().map(|&n| shift(n, ls)));
-    nodes.extend(right[1..].iter().map(|&n| shift(n, rs)));
-    nodes
+
+    /// `n` adjacent fresh indices (siblings), the first returned.
+    pub(crate) fn take(&self, n: usize) -> usize {
+        let i = self.len.fetch_add(n, Ordering::Relaxed);
+        assert!(i + n <= self.cap, "arena overflow");
+        i
+    }
+
+    /// Writes element `i`.
+    ///
+    /// # Safety
+    /// `i` must come from [`Arena::take`], and no other call may write it.
+    pub(crate) unsafe fn set(&self, i: usize, x: T) {
+        assert!(i < self.len.load(Ordering::Relaxed));
+        // SAFETY: in bounds (below `len` ≤ `cap`); the caller guarantees that no other
+        // thread writes `i` and that it was not written before.
+        unsafe { self.ptr.add(i).write(x) };
+    }
 }
 
-fn build_sequential(
-    ctx: &Ctx,
-    nodes: &mut Vec<Node>,
+/// Builds the subtree over `refs` (slots `offset..offset + refs.len()`, their range `range`)
+/// with its root at node `index`; nodes of more than [`PARALLEL_THRESHOLD`] primitives build
+/// their two halves in parallel. Siblings are adjacent; the numbering depends on the threads'
+/// timing, the tree does not.
+fn build_node(
+    lc: LeafCost,
+    arena: &Arena<Node>,
     index: usize,
-    prims: &mut [u32],
+    refs: &mut [PrimRef],
+    range: Range,
     offset: usize,
 ) {
-    let (bounds, decision) = split(ctx, prims);
-    let mid = match decision {
+    if refs.len() <= PARALLEL_THRESHOLD {
+        // Built by this thread alone into a local array (root first, then pairs of
+        // siblings), then copied into the arena with one `take`: no contended counter per
+        // node.
+        let mut local = vec![Node::new(&Bx::EMPTY, 0, 0)];
+        build_sequential(lc, &mut local, 0, refs, range, offset);
+        let base = if local.len() > 1 {
+            arena.take(local.len() - 1)
+        } else {
+            0
+        };
+        // Local node k ≥ 1 goes to base + k − 1; child links move with it.
+        let place = |mut n: Node| {
+            if n.count() == 0 {
+                n.lo.w = f32::from_bits((base + n.first() as usize - 1) as u32);
+            }
+            n
+        };
+        // SAFETY: `index` was handed to this call alone, and base.. base + len − 1 were
+        // taken by it just above.
+        unsafe {
+            arena.set(index, place(local[0]));
+            for (k, &n) in local.iter().enumerate().skip(1) {
+                arena.set(base + k - 1, place(n));
+            }
+        }
+        return;
+    }
+    let (mid, lr, rr) = match split(lc, refs, range) {
         Split::Leaf => {
-            nodes[index] = Node::new(&bounds, offset as u32, prims.len() as u32);
+            let leaf = Node::new(&range.bounds, offset as u32, refs.len() as u32);
+            // SAFETY: `index` was handed to this call alone.
+            unsafe { arena.set(index, leaf) };
             return;
         }
-        Split::At(mid) => mid,
+        Split::At(mid, lr, rr) => (mid, lr, rr),
+    };
+    let first = arena.take(2);
+    // SAFETY: as above.
+    unsafe { arena.set(index, Node::new(&range.bounds, first as u32, 0)) };
+    let (lp, rp) = refs.split_at_mut(mid);
+    rayon::join(
+        || build_node(lc, arena, first, lp, lr, offset),
+        || build_node(lc, arena, first + 1, rp, rr, offset + mid),
+    );
+}
+
+/// Builds the subtree over `refs` into `nodes`, its root at `nodes[index]`.
+fn build_sequential(
+    lc: LeafCost,
+    nodes: &mut Vec<Node>,
+    index: usize,
+    refs: &mut [PrimRef],
+    range: Range,
+    offset: usize,
+) {
+    let (mid, lr, rr) = match split(lc, refs, range) {
+        Split::Leaf => {
+            nodes[index] = Node::new(&range.bounds, offset as u32, refs.len() as u32);
+            return;
+        }
+        Split::At(mid, lr, rr) => (mid, lr, rr),
     };
     let first = nodes.len();
     nodes.push(Node::new(&Bx::EMPTY, 0, 0));
     nodes.push(Node::new(&Bx::EMPTY, 0, 0));
-    nodes[index] = Node::new(&bounds, first as u32, 0);
-    let (lp, rp) = prims.split_at_mut(mid);
-    build_sequential(ctx, nodes, first, lp, offset);
-    build_sequential(ctx, nodes, first + 1, rp, offset + mid);
+    nodes[index] = Node::new(&range.bounds, first as u32, 0);
+    let (lp, rp) = refs.split_at_mut(mid);
+    build_sequential(lc, nodes, first, lp, lr, offset);
+    build_sequential(lc, nodes, first + 1, rp, rr, offset + mid);
 }
 
-/// Reorders `s` so elements satisfying `pred` come first; returns their number.
-fn partition(s: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
-    let mut i = 0;
-    for j in 0..s.len() {
-        if pred(s[j]) {
-            s.swap(i, j);
+/// Reorders `s` so elements satisfying `pred` come first (Hoare's scheme: each misplaced pair is
+/// swapped once); returns their number.
+fn partition(s: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
+    let (mut i, mut j) = (0, s.len());
+    loop {
+        while i < j && pred(&s[i]) {
             i += 1;
         }
+        while i < j && !pred(&s[j - 1]) {
+            j -= 1;
+        }
+        if i >= j {
+            return i;
+        }
+        s.swap(i, j - 1);
+        i += 1;
+        j -= 1;
     }
-    i
 }
 
 #[cfg(test)]
@@ -640,27 +884,11 @@ mod tests {
         let mut s = 9u64;
         let boxes = random_boxes(3 * PARALLEL_THRESHOLD, &mut s);
         let par = Bvh::build(&boxes);
-        let bx: Vec<Bx> = boxes
-            .iter()
-            .map(|b| Bx {
-                min: b.min.into(),
-                max: b.max.into(),
-            })
-            .collect();
-        let centers: Vec<Vec3A> = bx.iter().map(|b| (b.min + b.max) * 0.5).collect();
-        let mut prims: Vec<u32> = (0..boxes.len() as u32).collect();
-        let mut seq = vec![Node::new(&Bx::EMPTY, 0, 0)];
-        build_sequential(
-            &Ctx {
-                boxes: &bx,
-                centers: &centers,
-                leaf_cost: LeafCost::SCALAR,
-            },
-            &mut seq,
-            0,
-            &mut prims,
-            0,
-        );
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("a thread pool");
+        let Bvh { nodes: seq, prims } = one.install(|| Bvh::build(&boxes));
         assert_eq!(par.prims, prims);
         assert_eq!(par.nodes.len(), seq.len());
         // Same trees up to node numbering: compare by walking both.

@@ -18,6 +18,7 @@
 
 #![warn(missing_docs)]
 
+pub mod alloc;
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
@@ -34,6 +35,7 @@ pub mod material;
 pub mod math;
 pub mod output;
 pub mod partial_film;
+pub mod phases;
 pub mod render;
 pub mod sampler;
 pub mod sampling;

@@ -5,6 +5,7 @@ use clap::Parser;
 mod cli;
 
 fn main() {
+    lumo::alloc::return_big_frees_to_os();
     let cli = cli::Cli::parse();
     if let Err(e) = cli::run(cli) {
         if e.code == cli::split::EXIT_SIGINT || e.code == cli::split::EXIT_SIGTERM {

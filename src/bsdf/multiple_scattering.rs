@@ -58,7 +58,7 @@ fn mu_node(i: usize) -> f32 {
 /// is taken in the GGX CDF coordinate ξ = tan²θm / (α² + tan²θm), in which D cos θm dωm =
 /// dξ dφ/(2π), warped by ξ = 1 − (1 − s)² to resolve GGX's long tail (the microfacets that
 /// reflect below the horizon, ≈ 1 % of the albedo even at α = 0.09), midpoint rule in (s, φ).
-fn integrate(mu: f32, alpha: f32) -> (f64, f64) {
+fn integrate(mu: f32, alpha: f32, phis: &[(f64, f64); N_PHI]) -> (f64, f64) {
     let mu = mu as f64;
     let a2 = (alpha as f64) * (alpha as f64);
     let wo = glam::DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
@@ -76,9 +76,8 @@ fn integrate(mu: f32, alpha: f32) -> (f64, f64) {
         let cos_m = 1.0 / (1.0 + tan2).sqrt();
         let sin_m = (1.0 - cos_m * cos_m).max(0.0).sqrt();
         // The integrand is even in φ: average over [0, π].
-        for b in 0..N_PHI {
-            let phi = std::f64::consts::PI * (b as f64 + 0.5) / N_PHI as f64;
-            let wm = glam::DVec3::new(sin_m * phi.cos(), sin_m * phi.sin(), cos_m);
+        for &(cos_phi, sin_phi) in phis {
+            let wm = glam::DVec3::new(sin_m * cos_phi, sin_m * sin_phi, cos_m);
             let om = wo.dot(wm);
             if om <= 0.0 {
                 continue;
@@ -103,12 +102,17 @@ fn compute() -> Tables {
         e_avg: [0.0; N_ROUGH],
         e5_avg: [0.0; N_ROUGH],
     };
+    // The azimuths' (cos φ, sin φ), the same for every node: computed once, not per node.
+    let phis: [(f64, f64); N_PHI] = std::array::from_fn(|b| {
+        let phi = std::f64::consts::PI * (b as f64 + 0.5) / N_PHI as f64;
+        (phi.cos(), phi.sin())
+    });
     for r in 0..N_ROUGH {
         let rough = r as f32 / (N_ROUGH - 1) as f32;
         let alpha = (rough * rough).max(MIN_ALPHA);
         let (mut avg, mut avg5) = (0.0f64, 0.0f64);
         for m in 0..N_MU {
-            let (e, e5) = integrate(mu_node(m), alpha);
+            let (e, e5) = integrate(mu_node(m), alpha, &phis);
             t.e[r][m] = e as f32;
             t.e5[r][m] = e5 as f32;
             // Midpoint rule for 2 ∫ E μ dμ on the same nodes.

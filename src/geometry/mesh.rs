@@ -1,29 +1,32 @@
 //! Triangle meshes in object space, each with its own BVH, shared between instances.
 
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use glam::{Vec3A, Vec4};
+use rayon::prelude::*;
 
 use crate::geometry::triangle_bvh::{TriRay, TriangleBvh};
 use crate::math::{Aabb, Vec2, Vec3};
 
-/// An indexed triangle mesh with optional per-vertex normals and texture coordinates.
+/// An indexed triangle mesh with optional per-vertex normals and texture coordinates. The
+/// arrays are shared (`Arc`) with the loaded assets they come from, so a mesh read from a file
+/// is in memory once.
 #[derive(Debug, Clone)]
 pub struct Mesh {
     /// Vertex positions.
-    pub positions: Vec<Vec3>,
+    pub positions: Arc<Vec<Vec3>>,
     /// Triangles (counter-clockwise front), indices into `positions`.
-    pub triangles: Vec<[u32; 3]>,
+    pub triangles: Arc<Vec<[u32; 3]>>,
     /// Unit vertex normals for smooth shading, when present.
-    pub normals: Option<Vec<Vec3>>,
+    pub normals: Option<Arc<Vec<Vec3>>>,
     /// Vertex texture coordinates, when present.
-    pub uvs: Option<Vec<Vec2>>,
+    pub uvs: Option<Arc<Vec<Vec2>>>,
     /// The second set of vertex texture coordinates (glTF `TEXCOORD_1`), when present.
-    pub uvs1: Option<Vec<Vec2>>,
+    pub uvs1: Option<Arc<Vec<Vec2>>>,
     /// Vertex tangents (xyz) and bitangent handedness (w = ±1), when present.
-    pub tangents: Option<Vec<Vec4>>,
+    pub tangents: Option<Arc<Vec<Vec4>>>,
     /// Linear RGBA vertex colours, when present.
-    pub colors: Option<Vec<Vec4>>,
+    pub colors: Option<Arc<Vec<Vec4>>>,
     bounds: Aabb,
     /// Built on first use: a mesh whose only instances are flattened into the scene's
     /// world-space triangle set never needs its own.
@@ -48,23 +51,35 @@ impl Mesh {
     /// triangles are removed; the number removed is returned alongside so the loader can warn
     /// once.
     pub fn new(
-        positions: Vec<Vec3>,
-        triangles: Vec<[u32; 3]>,
-        normals: Option<Vec<Vec3>>,
-        uvs: Option<Vec<Vec2>>,
+        positions: impl Into<Arc<Vec<Vec3>>>,
+        triangles: impl Into<Arc<Vec<[u32; 3]>>>,
+        normals: Option<Arc<Vec<Vec3>>>,
+        uvs: Option<Arc<Vec<Vec2>>>,
     ) -> (Mesh, usize) {
+        let (positions, mut triangles) = (positions.into(), triangles.into());
+        let area = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            (b - a).cross(c - a).length_squared() > 0.0
+        };
+        let bounds_of = |tris: &[[u32; 3]]| {
+            tris.par_iter()
+                .fold(
+                    || (Aabb::EMPTY, true),
+                    |(b, ok), t| {
+                        let b = t.iter().fold(b, |b, &i| b.grow(positions[i as usize]));
+                        (b, ok && area(t))
+                    },
+                )
+                .reduce(|| (Aabb::EMPTY, true), |a, b| (a.0.union(b.0), a.1 && b.1))
+        };
         let before = triangles.len();
-        let triangles: Vec<[u32; 3]> = triangles
-            .into_iter()
-            .filter(|t| {
-                let [a, b, c] = t.map(|i| positions[i as usize]);
-                (b - a).cross(c - a).length_squared() > 0.0
-            })
-            .collect();
+        let (mut bounds, all_ok) = bounds_of(&triangles);
+        // Copied only when some triangle is dropped; else shared with the caller.
+        if !all_ok {
+            triangles = Arc::new(triangles.par_iter().copied().filter(area).collect());
+            bounds = bounds_of(&triangles).0;
+        }
         let dropped = before - triangles.len();
-        let bounds = triangles.iter().fold(Aabb::EMPTY, |b, t| {
-            t.iter().fold(b, |b, &i| b.grow(positions[i as usize]))
-        });
         (
             Mesh {
                 positions,
@@ -89,11 +104,11 @@ impl Mesh {
     /// The mesh's own BVH (object space), built on first call.
     pub fn bvh(&self) -> &TriangleBvh {
         self.bvh.get_or_init(|| {
-            let corners = (0..self.triangles.len() as u32)
-                .map(|p| self.corners(p).map(Vec3A::from))
-                .collect();
-            let ids = (0..self.triangles.len() as u32).map(|p| [0, p]).collect();
-            TriangleBvh::new(corners, ids)
+            TriangleBvh::build(
+                self.triangles.len(),
+                |p| self.corners(p as u32).map(Vec3A::from),
+                |p| [0, p as u32],
+            )
         })
     }
 
@@ -124,9 +139,9 @@ impl Mesh {
     /// another length is ignored, as the loaders check lengths).
     pub fn with_attributes(
         mut self,
-        uvs1: Option<Vec<Vec2>>,
-        tangents: Option<Vec<Vec4>>,
-        colors: Option<Vec<Vec4>>,
+        uvs1: Option<Arc<Vec<Vec2>>>,
+        tangents: Option<Arc<Vec<Vec4>>>,
+        colors: Option<Arc<Vec<Vec4>>>,
     ) -> Mesh {
         let n = self.positions.len();
         self.uvs1 = uvs1.filter(|a| a.len() == n);
@@ -147,10 +162,10 @@ impl Mesh {
     pub fn attributes(&self, h: &MeshHit) -> (Vec2, Vec4, Vec4) {
         let tri = self.triangles[h.prim as usize];
         let b0 = 1.0 - h.b1 - h.b2;
-        let lerp2 = |a: &Vec<Vec2>| {
+        let lerp2 = |a: &Arc<Vec<Vec2>>| {
             a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
         };
-        let lerp4 = |a: &Vec<Vec4>| {
+        let lerp4 = |a: &Arc<Vec<Vec4>>| {
             a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
         };
         let uv1 = self.uvs1.as_ref().map_or(Vec2::ZERO, lerp2);

@@ -295,24 +295,17 @@ impl Geometry {
                 *uses.entry(Arc::as_ptr(m)).or_default() += 1;
             }
         }
-        let mut corners = Vec::new();
-        let mut ids = Vec::new();
+        // The flattened instances: (instance, its first triangle in the world-space set, mesh).
+        let mut flat = Vec::new();
+        let mut flat_count = 0usize;
         let mut top_instances = Vec::new();
         let mut top_boxes = Vec::new();
         let mut unbounded = Vec::new();
         for (k, inst) in instances.iter().enumerate() {
             if let Shape::Mesh(m) = &inst.shape {
                 if uses[&Arc::as_ptr(m)] == 1 || m.triangles.len() <= FLATTEN_MAX_SHARED_TRIANGLES {
-                    for prim in 0..m.triangles.len() as u32 {
-                        let c = m.corners(prim);
-                        let c = if inst.identity {
-                            c
-                        } else {
-                            c.map(|p| inst.to_world.transform_point3(p))
-                        };
-                        corners.push(c.map(Vec3A::from));
-                        ids.push([k as u32, prim]);
-                    }
+                    flat.push((k, flat_count, &**m));
+                    flat_count += m.triangles.len();
                     continue;
                 }
                 // Shared and large: instanced through its own BVH, built now rather than on
@@ -327,8 +320,32 @@ impl Geometry {
                 None => unbounded.push(k as u32),
             }
         }
+        // Triangle i of the set: its instance and its index in the instance's mesh.
+        let locate = |i: usize| {
+            let (k, first, mesh) = flat[flat.partition_point(|&(_, first, _)| first <= i) - 1];
+            (k, (i - first) as u32, mesh)
+        };
+        let flat_bvh = TriangleBvh::build(
+            flat_count,
+            |i| {
+                let (k, prim, mesh) = locate(i);
+                let inst = &instances[k];
+                let c = mesh.corners(prim);
+                let c = if inst.identity {
+                    c
+                } else {
+                    c.map(|p| inst.to_world.transform_point3(p))
+                };
+                c.map(Vec3A::from)
+            },
+            |i| {
+                let (k, prim, _) = locate(i);
+                [k as u32, prim]
+            },
+        );
+        drop(flat);
         Geometry {
-            flat: TriangleBvh::new(corners, ids),
+            flat: flat_bvh,
             top: Bvh::build(&top_boxes),
             top_instances,
             instances,

@@ -15,9 +15,10 @@
 use std::mem::MaybeUninit;
 
 use glam::{BVec4A, Vec3A, Vec4};
+use rayon::prelude::*;
 
 use crate::bvh::pop_nearer;
-use crate::bvh::{Bvh, LeafCost};
+use crate::bvh::{Arena, Bvh, LeafCost};
 use crate::geometry::triangle::{shear_axes, TriHit};
 use crate::math::{Aabb, Vec3};
 
@@ -150,16 +151,20 @@ struct PacketHits {
 }
 
 impl Packet {
-    fn new(corners: &[[Vec3A; 3]], first: usize, count: usize) -> Packet {
-        let mut v = [Vec4::ZERO; 9];
-        for lane in 0..4 {
-            let tri = corners[first + if lane < count { lane } else { 0 }];
-            for (c, corner) in tri.iter().enumerate() {
-                for axis in 0..3 {
-                    v[3 * c + axis][lane] = corner[axis];
-                }
-            }
-        }
+    /// The packet of slots `first..first + count` (at most four), `corners(slot)` giving each
+    /// slot's triangle.
+    fn new(corners: impl Fn(usize) -> [Vec3A; 3], first: usize, count: usize) -> Packet {
+        let tris: [[Vec3A; 3]; 4] =
+            std::array::from_fn(|lane| corners(first + if lane < count { lane } else { 0 }));
+        let v = std::array::from_fn(|k| {
+            let (c, axis) = (k / 3, k % 3);
+            Vec4::new(
+                tris[0][c][axis],
+                tris[1][c][axis],
+                tris[2][c][axis],
+                tris[3][c][axis],
+            )
+        });
         Packet {
             v,
             first: first as u32,
@@ -229,6 +234,64 @@ impl Packet {
     }
 }
 
+/// Tree levels above this depth collapse their children in parallel.
+const PARALLEL_COLLAPSE_DEPTH: usize = 6;
+
+/// Turns binary node `index` (and its subtree) into 4-wide nodes written to `nodes`; returns
+/// its reference and the deepest level of 4-wide nodes in it (`depth` is this node's level;
+/// 0 for a leaf).
+fn collapse(
+    bin: &Bvh,
+    packet_of: &[u32],
+    nodes: &Arena<Node4>,
+    index: usize,
+    depth: usize,
+) -> (u32, usize) {
+    let n = bin.nodes[index];
+    if n.count() > 0 {
+        return (LEAF | packet_of[index], 0);
+    }
+    // Open the interior child with the largest surface area until there are four children
+    // (the greedy collapse of Wald et al. 2008, "Getting Rid of Packets").
+    let mut kids = [n.first() as usize, n.first() as usize + 1, 0, 0];
+    let mut len = 2;
+    while len < 4 {
+        let widest = (0..len)
+            .filter(|&i| bin.nodes[kids[i]].count() == 0)
+            .max_by(|&a, &b| {
+                bin.nodes[kids[a]]
+                    .aabb()
+                    .half_area()
+                    .total_cmp(&bin.nodes[kids[b]].aabb().half_area())
+            });
+        let Some(i) = widest else { break };
+        let first = bin.nodes[kids[i]].first() as usize;
+        kids[i] = first;
+        kids[len] = first + 1;
+        len += 1;
+    }
+    let me = nodes.take(1);
+    let child = |&kid: &usize| collapse(bin, packet_of, nodes, kid, depth + 1);
+    let mut children = [(0, 0); 4];
+    if depth < PARALLEL_COLLAPSE_DEPTH {
+        let done: Vec<(u32, usize)> = kids[..len].par_iter().map(child).collect();
+        children[..len].copy_from_slice(&done);
+    } else {
+        for (c, kid) in children.iter_mut().zip(&kids[..len]) {
+            *c = child(kid);
+        }
+    }
+    let mut node = Node4::EMPTY;
+    let mut deepest = depth;
+    for (lane, (&kid, &(reference, d))) in kids[..len].iter().zip(&children).enumerate() {
+        node.set_child(lane, bin.nodes[kid].aabb(), reference);
+        deepest = deepest.max(d);
+    }
+    // SAFETY: `me` was taken by this call alone.
+    unsafe { nodes.set(me, node) };
+    (me as u32, deepest)
+}
+
 /// A BVH over triangles (see the module documentation). Each triangle carries a caller-defined
 /// id (for a mesh, its triangle index; for a scene's world-space set, the instance and the
 /// triangle index).
@@ -263,69 +326,82 @@ impl TriangleBvh {
     /// triangles are left out (they cannot be hit).
     pub fn new(corners: Vec<[Vec3A; 3]>, ids: Vec<[u32; 2]>) -> TriangleBvh {
         debug_assert_eq!(corners.len(), ids.len());
-        let boxes: Vec<Aabb> = corners
-            .iter()
-            .map(|c| {
-                let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+        TriangleBvh::build(corners.len(), |i| corners[i], |i| ids[i])
+    }
+
+    /// [`TriangleBvh::new`] over `count` triangles whose corners and ids the functions give
+    /// (called in parallel, `corners` twice per triangle: once for its box, once for its leaf),
+    /// so that no array of corners is made: the build holds 32 bytes per triangle (its box and
+    /// index) while it splits, then the binary nodes, the leaf packets and the ids.
+    pub fn build(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3A; 3] + Sync,
+        id: impl Fn(usize) -> [u32; 2] + Sync,
+    ) -> TriangleBvh {
+        let mut bin = Bvh::build_from(
+            count,
+            |i| {
+                let c = corners(i);
                 Aabb {
-                    min: lo.into(),
-                    max: hi.into(),
+                    min: c[0].min(c[1]).min(c[2]).into(),
+                    max: c[0].max(c[1]).max(c[2]).into(),
                 }
-            })
-            .collect();
-        let bin = Bvh::build_with(&boxes, LeafCost::PACKET4);
+            },
+            LeafCost::PACKET4,
+        );
         if bin.prims.is_empty() {
             return TriangleBvh::default();
         }
-        let slot_corners: Vec<[Vec3A; 3]> =
-            bin.prims.iter().map(|&p| corners[p as usize]).collect();
-        let ids = bin.prims.iter().map(|&p| ids[p as usize]).collect();
-        let mut out = TriangleBvh {
-            bounds: bin.bounds(),
-            ids,
-            ..TriangleBvh::default()
+        crate::phases::mark("bvh: binary SAH tree");
+        let prims = std::mem::take(&mut bin.prims);
+        let ids = prims.par_iter().map(|&p| id(p as usize)).collect();
+        // The leaves in slot order (a left-first walk meets them so), and each leaf's packet.
+        let mut packet_of = vec![u32::MAX; bin.nodes.len()];
+        let mut leaves = Vec::new();
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let n = bin.nodes[i];
+            if n.count() > 0 {
+                packet_of[i] = leaves.len() as u32;
+                leaves.push((n.first() as usize, n.count() as usize));
+            } else {
+                stack.push(n.first() as usize + 1);
+                stack.push(n.first() as usize);
+            }
+        }
+        // The 4-wide nodes first, so that the binary tree is freed before the packets are
+        // made: the two are never in memory together. A 4-wide node takes at least one binary
+        // interior node.
+        let mut root = (0, 0);
+        // SAFETY: `collapse` writes every node it takes.
+        let nodes = unsafe {
+            Arena::fill(bin.nodes.len(), |arena| {
+                root = collapse(&bin, &packet_of, arena, 0, 1);
+            })
         };
-        out.root = out.collapse(&bin, 0, &slot_corners, 1);
+        let (bounds, binary_nodes) = (bin.bounds(), bin.nodes.len());
+        drop((bin, packet_of));
+        crate::phases::mark("bvh: 4-wide nodes");
+        let packets = leaves
+            .par_iter()
+            .map(|&(first, count)| Packet::new(|slot| corners(prims[slot] as usize), first, count))
+            .collect();
+        drop((leaves, prims));
+        let out = TriangleBvh {
+            bounds,
+            ids,
+            packets,
+            nodes,
+            root: root.0,
+            depth: root.1,
+        };
+        crate::phases::mark(&format!(
+            "bvh: leaf packets ({} triangles, {binary_nodes} binary nodes, {} packets, {} nodes)",
+            out.ids.len(),
+            out.packets.len(),
+            out.nodes.len()
+        ));
         out
-    }
-
-    /// Turns binary node `index` (and its subtree) into 4-wide nodes; returns its reference.
-    fn collapse(&mut self, bin: &Bvh, index: usize, corners: &[[Vec3A; 3]], depth: usize) -> u32 {
-        let n = bin.nodes[index];
-        if n.count() > 0 {
-            self.packets
-                .push(Packet::new(corners, n.first() as usize, n.count() as usize));
-            return LEAF | (self.packets.len() - 1) as u32;
-        }
-        self.depth = self.depth.max(depth);
-        // Open the interior child with the largest surface area until there are four children
-        // (the greedy collapse of Wald et al. 2008, "Getting Rid of Packets").
-        let mut kids = [n.first() as usize, n.first() as usize + 1, 0, 0];
-        let mut len = 2;
-        while len < 4 {
-            let widest = (0..len)
-                .filter(|&i| bin.nodes[kids[i]].count() == 0)
-                .max_by(|&a, &b| {
-                    bin.nodes[kids[a]]
-                        .aabb()
-                        .half_area()
-                        .total_cmp(&bin.nodes[kids[b]].aabb().half_area())
-                });
-            let Some(i) = widest else { break };
-            let first = bin.nodes[kids[i]].first() as usize;
-            kids[i] = first;
-            kids[len] = first + 1;
-            len += 1;
-        }
-        let me = self.nodes.len();
-        self.nodes.push(Node4::EMPTY);
-        let mut node = Node4::EMPTY;
-        for (lane, &kid) in kids[..len].iter().enumerate() {
-            let child = self.collapse(bin, kid, corners, depth + 1);
-            node.set_child(lane, bin.nodes[kid].aabb(), child);
-        }
-        self.nodes[me] = node;
-        me as u32
     }
 
     /// Number of triangles.

@@ -9,7 +9,6 @@ use lumo_converters::gltf::GltfFile;
 
 use super::assets::Assets;
 use super::obj::MeshData;
-use crate::math::{Vec2, Vec3};
 
 /// The glTF files opened so far, by path.
 #[derive(Default)]
@@ -57,19 +56,19 @@ pub(super) fn mesh_data(file: &GltfFile, mesh: u32, primitive: u32) -> Result<Me
         .mesh_primitive(mesh, primitive)
         .map_err(|e| e.to_string())?;
     Ok(MeshData {
-        positions: d.positions.into_iter().map(Vec3::from).collect(),
-        triangles: d.indices,
-        normals: d.normals.map(|n| n.into_iter().map(Vec3::from).collect()),
+        positions: shared(d.positions),
+        triangles: Arc::new(d.indices),
+        normals: d.normals.map(shared),
         // Already in lumo's bottom-left convention.
-        uvs: d.uvs.map(|t| t.into_iter().map(Vec2::from).collect()),
-        uvs1: d
-            .texcoords_1
-            .map(|t| t.into_iter().map(Vec2::from).collect()),
-        tangents: d
-            .tangents
-            .map(|t| t.into_iter().map(glam::Vec4::from).collect()),
-        colors: d
-            .colors
-            .map(|c| c.into_iter().map(glam::Vec4::from).collect()),
+        uvs: d.uvs.map(shared),
+        uvs1: d.texcoords_1.map(shared),
+        tangents: d.tangents.map(shared),
+        colors: d.colors.map(shared),
     })
+}
+
+/// The array as glam values, shared. Arrays of the same layout (`[f32; 3]` → `Vec3`,
+/// `[f32; 2]` → `Vec2`) are converted in place, without a copy.
+fn shared<T, U: From<T>>(v: Vec<T>) -> Arc<Vec<U>> {
+    Arc::new(v.into_iter().map(U::from).collect())
 }

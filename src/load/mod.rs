@@ -152,10 +152,25 @@ impl Loaded {
     pub fn content_hash(&self) -> std::io::Result<String> {
         use crate::partial_film::{hex, sha256};
         let d = &self.description;
+        // Streamed through a small buffer: a big mesh file is not held in memory a second time.
         let read_hash = |path: &Path| -> std::io::Result<[u8; 32]> {
-            std::fs::read(path)
-                .map(|bytes| sha256(&bytes))
-                .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+            use sha2::Digest;
+            use std::io::Read;
+            let named = |e: std::io::Error| {
+                std::io::Error::new(e.kind(), format!("{}: {e}", path.display()))
+            };
+            let mut file = std::fs::File::open(path).map_err(named)?;
+            let mut hasher = sha2::Sha256::new();
+            let mut buf = vec![0u8; 1 << 20];
+            loop {
+                match file.read(&mut buf) {
+                    Ok(0) => break,
+                    Ok(n) => hasher.update(&buf[..n]),
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                    Err(e) => return Err(named(e)),
+                }
+            }
+            Ok(hasher.finalize().into())
         };
         // Every file read, hashed once (the scene's references are among them, under the
         // paths the loader resolved: base_dir joined with the reference).
@@ -163,9 +178,16 @@ impl Loaded {
         for f in self.assets.files() {
             read.push((f, read_hash(f)?));
         }
+        // The same file however it is spelt (`./a.glb` and `a.glb`): a file read is not read
+        // and hashed again.
+        let canonical = |p: &Path| std::fs::canonicalize(p).ok();
         let file_hash = |f: &str| -> std::io::Result<String> {
             let path = d.base_dir.join(f);
-            let hash = match read.iter().find(|(p, _)| **p == path) {
+            let found = read.iter().find(|(p, _)| **p == path).or_else(|| {
+                let c = canonical(&path)?;
+                read.iter().find(|(p, _)| canonical(p).as_ref() == Some(&c))
+            });
+            let hash = match found {
                 Some((_, h)) => *h,
                 None => read_hash(&path)?,
             };
@@ -227,9 +249,12 @@ pub fn kind_of(path: &Path) -> Result<InputKind, LoadError> {
 /// Reads and validates the scene at `path` and reads every asset it references.
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, LoadError> {
     let path = path.as_ref();
+    crate::phases::mark("load: start");
     let (description, opened) = read_scene_keeping_gltf(path, options)?;
+    crate::phases::mark("load: scene read and validated");
     let assets = Assets::read_with(&description.scene, &description.base_dir, opened)
         .map_err(|e| LoadError::Invalid(format!("{}: {e}", path.display())))?;
+    crate::phases::mark("load: assets read");
     Ok(Loaded {
         description,
         assets,
@@ -262,6 +287,7 @@ fn read_scene_keeping_gltf(
                 _ => LoadError::Invalid(e.to_string()),
             };
             let file = Arc::new(GltfFile::open(path).map_err(gltf_error)?);
+            crate::phases::mark("load: glTF file read and parsed");
             let imported = file.import(&opts).map_err(gltf_error)?;
             opened = Some(file);
             let base_dir = match &options.scene_dir {

@@ -2,27 +2,29 @@
 //! fan-triangulated, normals and texture coordinates from the file.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use crate::math::{Vec2, Vec3};
 use glam::Vec4;
 
-/// Mesh arrays read from a file.
+/// Mesh arrays read from a file. The arrays are shared (`Arc`): the scene graph's
+/// [`Mesh`](crate::geometry::mesh::Mesh) built from them holds the same arrays, not a copy.
 #[derive(Debug, Clone, Default)]
 pub struct MeshData {
     /// Positions.
-    pub positions: Vec<Vec3>,
+    pub positions: Arc<Vec<Vec3>>,
     /// Triangles.
-    pub triangles: Vec<[u32; 3]>,
+    pub triangles: Arc<Vec<[u32; 3]>>,
     /// Per-vertex normals, if the file has them for every vertex.
-    pub normals: Option<Vec<Vec3>>,
+    pub normals: Option<Arc<Vec<Vec3>>>,
     /// Per-vertex texture coordinates, if the file has them for every vertex.
-    pub uvs: Option<Vec<Vec2>>,
+    pub uvs: Option<Arc<Vec<Vec2>>>,
     /// The second set of texture coordinates (glTF `TEXCOORD_1`).
-    pub uvs1: Option<Vec<Vec2>>,
+    pub uvs1: Option<Arc<Vec<Vec2>>>,
     /// Tangents (xyz) with the bitangent's handedness (w), as glTF's `TANGENT`.
-    pub tangents: Option<Vec<Vec4>>,
+    pub tangents: Option<Arc<Vec<Vec4>>>,
     /// Linear RGBA vertex colours (glTF `COLOR_0`).
-    pub colors: Option<Vec<Vec4>>,
+    pub colors: Option<Arc<Vec<Vec4>>>,
 }
 
 /// Reads an OBJ file through the one OBJ reader ([`lumo_converters::obj::load`]) into the
@@ -34,14 +36,18 @@ pub fn load_obj(path: &Path) -> Result<MeshData, String> {
         other => other.to_string(),
     })?;
     Ok(MeshData {
-        positions: mesh.positions.into_iter().map(Vec3::from).collect(),
-        triangles: mesh.triangles,
+        positions: Arc::new(mesh.positions.into_iter().map(Vec3::from).collect()),
+        triangles: Arc::new(mesh.triangles),
         normals: mesh.normals.map(|n| {
-            n.into_iter()
-                .map(|v| Vec3::from(v).normalize_or_zero())
-                .collect()
+            Arc::new(
+                n.into_iter()
+                    .map(|v| Vec3::from(v).normalize_or_zero())
+                    .collect(),
+            )
         }),
-        uvs: mesh.uvs.map(|t| t.into_iter().map(Vec2::from).collect()),
+        uvs: mesh
+            .uvs
+            .map(|t| Arc::new(t.into_iter().map(Vec2::from).collect())),
         ..MeshData::default()
     })
 }

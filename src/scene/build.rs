@@ -192,7 +192,10 @@ pub fn build(
             }
             schema::Object::Triangle(t) => {
                 let (mesh, dropped) = Mesh::new(
-                    t.vertices.iter().map(|v| Vec3::from(*v)).collect(),
+                    t.vertices
+                        .iter()
+                        .map(|v| Vec3::from(*v))
+                        .collect::<Vec<_>>(),
                     vec![[0, 1, 2]],
                     None,
                     None,
@@ -213,7 +216,10 @@ pub fn build(
                         }
                         let normals = if m.smooth {
                             Some(data.normals.clone().unwrap_or_else(|| {
-                                Mesh::angle_weighted_normals(&data.positions, &data.triangles)
+                                Arc::new(Mesh::angle_weighted_normals(
+                                    &data.positions,
+                                    &data.triangles,
+                                ))
                             }))
                         } else {
                             None
@@ -235,6 +241,7 @@ pub fn build(
         };
         instances.push(Instance::new(shape, to_world, material));
     }
+    crate::phases::mark("build: meshes");
     if degenerate > 0 {
         warnings.push(format!(
             "dropped {degenerate} degenerate (zero-area) triangles"
@@ -306,7 +313,9 @@ pub fn build(
             "{unsampled} emissive object(s) (planes, lathes or non-uniformly scaled spheres) are lit only by rays that hit them, which converges slowly"
         ));
     }
+    crate::phases::mark("build: area lights");
     let geometry = Geometry::new(instances);
+    crate::phases::mark("build: geometry (BVHs)");
     let bounds = geometry.bounds();
     let scene_radius = if bounds.is_empty() {
         1.0
@@ -464,21 +473,24 @@ fn mesh_data(
 ) -> Result<MeshData, BuildError> {
     if let schema::MeshSource::Inline(m) = source {
         return Ok(MeshData {
-            positions: m.positions.iter().map(|p| Vec3::from(*p)).collect(),
-            triangles: m.indices.clone(),
+            positions: Arc::new(m.positions.iter().map(|p| Vec3::from(*p)).collect()),
+            triangles: Arc::new(m.indices.clone()),
             normals: m.normals.as_ref().map(|n| {
-                n.iter()
-                    .map(|v| Vec3::from(*v).normalize_or_zero())
-                    .collect()
+                Arc::new(
+                    n.iter()
+                        .map(|v| Vec3::from(*v).normalize_or_zero())
+                        .collect(),
+                )
             }),
             uvs: m
                 .uvs
                 .as_ref()
-                .map(|t| t.iter().map(|v| Vec2::from(*v)).collect()),
+                .map(|t| Arc::new(t.iter().map(|v| Vec2::from(*v)).collect())),
             ..MeshData::default()
         });
     }
     match assets.mesh(source) {
+        // The arrays are shared, not copied.
         Some(data) => Ok(MeshData::clone(data)),
         None => Err(BuildError::MissingAsset {
             json_path: format!("{json_path}.source"),

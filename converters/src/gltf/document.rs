@@ -243,14 +243,21 @@ impl Loaded {
             }
             err
         })?;
-        let gltf::Gltf { document, blob } = gltf;
+        let gltf::Gltf { document, mut blob } = gltf;
+        // The GLB binary chunk moves into the one buffer that refers to it (a second such
+        // buffer, which glTF does not allow, gets a copy).
+        let bin_users = document
+            .buffers()
+            .filter(|b| matches!(b.source(), gltf::buffer::Source::Bin))
+            .count();
         let dir = file.parent().unwrap_or(Path::new(""));
         let mut buffers = Vec::new();
         let mut buffer_files = Vec::new();
         for buffer in document.buffers() {
             let element = format!("buffers[{}]", buffer.index());
             let data = match buffer.source() {
-                gltf::buffer::Source::Bin => match &blob {
+                gltf::buffer::Source::Bin => match &mut blob {
+                    Some(b) if bin_users == 1 => std::mem::take(b),
                     Some(b) => b.clone(),
                     None => {
                         return Err(GltfError::invalid(
@@ -358,31 +365,9 @@ impl Loaded {
         };
         let norm = acc.normalized();
         let mut out = vec![0.0f64; total];
-        if let Some(view) = acc.view() {
-            let bytes = self.view_bytes(&view, element)?;
-            let elem = csize * n;
-            let stride = view.stride().unwrap_or(elem);
-            if stride < elem {
-                return Err(self.acc_err(acc, element, format!("bufferViews[{}].byteStride {stride} is smaller than one element ({elem} bytes)", view.index())));
-            }
-            if count > 0 {
-                let need =
-                    acc.offset() as u128 + (count as u128 - 1) * stride as u128 + elem as u128;
-                if need > bytes.len() as u128 {
-                    return Err(self.acc_err(
-                        acc,
-                        element,
-                        format!(
-                            "needs {need} bytes of bufferViews[{}] (byteOffset {} + {count} elements × stride {stride}) but the view has {}: the buffer is shorter than the accessor",
-                            view.index(),
-                            acc.offset(),
-                            bytes.len()
-                        ),
-                    ));
-                }
-            }
+        if let Some((bytes, stride)) = self.dense_bytes(acc, element, n)? {
             for i in 0..count {
-                let base = acc.offset() + i * stride;
+                let base = i * stride;
                 for c in 0..n {
                     out[i * n + c] = component(&bytes[base + c * csize..], dt, norm);
                 }
@@ -422,6 +407,111 @@ impl Loaded {
             }
         }
         Ok(out)
+    }
+
+    /// The bytes of an accessor's dense data (from its buffer view, which must hold all
+    /// `count` elements of `n` components at the view's stride) and that stride; `None` when
+    /// the accessor has no buffer view (all zeros, or sparse only).
+    fn dense_bytes(
+        &self,
+        acc: &gltf::Accessor,
+        element: &str,
+        n: usize,
+    ) -> Result<Option<(&[u8], usize)>, GltfError> {
+        let Some(view) = acc.view() else {
+            return Ok(None);
+        };
+        let count = acc.count();
+        let bytes = self.view_bytes(&view, element)?;
+        let elem = acc.data_type().size() * n;
+        let stride = view.stride().unwrap_or(elem);
+        if stride < elem {
+            return Err(self.acc_err(acc, element, format!("bufferViews[{}].byteStride {stride} is smaller than one element ({elem} bytes)", view.index())));
+        }
+        if count > 0 {
+            let need = acc.offset() as u128 + (count as u128 - 1) * stride as u128 + elem as u128;
+            if need > bytes.len() as u128 {
+                return Err(self.acc_err(
+                    acc,
+                    element,
+                    format!(
+                        "needs {need} bytes of bufferViews[{}] (byteOffset {} + {count} elements × stride {stride}) but the view has {}: the buffer is shorter than the accessor",
+                        view.index(),
+                        acc.offset(),
+                        bytes.len()
+                    ),
+                ));
+            }
+        }
+        Ok(Some((&bytes[acc.offset()..], stride)))
+    }
+
+    /// A VEC3 accessor of plain (not normalized) FLOATs without sparse substitution, read
+    /// straight into `f32` triples (the common case of positions and normals, without the f64
+    /// round trip of [`Loaded::read_accessor`], which gives the same values); `None` for any
+    /// other accessor.
+    pub fn read_f32x3(
+        &self,
+        acc: &gltf::Accessor,
+        element: &str,
+    ) -> Result<Option<Vec<[f32; 3]>>, GltfError> {
+        if acc.dimensions() != Dimensions::Vec3
+            || acc.data_type() != DataType::F32
+            || acc.normalized()
+            || acc.sparse().is_some()
+        {
+            return Ok(None);
+        }
+        let Some((bytes, stride)) = self.dense_bytes(acc, element, 3)? else {
+            return Ok(None);
+        };
+        let f = |b: &[u8], k: usize| f32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
+        Ok(Some(
+            (0..acc.count())
+                .map(|i| {
+                    let b = &bytes[i * stride..];
+                    [f(b, 0), f(b, 4), f(b, 8)]
+                })
+                .collect(),
+        ))
+    }
+
+    /// A SCALAR accessor of unsigned integers without sparse substitution (the common case of
+    /// triangle indices), read straight into `u32` (no f64 round trip; the same values as
+    /// [`Loaded::read_accessor`]); `None` for any other accessor.
+    pub fn read_u32s(
+        &self,
+        acc: &gltf::Accessor,
+        element: &str,
+    ) -> Result<Option<Vec<u32>>, GltfError> {
+        let dt = acc.data_type();
+        if acc.dimensions() != Dimensions::Scalar
+            || !matches!(dt, DataType::U8 | DataType::U16 | DataType::U32)
+            || acc.sparse().is_some()
+        {
+            return Ok(None);
+        }
+        let Some((bytes, stride)) = self.dense_bytes(acc, element, 1)? else {
+            return Ok(None);
+        };
+        let count = acc.count();
+        Ok(Some(match dt {
+            DataType::U8 => (0..count).map(|i| u32::from(bytes[i * stride])).collect(),
+            DataType::U16 => (0..count)
+                .map(|i| {
+                    u32::from(u16::from_le_bytes([
+                        bytes[i * stride],
+                        bytes[i * stride + 1],
+                    ]))
+                })
+                .collect(),
+            _ => (0..count)
+                .map(|i| {
+                    let b = &bytes[i * stride..];
+                    u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+                })
+                .collect(),
+        }))
     }
 
     fn acc_err(&self, acc: &gltf::Accessor, element: &str, msg: String) -> GltfError {

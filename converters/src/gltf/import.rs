@@ -22,7 +22,7 @@ use super::extras::{
     CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
 };
 use super::math::{self, Mat4};
-use super::mesh::read_primitive;
+use super::mesh::{read_primitive, MeshData};
 use super::nodes::{camera_node_matrix, camera_values, light_node_matrix};
 use super::pbr::{self, LightValues, Pbr, TexInfo};
 use lumo_schema::geometry::paths::relative;
@@ -80,6 +80,19 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, GltfErro
 
 /// Imports an already loaded document (used by [`import`] and the fuzz target).
 pub fn import_loaded(loaded: &Loaded, options: &ImportOptions) -> Result<Imported, GltfError> {
+    import_keeping(loaded, options, None)
+}
+
+/// The triangle primitives an import read (to check them), by (mesh, primitive) index.
+pub(super) type ReadPrimitives = std::sync::Mutex<HashMap<(usize, usize), MeshData>>;
+
+/// [`import_loaded`], keeping in `keep` the primitives it reads to check them, for a caller
+/// that reads them next (so they are not read twice).
+pub(super) fn import_keeping(
+    loaded: &Loaded,
+    options: &ImportOptions,
+    keep: Option<&ReadPrimitives>,
+) -> Result<Imported, GltfError> {
     // The gltf crate parses some extensions lumo does not render (it would accept a file that
     // requires them); a required extension must be one the importer maps.
     for (index, ext) in loaded.doc.extensions_required().enumerate() {
@@ -115,7 +128,7 @@ pub fn import_loaded(loaded: &Loaded, options: &ImportOptions) -> Result<Importe
         cameras: Vec::new(),
         bounds: None,
     };
-    imp.run(options)
+    imp.run(options, keep)
 }
 
 struct Importer<'a> {
@@ -181,7 +194,11 @@ impl Importer<'_> {
         }
     }
 
-    fn run(mut self, options: &ImportOptions) -> Result<Imported, GltfError> {
+    fn run(
+        mut self,
+        options: &ImportOptions,
+        keep: Option<&ReadPrimitives>,
+    ) -> Result<Imported, GltfError> {
         let doc = &self.l.doc;
         if doc.animations().len() > 0 {
             self.ignored
@@ -251,7 +268,12 @@ impl Importer<'_> {
         for m in doc.meshes() {
             for p in m.primitives() {
                 if p.mode() == Mode::Triangles && p.get(&Semantic::Positions).is_some() {
-                    read_primitive(self.l, m.index(), p.index())?;
+                    let data = read_primitive(self.l, m.index(), p.index())?;
+                    if let Some(keep) = keep {
+                        if let Ok(mut kept) = keep.lock() {
+                            kept.insert((m.index(), p.index()), data);
+                        }
+                    }
                 }
             }
         }

@@ -63,6 +63,9 @@ pub fn load_image(file: &Path, image: u32) -> Result<(Vec<u8>, Option<String>), 
 /// a renderer's loader does; [`load_mesh_primitive`] and [`load_image`] open the file per call.
 pub struct GltfFile {
     loaded: Loaded,
+    /// Primitives [`GltfFile::import`] read to check them, until
+    /// [`GltfFile::mesh_primitive`] takes them.
+    read: super::import::ReadPrimitives,
 }
 
 impl GltfFile {
@@ -70,17 +73,25 @@ impl GltfFile {
     pub fn open(file: &Path) -> Result<GltfFile, GltfError> {
         Ok(GltfFile {
             loaded: Loaded::open(file)?,
+            read: Default::default(),
         })
     }
 
     /// Imports this already opened file as a lumo scene (see [`super::import()`]), so a loader
-    /// that also reads its meshes and images parses the file once.
+    /// that also reads its meshes and images parses the file once. The primitives the import
+    /// reads (every triangle primitive, to report a broken buffer at once) are kept for
+    /// [`GltfFile::mesh_primitive`], so a loader does not read them twice.
     pub fn import(&self, options: &super::ImportOptions) -> Result<super::Imported, GltfError> {
-        super::import::import_loaded(&self.loaded, options)
+        super::import::import_keeping(&self.loaded, options, Some(&self.read))
     }
 
-    /// See [`load_mesh_primitive`].
+    /// See [`load_mesh_primitive`]. A primitive kept by [`GltfFile::import`] is handed over
+    /// (the first call takes it; later calls read it again).
     pub fn mesh_primitive(&self, mesh: u32, primitive: u32) -> Result<MeshData, GltfError> {
+        let key = (mesh as usize, primitive as usize);
+        if let Some(d) = self.read.lock().ok().and_then(|mut r| r.remove(&key)) {
+            return Ok(d);
+        }
         read_primitive(&self.loaded, mesh as usize, primitive as usize)
     }
 
@@ -265,18 +276,21 @@ pub fn read_primitive(
             if acc.dimensions() != gltf::accessor::Dimensions::Scalar {
                 return Err(GltfError::invalid(file, ie, "indices must be SCALAR"));
             }
-            let raw = loaded.read_accessor(&acc, &ie)?;
-            let mut out = Vec::with_capacity(raw.len());
-            for (k, x) in raw.iter().enumerate() {
-                let i = *x as u64;
-                if i >= n as u64 {
-                    return Err(GltfError::invalid(
-                        file,
-                        format!("{ie} (accessors[{}])", acc.index()),
-                        format!("index {k} is {i}, out of range for {n} vertices"),
-                    ));
+            let out = match loaded.read_u32s(&acc, &ie)? {
+                Some(out) => out,
+                None => {
+                    let raw = loaded.read_accessor(&acc, &ie)?;
+                    raw.iter()
+                        .map(|&x| (x as u64).min(u64::from(u32::MAX)) as u32)
+                        .collect()
                 }
-                out.push(i as u32);
+            };
+            if let Some(k) = out.iter().position(|&i| i as usize >= n) {
+                return Err(GltfError::invalid(
+                    file,
+                    format!("{ie} (accessors[{}])", acc.index()),
+                    format!("index {k} is {}, out of range for {n} vertices", out[k]),
+                ));
             }
             out
         }
@@ -290,6 +304,7 @@ pub fn read_primitive(
         ));
     }
     let indices: Vec<[u32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    drop(flat);
     let tangents = match (&normals, p.get(&Semantic::Tangents)) {
         // glTF §3.7.2.1: without normals, given tangents are ignored (shading is flat).
         (None, _) => None,
@@ -510,6 +525,9 @@ fn vec3s(loaded: &Loaded, acc: &gltf::Accessor, element: &str) -> Result<Vec<[f3
             element,
             format!("has type {:?}, expected VEC3", acc.dimensions()),
         ));
+    }
+    if let Some(v) = loaded.read_f32x3(acc, element)? {
+        return Ok(v);
     }
     let raw = loaded.read_accessor(acc, element)?;
     Ok(raw
