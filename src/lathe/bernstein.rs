@@ -165,6 +165,13 @@ pub fn solve_bracketed(f: impl Fn(f64) -> (f64, f64), mut lo: f64, mut hi: f64) 
         if v == 0.0 {
             return t;
         }
+        // Newton's step is below the resolution of t: converged. (Checked before the bracket
+        // moves to t, after which a step landing on t itself counts as leaving the bracket and
+        // bisection would take over down to a 4-ulp bracket: measured 26 evaluations per root
+        // on the vase before this exit.)
+        if dv != 0.0 && (v / dv).abs() <= 2.0 * f64::EPSILON * t.abs() {
+            return t;
+        }
         if (v < 0.0) == lo_negative {
             lo = t;
         } else {
