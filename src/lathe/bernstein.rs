@@ -83,15 +83,43 @@ where
         + std::ops::Sub<Output = T>
         + std::ops::Mul<f64, Output = T>,
 {
-    let m = c.len() - 1;
-    if m == 0 {
-        return (c[0], T::default());
+    // The common sizes (a cubic profile's H has 7 coefficients) use a small work array: the
+    // full one costs a 33-value fill and copy per evaluation, more than the arithmetic.
+    if c.len() <= 8 {
+        casteljau::<T, 8>(c, t)
+    } else {
+        casteljau::<T, MAX_COEFFS>(c, t)
     }
-    let mut w = [T::default(); MAX_COEFFS];
-    w[..=m].copy_from_slice(c);
+}
+
+/// [`value_and_derivative`] with a work array of `N ≥ c.len()` values.
+#[inline(always)]
+fn casteljau<T, const N: usize>(c: &[T], t: f64) -> (T, T)
+where
+    T: Copy
+        + Default
+        + std::ops::Add<Output = T>
+        + std::ops::Sub<Output = T>
+        + std::ops::Mul<f64, Output = T>,
+{
+    let m = c.len() - 1;
     let s = 1.0 - t;
-    for level in 1..m {
-        for i in 0..=(m - level) {
+    match m {
+        0 => return (c[0], T::default()),
+        1 => return (c[0] * s + c[1] * t, c[1] - c[0]),
+        _ => {}
+    }
+    // The first level reads the coefficients (no copy), the next ones work in place over a
+    // shrinking prefix with exclusive ranges (no bounds checks); the same operations in the
+    // same order as a copy followed by the textbook loop.
+    let mut buf = [T::default(); N];
+    let w = &mut buf[..m];
+    for i in 0..m {
+        w[i] = c[i] * s + c[i + 1] * t;
+    }
+    for len in (3..=m).rev() {
+        let w = &mut w[..len];
+        for i in 0..len - 1 {
             w[i] = w[i] * s + w[i + 1] * t;
         }
     }
@@ -144,9 +172,22 @@ pub fn split_scalar(b: &[f64], t: f64, left: &mut [f64], right: &mut [f64]) {
 /// safeguarded Newton iteration that falls back to bisection whenever a Newton step leaves the
 /// bracket or fails to halve the residual (the "rtsafe" strategy, Press et al., Numerical
 /// Recipes §9.4). Converges to full f64 precision.
-pub fn solve_bracketed(f: impl Fn(f64) -> (f64, f64), mut lo: f64, mut hi: f64) -> f64 {
+pub fn solve_bracketed(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64) -> f64 {
     let (flo, _) = f(lo);
     let (fhi, _) = f(hi);
+    solve_bracketed_from(f, lo, hi, flo, fhi)
+}
+
+/// [`solve_bracketed`] with the end values f(lo) and f(hi) already known (for a Bernstein
+/// polynomial on [0, 1] they are its first and last coefficients, exactly what de Casteljau
+/// would return there), saving two evaluations per root.
+pub fn solve_bracketed_from(
+    f: impl Fn(f64) -> (f64, f64),
+    mut lo: f64,
+    mut hi: f64,
+    flo: f64,
+    fhi: f64,
+) -> f64 {
     if flo == 0.0 {
         return lo;
     }

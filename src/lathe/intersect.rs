@@ -51,8 +51,8 @@
 //!   so each piece is monotone in x and y; tangencies give double roots handled as above.
 
 use super::bernstein::{
-    eval_curve_with_derivative, eval_with_derivative, solve_bracketed, split_curve, MAX_COEFFS,
-    MAX_POINTS,
+    eval_curve_with_derivative, eval_with_derivative, solve_bracketed, solve_bracketed_from,
+    split_curve, MAX_COEFFS, MAX_POINTS,
 };
 use super::{Lathe, LatheHit, Piece, PieceKind};
 use glam::{DVec2, DVec3};
@@ -539,7 +539,13 @@ impl Lathe {
                     .filter(|w| (w[0] < 0.0) != (w[1] < 0.0))
                     .count();
                 if variations == 1 {
-                    let tau = solve_bracketed(|t| eval_with_derivative(cs, t), 0.0, 1.0);
+                    let tau = solve_bracketed_from(
+                        |t| eval_with_derivative(cs, t),
+                        0.0,
+                        1.0,
+                        cs[0],
+                        cs[m],
+                    );
                     self.candidate(i, f, eq, node.a + tau * node.w, best);
                     continue;
                 }
@@ -551,7 +557,13 @@ impl Lathe {
                 // within its error bound (a root at the node's end, e.g. a pole).
                 let (f0, f1) = (c[0], c[m]);
                 let local = if f0 * f1 <= 0.0 {
-                    Some(solve_bracketed(|t| eval_with_derivative(cs, t), 0.0, 1.0))
+                    Some(solve_bracketed_from(
+                        |t| eval_with_derivative(cs, t),
+                        0.0,
+                        1.0,
+                        cs[0],
+                        cs[m],
+                    ))
                 } else if f0.abs() <= e[0] {
                     Some(0.0)
                 } else if f1.abs() <= e[m] {
