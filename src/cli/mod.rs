@@ -523,6 +523,18 @@ pub fn load_overridden(scene: &Path, o: &SceneOverrides) -> Result<lumo::load::L
     Ok(loaded)
 }
 
+/// The warnings of loading a scene that still hold after the overrides: with `--env`, the
+/// glTF default environment that one warning talks about is gone.
+pub fn load_warnings<'a>(
+    loaded: &'a lumo::load::Loaded,
+    o: &SceneOverrides,
+) -> impl Iterator<Item = &'a String> {
+    let env_replaced = o.env.is_some();
+    loaded.description.warnings.iter().filter(move |w| {
+        !(env_replaced && w.starts_with(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING))
+    })
+}
+
 fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     // From here on, Ctrl-C stops the render and keeps what it has (nothing, while loading).
     let signals = split::Signals::install()?;
@@ -614,13 +626,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
             )));
         }
     }
-    for w in &loaded.description.warnings {
-        // With --env the default environment the warning talks about is gone.
-        if args.overrides.env.is_some()
-            && w.starts_with(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING)
-        {
-            continue;
-        }
+    for w in load_warnings(&loaded, &args.overrides) {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
     let (scene, warnings) = loaded

@@ -26,7 +26,7 @@ use lumo::render::{render_with_error, Film, Image, RenderOptions};
 use lumo::scene::IntegratorKind;
 use serde::Serialize;
 
-use super::{keyword, load_overridden, CliError, SceneOverrides};
+use super::{keyword, load_overridden, load_warnings, CliError, SceneOverrides};
 
 /// Arguments of `lumo preview`.
 #[derive(Debug, clap::Args)]
@@ -101,11 +101,7 @@ pub(crate) struct Status {
 
 /// The latest frame: linear radiance and its per-pixel standard error, RGB floats, row-major.
 pub(crate) struct Frame {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Mean radiance per pixel.
+    /// Mean radiance per pixel (its size is the frame's).
     pub image: Image,
     /// Standard error of each pixel's mean.
     pub std_error: Image,
@@ -158,7 +154,7 @@ impl Shared {
 
     /// Publishes a frame.
     fn publish(&self, frame: Frame, stats: impl FnOnce(&mut Status)) {
-        let (width, height, quick) = (frame.width, frame.height, frame.quick);
+        let (width, height, quick) = (frame.image.width, frame.image.height, frame.quick);
         *lock(&self.frame) = Some(Arc::new(frame));
         self.update(|s| {
             s.frame += 1;
@@ -342,19 +338,20 @@ fn load_and_render(
         return Ok(Outcome::Stale);
     }
     let mut loaded = loaded;
-    if let Some(spp) = args.spp {
-        loaded.edit(|s| s.render.spp = spp)?;
-    }
-    // A preview refines to a sample count: a time budget would stop it early for no one.
-    loaded.edit(|s| s.render.time_budget_s = None)?;
-    let (mut scene, mut warnings) = loaded
+    loaded.edit(|s| {
+        if let Some(spp) = args.spp {
+            s.render.spp = spp;
+        }
+        // A preview refines to a sample count: a time budget would stop it early for no one.
+        s.render.time_budget_s = None;
+    })?;
+    let (mut scene, build_warnings) = loaded
         .build()
         .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
-    let mut all_warnings: Vec<String> = loaded.description.warnings.clone();
-    if args.overrides.env.is_some() {
-        all_warnings.retain(|w| !w.starts_with(lumo_converters::gltf::DEFAULT_ENVIRONMENT_WARNING));
-    }
-    all_warnings.append(&mut warnings);
+    let all_warnings: Vec<String> = load_warnings(&loaded, &args.overrides)
+        .cloned()
+        .chain(build_warnings)
+        .collect();
     let full = scene.settings;
     shared.update(|s| {
         s.state = "rendering";
@@ -386,8 +383,6 @@ fn load_and_render(
     }
     shared.publish(
         Frame {
-            width: quick.image.width,
-            height: quick.image.height,
             image: quick.image,
             std_error: quick.std_error,
             quick: true,
@@ -403,8 +398,6 @@ fn load_and_render(
         let elapsed = start.elapsed().as_secs_f64();
         shared.publish(
             Frame {
-                width: film.width(),
-                height: film.height(),
                 image: film.image(),
                 std_error: film.std_error(),
                 quick: false,

@@ -137,8 +137,8 @@ async fn frame(State(shared): State<Arc<Shared>>, Query(q): Query<FrameQuery>) -
         HeaderValue::from_static("application/octet-stream"),
     );
     headers.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
-    headers.insert("x-lumo-width", HeaderValue::from(frame.width));
-    headers.insert("x-lumo-height", HeaderValue::from(frame.height));
+    headers.insert("x-lumo-width", HeaderValue::from(image.width));
+    headers.insert("x-lumo-height", HeaderValue::from(image.height));
     (headers, bytes).into_response()
 }
 
