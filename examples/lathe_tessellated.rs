@@ -6,7 +6,7 @@
 //! (2 × SEGMENTS × RINGS triangles per lathe; e.g. 400 × 300 = 240,000). Write OUT beside IN
 //! so that relative paths (textures) still resolve.
 
-use lumo_schema::{InlineMesh, Mesh, MeshSource, Object, Scene};
+use lumo_schema::{Mesh, MeshSource, Object, Scene};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -15,7 +15,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let (segments, rings): (u32, u32) = (segments.parse()?, rings.parse()?);
     let mut scene: Scene = serde_json::from_str(&std::fs::read_to_string(input)?)?;
-    let f = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
     let mut triangles = 0;
     for obj in &mut scene.objects {
         let Object::Lathe(l) = obj else { continue };
@@ -28,12 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             )),
             material: l.material.clone(),
             transform: l.transform.clone(),
-            source: MeshSource::Inline(InlineMesh {
-                positions: t.positions.iter().map(|p| f(*p)).collect(),
-                indices: t.indices.clone(),
-                normals: Some(t.normals.iter().map(|n| f(*n)).collect()),
-                uvs: Some(t.uvs.iter().map(|uv| [uv.x as f32, uv.y as f32]).collect()),
-            }),
+            source: MeshSource::Inline(t.to_inline()),
             smooth: true,
         });
     }

@@ -6,7 +6,7 @@
 
 mod common;
 
-use lumo_schema::{InlineMesh, Mesh, MeshSource, Object};
+use lumo_schema::{Mesh, MeshSource, Object};
 use std::path::Path;
 
 fn rmse(a: &lumo::render::Image, b: &lumo::render::Image) -> f64 {
@@ -45,17 +45,11 @@ fn textured_vase_exact_and_finely_tessellated_agree_within_noise() {
         })
         .expect("the vase scene has a lathe");
     let t = lumo_schema::geometry::tessellate::lathe(&lathe_obj.profile, 512, 511);
-    let f = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
     let mesh = Object::Mesh(Mesh {
         name: Some("vase (tessellated)".into()),
         material: lathe_obj.material.clone(),
         transform: lathe_obj.transform.clone(),
-        source: MeshSource::Inline(InlineMesh {
-            positions: t.positions.iter().map(|p| f(*p)).collect(),
-            indices: t.indices.clone(),
-            normals: Some(t.normals.iter().map(|n| f(*n)).collect()),
-            uvs: Some(t.uvs.iter().map(|uv| [uv.x as f32, uv.y as f32]).collect()),
-        }),
+        source: MeshSource::Inline(t.to_inline()),
         smooth: true,
     });
     let mut meshed = desc.clone();

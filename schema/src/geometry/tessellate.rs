@@ -24,6 +24,25 @@ pub struct TriMesh {
     pub indices: Vec<[u32; 3]>,
 }
 
+impl TriMesh {
+    /// The mesh as a scene's inline mesh, rounded to f32, with its normals and texture
+    /// coordinates (a smooth mesh object of it shades like the exact shape).
+    pub fn to_inline(&self) -> crate::InlineMesh {
+        let f = |v: DVec3| v.to_array().map(|x| x as f32);
+        crate::InlineMesh {
+            positions: self.positions.iter().map(|p| f(*p)).collect(),
+            indices: self.indices.clone(),
+            normals: Some(self.normals.iter().map(|n| f(*n)).collect()),
+            uvs: Some(
+                self.uvs
+                    .iter()
+                    .map(|uv| uv.to_array().map(|x| x as f32))
+                    .collect(),
+            ),
+        }
+    }
+}
+
 /// A UV sphere with `segments` divisions around the y axis and `rings` pole to pole.
 /// Vertex (ring i, segment j) has index i·(segments + 1) + j, polar angle α = π i / rings from
 /// −y and azimuth φ = 2π j / segments from +x towards −z; u = φ / 2π, v = α / π. The seam
