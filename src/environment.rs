@@ -26,7 +26,7 @@ use std::f32::consts::PI;
 
 use crate::math::{luminance, Rgb, Vec2, Vec3};
 use crate::sampling::Distribution2D;
-use crate::texture::Texture;
+use crate::texture::{Texels, Texture};
 
 /// Where the environment's radiance comes from.
 #[derive(Debug, Clone)]
@@ -79,7 +79,9 @@ impl Environment {
 
     /// An image environment; negative texels (compression noise in HDR files) count as 0.
     pub fn image(mut texture: Texture, strength: f32, rotation: f32, visible: bool) -> Environment {
-        for t in texture.texels.iter_mut() {
+        // Float texels: the loop below clamps them, and lookups of a sun need no decoding.
+        let mut rgb = texture.decoded();
+        for t in rgb.iter_mut() {
             *t = t.max(Vec3::ZERO);
             if !t.is_finite() {
                 *t = Vec3::ZERO;
@@ -91,7 +93,8 @@ impl Environment {
         // each neighbour and 3/4 of the texel itself. With the texel's own value alone, the
         // half-texel rim that a bright sun bleeds into its neighbours would be sampled at their
         // low density: fireflies.
-        let lum: Vec<f32> = texture.texels.iter().map(|t| luminance(*t)).collect();
+        let lum: Vec<f32> = rgb.iter().map(|t| luminance(*t)).collect();
+        texture.texels = Texels::Float { rgb, alpha: None };
         let at = |x: isize, y: isize| {
             let x = x.rem_euclid(w as isize) as usize;
             let y = y.clamp(0, h as isize - 1) as usize;
@@ -249,14 +252,7 @@ mod tests {
                 }
             })
             .collect();
-        let texture = Texture {
-            width: w,
-            height: h,
-            texels,
-            alpha: None,
-            wrap_s: Wrap::Repeat,
-            wrap_t: Wrap::Clamp,
-        };
+        let texture = Texture::from_rgb(w, h, texels, Wrap::Repeat, Wrap::Clamp);
         Environment::image(texture, 1.5, rotation, true)
     }
 

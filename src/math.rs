@@ -211,6 +211,14 @@ pub fn srgb8_table() -> &'static [f32; 256] {
     &TABLE
 }
 
+/// k/255 for every 8-bit value k: the linear decoding of 8-bit texels (the value image decoding
+/// to floats gives).
+pub fn unorm8_table() -> &'static [f32; 256] {
+    static TABLE: std::sync::LazyLock<[f32; 256]> =
+        std::sync::LazyLock::new(|| std::array::from_fn(|k| k as f32 / 255.0));
+    &TABLE
+}
+
 /// [`srgb_to_linear`] of an 8-bit channel value `c` = k/255 by table lookup (the same bits as
 /// the formula: the table holds its values); other values go through the formula. Decoding a
 /// texture this way costs a lookup per channel instead of a `powf` (a 2048² texture has 12.6 M).

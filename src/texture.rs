@@ -1,4 +1,7 @@
-//! Image textures: linear float texels, bilinear lookup, wrap modes.
+//! Image textures: texels as the file stores them (8-bit, decoded per lookup by a table) or as
+//! linear floats, bilinear lookup, wrap modes.
+
+use std::sync::Arc;
 
 use crate::math::{Rgb, Vec2, Vec3};
 use glam::Affine2;
@@ -14,6 +17,32 @@ pub enum Wrap {
     Clamp,
 }
 
+/// The texels of an image, row-major, top row first.
+#[derive(Debug, Clone)]
+pub enum Texels {
+    /// Linear floating-point RGB (HDR and EXR files, 16-bit images), with the alpha of each
+    /// texel when the image has an alpha channel that is not everywhere 1.
+    Float {
+        /// Colour.
+        rgb: Vec<Rgb>,
+        /// Alpha, when not everywhere 1.
+        alpha: Option<Vec<f32>>,
+    },
+    /// 8-bit RGBA as the file stores it (grey images replicated to RGB, alpha 255 where the file
+    /// has none). A lookup decodes each colour byte k through `decode` (the sRGB transfer
+    /// function's value at k/255, or k/255 itself) and alpha as k/255: the values a decoded float
+    /// copy would hold, in a quarter of the memory (a 2048² texture: 16 MiB instead of 48 MiB
+    /// plus 16 MiB of alpha), so that bilinear lookups on large textures miss the cache less.
+    Rgba8 {
+        /// The bytes, shared with the loaded image (one copy whatever the colour space).
+        rgba: Arc<[[u8; 4]]>,
+        /// Whether alpha is not everywhere 255.
+        has_alpha: bool,
+        /// Linear value of each colour byte.
+        decode: &'static [f32; 256],
+    },
+}
+
 /// A texture image in linear RGB, rows stored top first.
 #[derive(Debug, Clone)]
 pub struct Texture {
@@ -22,9 +51,7 @@ pub struct Texture {
     /// Height in texels.
     pub height: u32,
     /// Texels, row-major, top row first.
-    pub texels: Vec<Rgb>,
-    /// Alpha of each texel (same layout), when the image has an alpha channel; 1 otherwise.
-    pub alpha: Option<Vec<f32>>,
+    pub texels: Texels,
     /// Wrap mode along u.
     pub wrap_s: Wrap,
     /// Wrap mode along v.
@@ -52,8 +79,44 @@ impl TextureRef {
 }
 
 impl Texture {
+    /// A texture of linear float texels without alpha.
+    pub fn from_rgb(width: u32, height: u32, rgb: Vec<Rgb>, wrap_s: Wrap, wrap_t: Wrap) -> Texture {
+        Texture {
+            width,
+            height,
+            texels: Texels::Float { rgb, alpha: None },
+            wrap_s,
+            wrap_t,
+        }
+    }
+
+    /// Every texel, linear RGB, row-major (the float texels themselves, or the decoded bytes).
+    pub fn decoded(&self) -> Vec<Rgb> {
+        match &self.texels {
+            Texels::Float { rgb, .. } => rgb.clone(),
+            Texels::Rgba8 { rgba, .. } => (0..rgba.len()).map(|i| self.texel(i)).collect(),
+        }
+    }
+
+    /// The texel at row-major index `i`, linear RGB.
+    #[inline(always)]
+    fn texel(&self, i: usize) -> Rgb {
+        match &self.texels {
+            Texels::Float { rgb, .. } => rgb[i],
+            Texels::Rgba8 { rgba, decode, .. } => {
+                let [r, g, b, _] = rgba[i];
+                Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
+            }
+        }
+    }
+
+    #[inline(always)]
     fn wrap_index(wrap: Wrap, i: i64, n: u32) -> usize {
         let n = i64::from(n);
+        if (0..n).contains(&i) {
+            // Inside the image every mode is the identity (and needs no division).
+            return i as usize;
+        }
         let k = match wrap {
             Wrap::Repeat => i.rem_euclid(n),
             Wrap::Clamp => i.clamp(0, n - 1),
@@ -77,7 +140,7 @@ impl Texture {
         }
         let x = uv.x * self.width as f32 - 0.5;
         let y = (1.0 - uv.y) * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
+        let (x0, y0) = (floor(x), floor(y));
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
         let w = self.width as usize;
@@ -98,23 +161,46 @@ impl Texture {
         let Some(([a, b, c, d], fx, fy)) = self.footprint(uv) else {
             return Vec3::ZERO;
         };
-        let t = &self.texels;
-        let top = t[a] * (1.0 - fx) + t[b] * fx;
-        let bottom = t[c] * (1.0 - fx) + t[d] * fx;
+        let top = self.texel(a) * (1.0 - fx) + self.texel(b) * fx;
+        let bottom = self.texel(c) * (1.0 - fx) + self.texel(d) * fx;
         top * (1.0 - fy) + bottom * fy
     }
 
     /// Bilinear lookup of the alpha channel (1 for images without one).
     pub fn lookup_alpha(&self, uv: Vec2) -> f32 {
-        let Some(alpha) = &self.alpha else {
-            return 1.0;
+        let alpha = |i: usize| match &self.texels {
+            Texels::Float { alpha, .. } => alpha.as_ref().map_or(1.0, |a| a[i]),
+            Texels::Rgba8 { rgba, .. } => f32::from(rgba[i][3]) / 255.0,
         };
+        let has_alpha = match &self.texels {
+            Texels::Float { alpha, .. } => alpha.is_some(),
+            Texels::Rgba8 { has_alpha, .. } => *has_alpha,
+        };
+        if !has_alpha {
+            return 1.0;
+        }
         let Some(([a, b, c, d], fx, fy)) = self.footprint(uv) else {
             return 0.0;
         };
-        let top = alpha[a] * (1.0 - fx) + alpha[b] * fx;
-        let bottom = alpha[c] * (1.0 - fx) + alpha[d] * fx;
+        let top = alpha(a) * (1.0 - fx) + alpha(b) * fx;
+        let bottom = alpha(c) * (1.0 - fx) + alpha(d) * fx;
         top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// ⌊x⌋ without a library call (baseline x86-64 has no rounding instruction): truncation, one
+/// lower for negative non-integers; the same value as `f32::floor` for every finite `x` (beyond
+/// 2²³ every float is an integer and is returned as it is).
+#[inline(always)]
+fn floor(x: f32) -> f32 {
+    if x.abs() >= 8_388_608.0 {
+        return x;
+    }
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else {
+        t
     }
 }
 
@@ -124,21 +210,16 @@ mod tests {
 
     fn two_by_two(wrap: Wrap) -> Texture {
         // Top row: red, green; bottom row: blue, white.
-        Texture {
-            width: 2,
-            height: 2,
-            texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
-            alpha: None,
-            wrap_s: wrap,
-            wrap_t: wrap,
-        }
+        Texture::from_rgb(2, 2, vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE], wrap, wrap)
     }
 
     #[test]
     fn alpha_is_bilinear_and_one_without_a_channel() {
         let mut t = two_by_two(Wrap::Clamp);
         assert_eq!(t.lookup_alpha(Vec2::new(0.3, 0.3)), 1.0);
-        t.alpha = Some(vec![0.0, 1.0, 0.0, 1.0]);
+        if let Texels::Float { alpha, .. } = &mut t.texels {
+            *alpha = Some(vec![0.0, 1.0, 0.0, 1.0]);
+        }
         assert_eq!(t.lookup_alpha(Vec2::new(0.25, 0.75)), 0.0);
         assert!((t.lookup_alpha(Vec2::new(0.5, 0.5)) - 0.5).abs() < 1e-6);
     }
@@ -174,5 +255,88 @@ mod tests {
         assert!((t.lookup(Vec2::new(0.25, 1.25)) - Vec3::Z).length() < 1e-6);
         let c = two_by_two(Wrap::Clamp);
         assert!((c.lookup(Vec2::new(0.25, 1.25)) - Vec3::X).length() < 1e-6);
+    }
+
+    /// An 8-bit texture looked up through its decode table gives the same bits as the float
+    /// texture of the decoded values, colour and alpha, for every wrap mode, inside and outside
+    /// [0, 1] (renders do not change with the storage).
+    #[test]
+    fn byte_texels_look_up_exactly_as_their_decoded_floats() {
+        let (w, h) = (7u32, 5u32);
+        let mut state = 3u64;
+        let mut byte = || (crate::sampler::test_lcg(&mut state) * 256.0) as u8;
+        let rgba: Vec<[u8; 4]> = (0..w * h)
+            .map(|_| [byte(), byte(), byte(), byte()])
+            .collect();
+        for decode in [crate::math::srgb8_table(), crate::math::unorm8_table()] {
+            for wrap in [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp] {
+                let bytes = Texture {
+                    width: w,
+                    height: h,
+                    texels: Texels::Rgba8 {
+                        rgba: rgba.clone().into(),
+                        has_alpha: true,
+                        decode,
+                    },
+                    wrap_s: wrap,
+                    wrap_t: wrap,
+                };
+                let floats = Texture {
+                    texels: Texels::Float {
+                        rgb: rgba
+                            .iter()
+                            .map(|t| {
+                                Vec3::new(
+                                    decode[t[0] as usize],
+                                    decode[t[1] as usize],
+                                    decode[t[2] as usize],
+                                )
+                            })
+                            .collect(),
+                        alpha: Some(rgba.iter().map(|t| f32::from(t[3]) / 255.0).collect()),
+                    },
+                    ..bytes.clone()
+                };
+                for i in 0..2000 {
+                    let uv = Vec2::new(
+                        crate::sampler::test_lcg(&mut state) * 5.0 - 2.0,
+                        crate::sampler::test_lcg(&mut state) * 5.0 - 2.0,
+                    );
+                    let (a, b) = (bytes.lookup(uv), floats.lookup(uv));
+                    assert_eq!(
+                        a.to_array().map(f32::to_bits),
+                        b.to_array().map(f32::to_bits),
+                        "lookup {i} at {uv}"
+                    );
+                    assert_eq!(
+                        bytes.lookup_alpha(uv).to_bits(),
+                        floats.lookup_alpha(uv).to_bits()
+                    );
+                }
+            }
+        }
+    }
+
+    /// The library-free floor is `f32::floor` on integers, halves, tiny and huge values.
+    #[test]
+    fn floor_is_the_floor() {
+        let mut state = 9u64;
+        let mut xs = vec![
+            0.0,
+            -0.5,
+            0.5,
+            -1.0,
+            1.0,
+            1e-30,
+            -1e-30,
+            8_388_607.5,
+            -8_388_607.5,
+            1e20,
+            -1e20,
+        ];
+        xs.extend((0..10_000).map(|_| (crate::sampler::test_lcg(&mut state) - 0.5) * 4096.0));
+        for x in xs {
+            assert_eq!(floor(x), x.floor(), "{x}");
+        }
     }
 }

@@ -12,19 +12,19 @@ use lumo_converters::gltf::GltfFile;
 
 use super::gltf::GltfCache;
 pub use super::obj::MeshData;
-use crate::math::Vec3;
+use crate::math::{unorm8_table, Vec3};
+use crate::texture::Texels;
 
-/// A decoded texture image: RGB texels as stored in the file (not yet linearised).
+/// A decoded texture image: texels as stored in the file (not yet linearised).
 #[derive(Debug, Clone)]
 pub struct TextureImage {
     /// Width in texels.
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// Texels, row-major, top row first, as the file stores them.
-    pub texels: Vec<Vec3>,
-    /// The alpha channel (always linear), when the file has one that is not everywhere 1.
-    pub alpha: Option<Vec<f32>>,
+    /// Texels, row-major, top row first, as the file stores them: 8-bit images keep their bytes
+    /// (decoded as k/255), others are floats (16-bit values as k/65535).
+    pub texels: Texels,
     /// Whether the file holds linear floating-point values (EXR, HDR), which are never
     /// sRGB-decoded.
     pub is_float: bool,
@@ -223,19 +223,35 @@ fn decode_image(bytes: &[u8]) -> Result<TextureImage, String> {
         img,
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
     );
-    let alpha = if img.color().has_alpha() {
-        let rgba = img.to_rgba32f();
-        let a: Vec<f32> = rgba.pixels().map(|p| p[3]).collect();
-        a.iter().any(|&x| x != 1.0).then_some(a)
+    let (width, height) = (img.width(), img.height());
+    let texels = if img.color().bytes_per_pixel() == img.color().channel_count() {
+        // 8 bits per channel (grey images are replicated to RGB, as to floats).
+        let rgba = img.into_rgba8();
+        let has_alpha = rgba.pixels().any(|p| p[3] != u8::MAX);
+        let rgba: Arc<[[u8; 4]]> = rgba.pixels().map(|p| p.0).collect();
+        Texels::Rgba8 {
+            rgba,
+            has_alpha,
+            decode: unorm8_table(),
+        }
     } else {
-        None
+        let alpha = if img.color().has_alpha() {
+            let rgba = img.to_rgba32f();
+            let a: Vec<f32> = rgba.pixels().map(|p| p[3]).collect();
+            a.iter().any(|&x| x != 1.0).then_some(a)
+        } else {
+            None
+        };
+        let rgb = img.to_rgb32f();
+        Texels::Float {
+            rgb: rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
+            alpha,
+        }
     };
-    let rgb = img.to_rgb32f();
     Ok(TextureImage {
-        width: rgb.width(),
-        height: rgb.height(),
-        texels: rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
-        alpha,
+        width,
+        height,
+        texels,
         is_float,
     })
 }

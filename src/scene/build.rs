@@ -15,8 +15,8 @@ use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
 use crate::light::{Light, LightSampler};
 use crate::load::{Assets, MeshData};
 use crate::material::{AlphaMode, Material};
-use crate::math::{srgb8_table, srgb8_to_linear, Affine3A, Vec2, Vec3};
-use crate::texture::{Texture, TextureRef, Wrap};
+use crate::math::{srgb8_table, srgb8_to_linear, unorm8_table, Affine3A, Vec2, Vec3};
+use crate::texture::{Texels, Texture, TextureRef, Wrap};
 use rayon::prelude::*;
 
 /// Most triangles a scene may hold (about 6 GiB with BVHs); larger scenes are refused.
@@ -81,15 +81,26 @@ pub fn build(
             file: t.file.clone(),
         })?;
         let srgb = t.color_space == schema::ColorSpace::Srgb && !image.is_float;
-        let texels = if srgb {
-            let table = srgb8_table();
-            image
-                .texels
-                .par_iter()
-                .map(|c| c.map(|v| srgb8_to_linear(v, table)))
-                .collect()
-        } else {
-            image.texels.to_vec()
+        let texels = match &image.texels {
+            // The bytes are shared; only the decoding differs with the colour space.
+            Texels::Rgba8 {
+                rgba, has_alpha, ..
+            } => Texels::Rgba8 {
+                rgba: rgba.clone(),
+                has_alpha: *has_alpha,
+                decode: if srgb { srgb8_table() } else { unorm8_table() },
+            },
+            Texels::Float { rgb, alpha } => Texels::Float {
+                rgb: if srgb {
+                    let table = srgb8_table();
+                    rgb.par_iter()
+                        .map(|c| c.map(|v| srgb8_to_linear(v, table)))
+                        .collect()
+                } else {
+                    rgb.to_vec()
+                },
+                alpha: alpha.clone(),
+            },
         };
         let wrap = |w: schema::Wrap| match w {
             schema::Wrap::Repeat => Wrap::Repeat,
@@ -101,7 +112,6 @@ pub fn build(
             width: image.width,
             height: image.height,
             texels,
-            alpha: image.alpha.clone(),
             wrap_s: wrap(t.wrap_s),
             wrap_t: wrap(t.wrap_t),
         });
@@ -356,7 +366,6 @@ pub fn build(
                 width: image.width,
                 height: image.height,
                 texels: image.texels.clone(),
-                alpha: None,
                 wrap_s: Wrap::Repeat,
                 wrap_t: Wrap::Clamp,
             };
@@ -539,18 +548,11 @@ mod tests {
     /// on its left half and white on its right half.
     #[test]
     fn emission_texture_means_weigh_triangles_by_what_they_emit() {
-        use crate::texture::{Texture, TextureRef, Wrap};
+        use crate::texture::{Texels, Texture, TextureRef, Wrap};
         let texels: Vec<Vec3> = (0..64)
             .map(|i| if i < 32 { Vec3::ZERO } else { Vec3::ONE })
             .collect();
-        let t = Texture {
-            width: 64,
-            height: 1,
-            texels,
-            alpha: None,
-            wrap_s: Wrap::Clamp,
-            wrap_t: Wrap::Clamp,
-        };
+        let t = Texture::from_rgb(64, 1, texels, Wrap::Clamp, Wrap::Clamp);
         let r = TextureRef {
             texture: 0,
             transform: glam::Affine2::IDENTITY,
