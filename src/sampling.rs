@@ -41,10 +41,18 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
 
 /// A piecewise-constant distribution on [0, 1) with one cell per weight (pbrt-v4
 /// `PiecewiseConstant1D`), sampled by inverting its CDF continuously inside the cell.
+///
+/// The cell of u is found through a guide table (the cutpoint method of Chen and Asau 1974):
+/// `guide[k]` is the cell of u = k/G for G a power of two, so the cell of any u lies between
+/// `guide[⌊uG⌋]` and `guide[⌊uG⌋ + 1]` and is searched for only there — usually among a cell
+/// or two instead of a binary search over the whole CDF (an environment map's rows have 1024
+/// cells). Both k/G and ⌊uG⌋ are exact in floating point, so the cell is exactly the one the
+/// full search finds.
 #[derive(Debug, Clone)]
 pub struct Distribution1D {
     func: Vec<f32>,
     cdf: Vec<f32>,
+    guide: Vec<u32>,
     integral: f32,
 }
 
@@ -71,11 +79,44 @@ impl Distribution1D {
             }
         }
         cdf[n] = 1.0;
+        let g = n.next_power_of_two();
+        // One merge-like walk: the cell of k/G never decreases with k.
+        let mut cell = 0;
+        let guide = (0..=g)
+            .map(|k| {
+                let u = k as f32 / g as f32;
+                while cell + 1 < n && cdf[cell + 1] <= u {
+                    cell += 1;
+                }
+                cell as u32
+            })
+            .collect();
         Distribution1D {
             func,
             cdf,
+            guide,
             integral,
         }
+    }
+
+    /// The last cell whose CDF start is ≤ u (cell 0 for u below every start), by binary search.
+    fn cell_by_search(cdf: &[f32], u: f32) -> usize {
+        let n = cdf.len() - 1;
+        cdf[..n].partition_point(|&c| c <= u).saturating_sub(1)
+    }
+
+    /// [`Distribution1D::cell_by_search`] through the guide table.
+    #[inline]
+    fn cell(&self, u: f32) -> usize {
+        if !(u >= 0.0) {
+            return Self::cell_by_search(&self.cdf, u);
+        }
+        let g = self.guide.len() - 1;
+        // u ∈ [k/G, (k+1)/G), exactly (G is a power of two).
+        let k = ((u * g as f32) as usize).min(g - 1);
+        let (lo, hi) = (self.guide[k] as usize, self.guide[k + 1] as usize);
+        // cdf[lo] ≤ k/G ≤ u, and the cell of u is at most hi.
+        lo + self.cdf[lo + 1..=hi].partition_point(|&c| c <= u)
     }
 
     /// The integral of the weights over [0, 1) (their mean).
@@ -90,8 +131,7 @@ impl Distribution1D {
     /// Samples x ∈ [0, 1): returns x, its density and its cell.
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
         let n = self.cells();
-        // The last cell whose CDF start is ≤ u.
-        let i = self.cdf[..n].partition_point(|&c| c <= u).saturating_sub(1);
+        let i = self.cell(u);
         let width = self.cdf[i + 1] - self.cdf[i];
         let du = if width > 0.0 {
             ((u - self.cdf[i]) / width).clamp(0.0, 1.0)
@@ -155,5 +195,60 @@ impl Distribution2D {
         let h = self.rows.len();
         let row = ((p.y * h as f32) as usize).min(h - 1);
         self.rows[row].pdf(p.x) * self.marginal.pdf(p.y)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The guide table finds exactly the cell the binary search finds: for weights with runs of
+    /// zeros (flat CDF stretches), a spike, sizes that are and are not powers of two, at random
+    /// u, at every CDF value and the floats next to it, and at 0 and just below 1.
+    #[test]
+    fn the_guide_table_finds_the_searched_cell() {
+        let mut state = 5u64;
+        for n in [1usize, 2, 3, 7, 64, 100, 1024, 1000] {
+            let weights: Vec<f32> = (0..n)
+                .map(|i| {
+                    let r = crate::sampler::test_lcg(&mut state);
+                    if r < 0.3 {
+                        0.0
+                    } else if i == n / 2 {
+                        1e5
+                    } else {
+                        r
+                    }
+                })
+                .collect();
+            let d = Distribution1D::new(&weights);
+            let mut us: Vec<f32> = (0..20_000)
+                .map(|_| crate::sampler::test_lcg(&mut state))
+                .collect();
+            for &c in &d.cdf {
+                us.extend([
+                    c,
+                    f32::from_bits(c.to_bits().saturating_sub(1)),
+                    f32::from_bits(c.to_bits() + 1),
+                ]);
+            }
+            us.extend([0.0, 1.0 - f32::EPSILON / 2.0, -1.0, 1.5]);
+            for u in us {
+                assert_eq!(
+                    d.cell(u),
+                    Distribution1D::cell_by_search(&d.cdf, u),
+                    "n {n}, u {u}"
+                );
+            }
+            let g = d.guide.len() - 1;
+            for (k, &cell) in d.guide.iter().enumerate() {
+                let u = k as f32 / g as f32;
+                assert_eq!(
+                    cell as usize,
+                    Distribution1D::cell_by_search(&d.cdf, u),
+                    "guide {k}"
+                );
+            }
+        }
     }
 }
