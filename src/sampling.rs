@@ -108,7 +108,7 @@ impl Distribution1D {
     /// [`Distribution1D::cell_by_search`] through the guide table.
     #[inline]
     fn cell(&self, u: f32) -> usize {
-        if !(u >= 0.0) {
+        if u.is_nan() || u < 0.0 {
             return Self::cell_by_search(&self.cdf, u);
         }
         let g = self.guide.len() - 1;

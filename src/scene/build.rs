@@ -548,7 +548,7 @@ mod tests {
     /// on its left half and white on its right half.
     #[test]
     fn emission_texture_means_weigh_triangles_by_what_they_emit() {
-        use crate::texture::{Texels, Texture, TextureRef, Wrap};
+        use crate::texture::{Texture, TextureRef, Wrap};
         let texels: Vec<Vec3> = (0..64)
             .map(|i| if i < 32 { Vec3::ZERO } else { Vec3::ONE })
             .collect();
