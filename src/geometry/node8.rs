@@ -1,5 +1,6 @@
-//! [`Node8`]: a BVH node of up to eight children whose boxes are stored structure-of-arrays, and
-//! the two ways of testing a ray against all eight boxes: [`Sse`], two 4-wide halves in the
+//! [`Node8`]: a BVH node of up to eight children whose boxes are stored structure-of-arrays (and
+//! [`Node4`], its half-size form for nodes of at most four children), and the two ways of
+//! testing a ray against all eight boxes: [`Sse`], two 4-wide halves in the
 //! baseline x86-64 instruction set (SSE2), and [`Avx2`], one 8-wide test (selected at run time
 //! when the CPU has AVX2). Both compute each lane with the same operations in the same order
 //! (subtract, multiply, min/max, compare; no fused multiply-add), so they give bit-identical
@@ -52,6 +53,70 @@ impl Node8 {
     }
 }
 
+/// A node of at most four children (most nodes near the leaves: their binary subtrees offer no
+/// more), half the bytes of a [`Node8`]: `planes[p]` holds plane p for children 0–3. Tested as
+/// lanes 0–3 of a [`Node8`] would be, with the same arithmetic.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct Node4 {
+    pub(crate) planes: [Vec4; 6],
+    pub(crate) child: [u32; 4],
+}
+
+impl Node4 {
+    /// No children.
+    pub(crate) const EMPTY: Node4 = Node4 {
+        planes: [
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+            Vec4::INFINITY,
+            Vec4::NEG_INFINITY,
+        ],
+        child: [EMPTY; 4],
+    };
+
+    /// Sets child `lane` (0–3) to box `b` and reference `child`.
+    pub(crate) fn set_child(&mut self, lane: usize, b: Aabb, child: u32) {
+        for axis in 0..3 {
+            self.planes[2 * axis][lane] = b.min[axis];
+            self.planes[2 * axis + 1][lane] = b.max[axis];
+        }
+        self.child[lane] = child;
+    }
+}
+
+/// The slab test of four boxes (`p(i)`: their plane i) in SSE lanes: see [`BoxTest`].
+#[inline(always)]
+fn hit4<const ROBUST: bool>(
+    p: impl Fn(usize) -> Vec4,
+    org: &[Vec4; 3],
+    inv: &[Vec4; 3],
+    negative: &[usize; 3],
+    t_min: f32,
+    t_max: f32,
+) -> (Vec4, u32) {
+    let slab = |axis: usize, neg: usize| {
+        let near = (p(2 * axis + (neg & 1)) - org[axis]) * inv[axis];
+        let far = (p(2 * axis + (!neg & 1)) - org[axis]) * inv[axis];
+        if ROBUST {
+            (
+                Vec4::select(near.is_nan_mask(), Vec4::NEG_INFINITY, near),
+                Vec4::select(far.is_nan_mask(), Vec4::INFINITY, far),
+            )
+        } else {
+            (near, far)
+        }
+    };
+    let (nx, fx) = slab(0, negative[0]);
+    let (ny, fy) = slab(1, negative[1]);
+    let (nz, fz) = slab(2, negative[2]);
+    let near = nx.max(ny).max(nz.max(Vec4::splat(t_min)));
+    let far = fx.min(fy).min(fz.min(Vec4::splat(t_max)));
+    (near, near.cmple(far * Vec4::splat(FAR_SCALE)).bitmask())
+}
+
 /// A way of testing a ray against a [`Node8`]'s eight boxes.
 ///
 /// `hit` returns the entry distances into the eight boxes and the bit mask of boxes the ray
@@ -73,6 +138,17 @@ pub(crate) trait BoxTest {
     /// As for [`BoxTest::ray`].
     unsafe fn hit<const ROBUST: bool>(
         node: &Node8,
+        r: &Self::Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 8], u32);
+
+    /// The same for a [`Node4`] (lanes 0–3 of the result; in SSE lanes for both tests).
+    ///
+    /// # Safety
+    /// As for [`BoxTest::ray`].
+    unsafe fn hit4<const ROBUST: bool>(
+        node: &Node4,
         r: &Self::Ray,
         t_min: f32,
         t_max: f32,
@@ -110,25 +186,14 @@ impl BoxTest for Sse {
         t_max: f32,
     ) -> ([f32; 8], u32) {
         let half = |h: usize| {
-            let p = &node.planes;
-            let slab = |axis: usize, neg: usize| {
-                let near = (p[2 * axis + (neg & 1)][h] - r.org[axis]) * r.inv[axis];
-                let far = (p[2 * axis + (!neg & 1)][h] - r.org[axis]) * r.inv[axis];
-                if ROBUST {
-                    (
-                        Vec4::select(near.is_nan_mask(), Vec4::NEG_INFINITY, near),
-                        Vec4::select(far.is_nan_mask(), Vec4::INFINITY, far),
-                    )
-                } else {
-                    (near, far)
-                }
-            };
-            let (nx, fx) = slab(0, r.negative[0]);
-            let (ny, fy) = slab(1, r.negative[1]);
-            let (nz, fz) = slab(2, r.negative[2]);
-            let near = nx.max(ny).max(nz.max(Vec4::splat(t_min)));
-            let far = fx.min(fy).min(fz.min(Vec4::splat(t_max)));
-            (near, near.cmple(far * Vec4::splat(FAR_SCALE)).bitmask())
+            hit4::<ROBUST>(
+                |i| node.planes[i][h],
+                &r.org,
+                &r.inv,
+                &r.negative,
+                t_min,
+                t_max,
+            )
         };
         let (n0, m0) = half(0);
         let (n1, m1) = half(1);
@@ -136,6 +201,20 @@ impl BoxTest for Sse {
         near[..4].copy_from_slice(&n0.to_array());
         near[4..].copy_from_slice(&n1.to_array());
         (near, m0 | (m1 << 4))
+    }
+
+    #[inline(always)]
+    unsafe fn hit4<const ROBUST: bool>(
+        node: &Node4,
+        r: &SseRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 8], u32) {
+        let p = |i: usize| node.planes[i];
+        let (n, m) = hit4::<ROBUST>(p, &r.org, &r.inv, &r.negative, t_min, t_max);
+        let mut near = [0.0; 8];
+        near[..4].copy_from_slice(&n.to_array());
+        (near, m)
     }
 }
 
@@ -150,6 +229,9 @@ pub(crate) struct Avx2Ray {
     org: [std::arch::x86_64::__m256; 3],
     inv: [std::arch::x86_64::__m256; 3],
     negative: [usize; 3],
+    /// Origin and reciprocal in four lanes, for [`Node4`]s.
+    org4: [Vec4; 3],
+    inv4: [Vec4; 3],
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -158,13 +240,17 @@ impl BoxTest for Avx2 {
 
     #[inline(always)]
     unsafe fn ray(r: &TriRay) -> Avx2Ray {
-        use std::arch::x86_64::_mm256_set1_ps;
+        use std::arch::x86_64::{_mm256_castps256_ps128, _mm256_set1_ps};
         // SAFETY: the caller guarantees AVX2 (so AVX) support.
         unsafe {
+            let org = r.org.map(|x| _mm256_set1_ps(x));
+            let inv = r.inv.map(|x| _mm256_set1_ps(x));
             Avx2Ray {
-                org: r.org.map(|x| _mm256_set1_ps(x)),
-                inv: r.inv.map(|x| _mm256_set1_ps(x)),
+                org,
+                inv,
                 negative: [0, 1, 2].map(|axis| (r.negative >> axis) as usize & 1),
+                org4: org.map(|x| Vec4::from(_mm256_castps256_ps128(x))),
+                inv4: inv.map(|x| Vec4::from(_mm256_castps256_ps128(x))),
             }
         }
     }
@@ -223,6 +309,20 @@ impl BoxTest for Avx2 {
             _mm256_storeu_ps(out.as_mut_ptr(), near);
             (out, _mm256_movemask_ps(hit) as u32)
         }
+    }
+
+    #[inline(always)]
+    unsafe fn hit4<const ROBUST: bool>(
+        node: &Node4,
+        r: &Avx2Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> ([f32; 8], u32) {
+        let p = |i: usize| node.planes[i];
+        let (n, m) = hit4::<ROBUST>(p, &r.org4, &r.inv4, &r.negative, t_min, t_max);
+        let mut near = [0.0; 8];
+        near[..4].copy_from_slice(&n.to_array());
+        (near, m)
     }
 }
 
