@@ -4,12 +4,12 @@
 //!
 //! A binary SAH tree, priced for leaves tested four triangles at a time ([`LeafCost::PACKET4`]),
 //! is collapsed into nodes of up to eight children by repeatedly opening the child with the
-//! largest surface area. A node ([`Node8`]) stores its children's boxes structure-of-arrays, so
+//! largest surface area. A node (`Node8`) stores its children's boxes structure-of-arrays, so
 //! one ray meets all eight with a few SIMD instructions: one 8-wide AVX2 test when the CPU has
 //! AVX2 (detected at run time; the crate is built for baseline x86-64), else two 4-wide SSE
 //! tests, with bit-identical results, so both visit the same nodes in the same order. In large
-//! sets ([`COMPACT_TRIANGLES`]) nodes of at most four children are stored as half-size
-//! [`Node4`]s, tested as lanes 0–3 of a [`Node8`] would be. A leaf is
+//! sets (`COMPACT_TRIANGLES`) nodes of at most four children are stored as half-size
+//! `Node4`s, tested as lanes 0–3 of a `Node8` would be. A leaf is
 //! one packet of up to four triangles whose corners are stored structure-of-arrays and tested
 //! together by the watertight test of Woop, Benthin and Wald ("Watertight Ray/Triangle
 //! Intersection", JCGT 2(1), 2013) in SIMD lanes. Each lane computes exactly the products and
@@ -485,7 +485,8 @@ impl TriangleBvh {
         self.bounds
     }
 
-    /// Whether queries use the AVX2 box test (see [`avx2_available`]).
+    /// Whether queries use the AVX2 box test (when the CPU has AVX2 and the environment
+    /// variable `LUMO_BVH_NO_AVX2` is unset).
     pub fn uses_avx2(&self) -> bool {
         self.avx2
     }
