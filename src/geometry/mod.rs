@@ -2,6 +2,7 @@
 //! acceleration structure over instances (a mesh used by several objects is stored once).
 
 pub mod mesh;
+mod node8;
 pub mod sphere;
 pub mod triangle;
 pub mod triangle_bvh;
