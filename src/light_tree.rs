@@ -99,23 +99,12 @@ pub struct LightBounds {
     pub w: Vec3,
     /// cos θ_o, θ_o the half-angle of that cone (−1 for emitters facing every way).
     pub cos_theta_o: f32,
-    /// cos θ_e, θ_e the angle beyond its normal up to which an emitter emits (π/2 for surfaces).
+    /// cos θ_e, θ_e the angle beyond its normal up to which an emitter emits (π/2 for surfaces
+    /// and punctual lights, 0 for a spot, whose cone is that of its directions): never
+    /// negative, so neither is a nonzero importance.
     pub cos_theta_e: f32,
     /// Whether some emitter emits from both faces (then `w` and −`w` count alike).
     pub two_sided: bool,
-}
-
-/// cos and sin of max(0, a − b) from those of a and b (angles in [0, π]).
-#[inline]
-fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> (f32, f32) {
-    if cos_a > cos_b {
-        return (1.0, 0.0); // a < b
-    }
-    // cos(a − b) = cos a cos b + sin a sin b, sin(a − b) = sin a cos b − cos a sin b.
-    (
-        cos_a * cos_b + sin_a * sin_b,
-        (sin_a * cos_b - cos_a * sin_b).max(0.0),
-    )
 }
 
 /// [`LightBounds`] as the tree walk needs them: what [`LightBounds::importance`] computes from,
@@ -151,39 +140,46 @@ impl Cluster {
     /// See [`LightBounds::importance`].
     #[inline]
     fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        if self.phi <= 0.0 {
-            return 0.0;
-        }
         let v = p - self.center;
         let d2 = v.length_squared();
         let r2 = self.radius * self.radius;
-        // wi: unit direction from the centre to p; θ_b: half-angle of the cone from p around
-        // the box's bounding sphere, sin θ_b = r / d (every direction when p is inside it).
-        let (wi, cos_b, sin_b) = if d2 <= r2 {
-            let wi = if d2 > 0.0 { v / d2.sqrt() } else { Vec3::ZERO };
-            (wi, -1.0, 0.0)
-        } else {
-            let inv_d = d2.sqrt().recip();
-            let sin_b = self.radius * inv_d;
-            (v * inv_d, (1.0 - sin_b * sin_b).max(0.0).sqrt(), sin_b)
-        };
-        let mut cos_w = self.w.dot(wi);
+        if d2 <= r2 {
+            // p is inside the box's bounding sphere: lights may lie in every direction (θ_b = π,
+            // so θ' = θ_i' = 0), at a distance taken as the radius.
+            return self.phi / r2.max(1e-12);
+        }
+        // θ_b: half-angle of the cone from p around the bounding sphere, sin θ_b = r / d.
+        let inv_d = d2.sqrt().recip();
+        let sin_b = self.radius * inv_d;
+        let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
+        // θ_w: between the axis and the direction from the centre to p.
+        let mut cos_w = self.w.dot(v) * inv_d;
         if self.two_sided {
             cos_w = cos_w.abs();
         }
-        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
-        // θ_x = max(0, θ_w − θ_o), then θ' = max(0, θ_x − θ_b).
-        let (cos_x, sin_x) = cos_sub_clamped(sin_w, cos_w, self.sin_o, self.cos_o);
-        let (cos_p, _) = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-        if cos_p <= self.cos_e {
+        // θ' = max(0, θ_w − (θ_o + θ_b)); cos and sin of θ_o + θ_b by the sum formulas, and
+        // θ' = 0 when θ_o + θ_b reaches π (sin < 0 past it) or θ_w does not exceed it.
+        let cos_ob = self.cos_o * cos_b - self.sin_o * sin_b;
+        let sin_ob = self.sin_o * cos_b + self.cos_o * sin_b;
+        let cos_p = if sin_ob < 0.0 || cos_w >= cos_ob {
+            1.0
+        } else {
+            // cos(θ_w − θ_ob) = cos θ_w cos θ_ob + sin θ_w sin θ_ob.
+            let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
+            cos_w * cos_ob + sin_w * sin_ob
+        };
+        // Beyond θ_e of every normal nothing is emitted (exactly at it, only grazing light).
+        if cos_p < self.cos_e {
             return 0.0;
         }
-        let mut importance = self.phi * cos_p / d2.max(r2).max(1e-12);
+        let mut importance = self.phi * cos_p / d2.max(1e-12);
         if n != Vec3::ZERO {
-            let cos_i = wi.dot(n).abs();
-            let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
-            let (cos_ip, _) = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
-            importance *= cos_ip;
+            // θ_i' = max(0, θ_i − θ_b), θ_i between ±n and the direction to the centre.
+            let cos_i = n.dot(v).abs() * inv_d;
+            if cos_i < cos_b {
+                let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
+                importance *= cos_i * cos_b + sin_i * sin_b;
+            }
         }
         importance
     }
@@ -210,19 +206,20 @@ impl LightBounds {
                 position,
                 axis,
                 intensity,
-                cos_inner,
+                cos_inner: _,
                 cos_outer,
             } => {
-                // The falloff is full inside θ_inner and reaches zero at θ_outer: normals in the
-                // inner cone, emission spreading θ_outer − θ_inner further.
-                let (ti, to) = (cos_inner.clamp(-1.0, 1.0).acos(), cos_outer.acos());
+                // Light leaves in directions within θ_outer of the axis and nowhere else: the
+                // cone of directions is θ_outer wide, with no spread beyond it (θ_e = 0; pbrt
+                // puts θ_inner and θ_outer − θ_inner here, which makes cos θ_e negative for
+                // wide spots, where a negative cos θ' would then pass the test).
                 LightBounds {
                     lo: position,
                     hi: position,
                     phi: luminance(intensity),
                     w: axis,
-                    cos_theta_o: cos_inner,
-                    cos_theta_e: (to - ti).max(0.0).cos(),
+                    cos_theta_o: cos_outer,
+                    cos_theta_e: 1.0,
                     two_sided: false,
                 }
             }
@@ -296,13 +293,14 @@ impl LightBounds {
     /// * θ' = max(0, θ_w − θ_o − θ_b) bounds from below the angle between any emitter's normal
     ///   and the direction from it to `p` (θ_w is the angle between `w` and the direction from
     ///   the box's centre to `p`; each emitter's normal is within θ_o of `w`, and each emitting
-    ///   point within θ_b of the centre seen from `p`); beyond θ' ≥ θ_o + … the lights face away:
-    ///   when θ' ≥ θ_e nothing they emit reaches `p` and the importance is 0;
+    ///   point within θ_b of the centre seen from `p`): when θ' > θ_e nothing they emit reaches
+    ///   `p` and the importance is 0 (at θ' = θ_e = π/2 the light would only graze: 0 too);
     /// * θ_i' = max(0, θ_i − θ_b) bounds the angle at the receiver, θ_i that between `n` and the
     ///   direction to the centre (absolute cosine: light may arrive through a transmissive
     ///   surface);
-    /// * d is the distance to the box's centre, but no less than half the box's diagonal (so a
-    ///   point inside or near a large box does not make it infinitely important).
+    /// * d is the distance to the box's centre. Inside the box's bounding sphere (radius r,
+    ///   half its diagonal) lights may be in every direction: the importance is then phi / r²
+    ///   (so a point inside a large box does not make it infinitely important).
     ///
     /// Zero only where the lights cannot illuminate `p`: behind every one-sided emitter, or
     /// outside every spot's cone.
@@ -400,6 +398,27 @@ impl LightTree {
             .iter()
             .filter(|s| matches!(s, Slot::Trail(_)))
             .count()
+    }
+
+    /// Mean and largest depth of the lights in the tree (the root at depth 0): how many levels a
+    /// pick walks.
+    pub fn depths(&self) -> (f32, u32) {
+        let (mut sum, mut max, mut leaves) = (0u64, 0u32, 0u64);
+        let mut stack = vec![(0usize, 0u32)];
+        while let Some((at, d)) = stack.pop() {
+            if self.nodes.is_empty() {
+                break;
+            }
+            if self.nodes[at].leaf {
+                sum += u64::from(d);
+                max = max.max(d);
+                leaves += 1;
+            } else {
+                stack.push((at + 1, d + 1));
+                stack.push((self.nodes[at].index as usize, d + 1));
+            }
+        }
+        (sum as f32 / leaves.max(1) as f32, max)
     }
 
     /// Adds the subtree over `items` (reached from the root by `trail`, `depth` bits long);
