@@ -28,6 +28,7 @@ use std::f32::consts::PI;
 
 use crate::light::Light;
 use crate::math::{luminance, Vec3};
+use glam::Vec4;
 
 /// Depth from which the build stops looking for the cheapest split and halves the lights by
 /// count: the remaining levels are then at most log2(lights) ≤ 32, so a light's path fits the
@@ -337,6 +338,82 @@ impl LightBounds {
     }
 }
 
+/// The two children of an inner node side by side, one per lane of 4-wide vectors (lanes 2 and
+/// 3 repeat them), so that both importances are computed at once: the same arithmetic as
+/// [`Cluster::importance`], branches turned into selections.
+#[derive(Debug, Clone, Copy, Default)]
+struct ChildPair {
+    cx: Vec4,
+    cy: Vec4,
+    cz: Vec4,
+    radius: Vec4,
+    wx: Vec4,
+    wy: Vec4,
+    wz: Vec4,
+    phi: Vec4,
+    cos_o: Vec4,
+    sin_o: Vec4,
+    cos_e: Vec4,
+    /// 1 for two-sided, 0 for one-sided.
+    two_sided: Vec4,
+}
+
+impl ChildPair {
+    fn of(a: &Cluster, b: &Cluster) -> ChildPair {
+        let lanes = |f: &dyn Fn(&Cluster) -> f32| Vec4::new(f(a), f(b), f(a), f(b));
+        ChildPair {
+            cx: lanes(&|c| c.center.x),
+            cy: lanes(&|c| c.center.y),
+            cz: lanes(&|c| c.center.z),
+            radius: lanes(&|c| c.radius),
+            wx: lanes(&|c| c.w.x),
+            wy: lanes(&|c| c.w.y),
+            wz: lanes(&|c| c.w.z),
+            phi: lanes(&|c| c.phi),
+            cos_o: lanes(&|c| c.cos_o),
+            sin_o: lanes(&|c| c.sin_o),
+            cos_e: lanes(&|c| c.cos_e),
+            two_sided: lanes(&|c| if c.two_sided { 1.0 } else { 0.0 }),
+        }
+    }
+
+    /// The importances of both children at `p`, `n` (lanes 0 and 1).
+    #[inline]
+    fn importance(&self, p: Vec3, n: Vec3) -> Vec4 {
+        let one = Vec4::ONE;
+        let (vx, vy, vz) = (
+            Vec4::splat(p.x) - self.cx,
+            Vec4::splat(p.y) - self.cy,
+            Vec4::splat(p.z) - self.cz,
+        );
+        let d2 = vx * vx + vy * vy + vz * vz;
+        let r2 = self.radius * self.radius;
+        let inside = d2.cmple(r2);
+        // In lanes where p is inside the bounding sphere these may be ∞ or NaN; the last
+        // selection replaces them.
+        let inv_d = d2.sqrt().recip();
+        let sin_b = self.radius * inv_d;
+        let cos_b = (one - sin_b * sin_b).max(Vec4::ZERO).sqrt();
+        let cos_w = (self.wx * vx + self.wy * vy + self.wz * vz) * inv_d;
+        let cos_w = Vec4::select(self.two_sided.cmpgt(Vec4::ZERO), cos_w.abs(), cos_w);
+        let cos_ob = self.cos_o * cos_b - self.sin_o * sin_b;
+        let sin_ob = self.sin_o * cos_b + self.cos_o * sin_b;
+        let sin_w = (one - cos_w * cos_w).max(Vec4::ZERO).sqrt();
+        let full = sin_ob.cmplt(Vec4::ZERO) | cos_w.cmpge(cos_ob);
+        let cos_p = Vec4::select(full, one, cos_w * cos_ob + sin_w * sin_ob);
+        let mut importance = self.phi * cos_p / d2.max(Vec4::splat(1e-12));
+        if n != Vec3::ZERO {
+            let cos_i = (Vec4::splat(n.x) * vx + Vec4::splat(n.y) * vy + Vec4::splat(n.z) * vz)
+                .abs()
+                * inv_d;
+            let sin_i = (one - cos_i * cos_i).max(Vec4::ZERO).sqrt();
+            importance *= Vec4::select(cos_i.cmplt(cos_b), cos_i * cos_b + sin_i * sin_b, one);
+        }
+        let importance = Vec4::select(cos_p.cmplt(self.cos_e), Vec4::ZERO, importance);
+        Vec4::select(inside, self.phi / r2.max(Vec4::splat(1e-12)), importance)
+    }
+}
+
 /// A node of the tree: its bounds and, for an inner node, the index of its second child (the
 /// first follows it), or for a leaf the light it holds.
 #[derive(Debug, Clone)]
@@ -360,6 +437,8 @@ enum Slot {
 #[derive(Debug, Clone, Default)]
 pub struct LightTree {
     nodes: Vec<Node>,
+    /// For each inner node, its children's bounds side by side (default for leaves).
+    pairs: Vec<ChildPair>,
     slots: Vec<Slot>,
 }
 
@@ -379,11 +458,25 @@ impl LightTree {
             .collect();
         let mut tree = LightTree {
             nodes: Vec::with_capacity(2 * items.len()),
+            pairs: Vec::new(),
             slots: vec![Slot::Outside; lights.len()],
         };
         if !items.is_empty() {
             tree.build(&mut items, 0, 0);
         }
+        tree.pairs = (0..tree.nodes.len())
+            .map(|at| {
+                let node = &tree.nodes[at];
+                if node.leaf {
+                    ChildPair::default()
+                } else {
+                    ChildPair::of(
+                        &tree.nodes[at + 1].bounds,
+                        &tree.nodes[node.index as usize].bounds,
+                    )
+                }
+            })
+            .collect();
         tree
     }
 
@@ -527,17 +620,13 @@ impl LightTree {
     /// so the probability of a pick and that reported for the same light are the same floats.
     #[inline]
     fn first_child_probability(&self, at: usize, p: Vec3, n: Vec3) -> f32 {
-        let (first, second) = (
-            &self.nodes[at + 1],
-            &self.nodes[self.nodes[at].index as usize],
-        );
-        let i0 = first.bounds.importance(p, n);
-        let i1 = second.bounds.importance(p, n);
-        let sum = i0 + i1;
+        let pair = &self.pairs[at];
+        let i = pair.importance(p, n);
+        let sum = i.x + i.y;
         if sum > 0.0 {
-            i0 / sum
+            i.x / sum
         } else {
-            first.bounds.phi / (first.bounds.phi + second.bounds.phi)
+            pair.phi.x / (pair.phi.x + pair.phi.y)
         }
     }
 
@@ -759,6 +848,44 @@ mod tests {
             assert!(p_power < 1e-6, "{name}: power pmf not rejected ({p_power})");
         }
         chi2::assert_all_pass(&ps);
+    }
+
+    /// The two-lane evaluation of a node's children gives the importances of the scalar one.
+    #[test]
+    fn child_pairs_match_scalar_importance() {
+        let lights = lights();
+        let bounds: Vec<Cluster> = lights
+            .iter()
+            .filter_map(LightBounds::of)
+            .map(|b| Cluster::of(&b))
+            .collect();
+        let mut rng = Pcg32::new(1, 9);
+        for k in 0..20_000 {
+            let (a, b) = (
+                &bounds[k % bounds.len()],
+                &bounds[(k * 7 + 3) % bounds.len()],
+            );
+            let pair = ChildPair::of(a, b);
+            // Points near the lights too, where the bounding spheres hold them.
+            let p = if k % 3 == 0 {
+                a.center + unit(&mut rng) * a.radius * 2.0 * rng.next_f32()
+            } else {
+                in_box(&mut rng, 8.0)
+            };
+            let n = if k % 4 == 0 {
+                Vec3::ZERO
+            } else {
+                unit(&mut rng)
+            };
+            let i = pair.importance(p, n);
+            for (got, c) in [(i.x, a), (i.y, b)] {
+                let want = c.importance(p, n);
+                assert!(
+                    (got - want).abs() <= 1e-4 * want.max(1e-6) && (got == 0.0) == (want == 0.0),
+                    "{p:?} {n:?}: {got} vs {want}"
+                );
+            }
+        }
     }
 
     /// Over random shading points the probabilities of all lights sum to 1.
