@@ -18,7 +18,7 @@
 //!   each light stores as a bit trail (one bit per level: 0 = first child).
 //!
 //! Both children of a node are evaluated at once, one per lane of 4-wide vectors
-//! ([`ChildPair`]); [`LightBounds::importance`] is the same arithmetic on one group.
+//! (`ChildPair`); [`LightBounds::importance`] is the same arithmetic on one group.
 //!
 //! Infinite lights (directional, environment) have no position to bound: they stay outside the
 //! tree and are chosen first, with their share of the scene's total power (see
