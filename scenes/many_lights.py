@@ -5,9 +5,13 @@ over the floor or set on the wall, for measuring light selection among many emit
 light tree, docs/performance.md). Deterministic: the same file every run.
 
     python3 scenes/many_lights.py > scenes/many_lights.json
+
+An optional argument takes the first N quads only (all hanging when N ≤ 240), for measuring where
+the tree starts to pay (docs/performance.md): `python3 scenes/many_lights.py 4`.
 """
 import json
 import random
+import sys
 
 rng = random.Random(2018)
 
@@ -40,7 +44,8 @@ def quad(c, half_u, half_v, u, v):
 
 meshes = {name: [] for name, _, _ in EMITTERS}
 weights = [3, 3, 2, 2, 2, 3, 2, 1]
-for i in range(300):
+COUNT = int(sys.argv[1]) if len(sys.argv) > 1 else 300
+for i in range(COUNT):
     name = rng.choices([e[0] for e in EMITTERS], weights)[0]
     size = rng.uniform(0.06, 0.16)
     if i < 240:
