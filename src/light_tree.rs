@@ -41,11 +41,13 @@ const BALANCED_FROM_DEPTH: u32 = 32;
 /// Buckets per axis in which split positions are evaluated.
 const BUCKETS: usize = 12;
 
-/// A cone of directions: axis `w` (unit) and the cosine of its half-angle (−1: every direction).
+/// A cone of directions: axis `w` (unit), its half-angle and that angle's cosine (−1: every
+/// direction), both kept so that unions need not recompute the angle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct DirectionCone {
     w: Vec3,
     cos_theta: f32,
+    theta: f32,
 }
 
 impl DirectionCone {
@@ -57,9 +59,13 @@ impl DirectionCone {
         let whole = DirectionCone {
             w: Vec3::Z,
             cos_theta: -1.0,
+            theta: PI,
         };
-        let theta_a = a.cos_theta.clamp(-1.0, 1.0).acos();
-        let theta_b = b.cos_theta.clamp(-1.0, 1.0).acos();
+        // Equal cones (the lights of one flat panel) are common and need no trigonometry.
+        if a == b {
+            return a;
+        }
+        let (theta_a, theta_b) = (a.theta, b.theta);
         let theta_d = a.w.dot(b.w).clamp(-1.0, 1.0).acos();
         // One cone already holds the other.
         if (theta_d + theta_b).min(PI) <= theta_a {
@@ -83,6 +89,7 @@ impl DirectionCone {
         DirectionCone {
             w: (a.w * c + perp * s).normalize(),
             cos_theta: theta_o.cos(),
+            theta: theta_o,
         }
     }
 }
@@ -109,6 +116,8 @@ pub struct LightBounds {
     pub cos_theta_e: f32,
     /// Whether some emitter emits from both faces (then `w` and −`w` count alike).
     pub two_sided: bool,
+    /// θ_o itself (for unions during the build).
+    theta_o: f32,
 }
 
 /// [`LightBounds`] as the tree walk needs them: what [`LightBounds::importance`] computes from,
@@ -205,6 +214,7 @@ impl LightBounds {
                 cos_theta_o: -1.0,
                 cos_theta_e: 0.0,
                 two_sided: false,
+                theta_o: 0.0,
             },
             Light::Spot {
                 position,
@@ -225,6 +235,7 @@ impl LightBounds {
                     cos_theta_o: cos_outer,
                     cos_theta_e: 1.0,
                     two_sided: false,
+                    theta_o: 0.0,
                 }
             }
             Light::Triangle {
@@ -242,6 +253,7 @@ impl LightBounds {
                 cos_theta_o: 1.0,
                 cos_theta_e: 0.0,
                 two_sided,
+                theta_o: 0.0,
             },
             Light::Sphere {
                 center,
@@ -256,10 +268,14 @@ impl LightBounds {
                 cos_theta_o: -1.0,
                 cos_theta_e: 0.0,
                 two_sided: false,
+                theta_o: 0.0,
             },
             Light::Directional { .. } | Light::Environment { .. } => return None,
         };
-        Some(b)
+        Some(LightBounds {
+            theta_o: b.cos_theta_o.clamp(-1.0, 1.0).acos(),
+            ..b
+        })
     }
 
     /// Bounds of both groups of lights.
@@ -268,10 +284,12 @@ impl LightBounds {
             DirectionCone {
                 w: self.w,
                 cos_theta: self.cos_theta_o,
+                theta: self.theta_o,
             },
             DirectionCone {
                 w: o.w,
                 cos_theta: o.cos_theta_o,
+                theta: o.theta_o,
             },
         );
         LightBounds {
@@ -282,6 +300,7 @@ impl LightBounds {
             cos_theta_o: cone.cos_theta,
             cos_theta_e: self.cos_theta_e.min(o.cos_theta_e),
             two_sided: self.two_sided || o.two_sided,
+            theta_o: cone.theta,
         }
     }
 
