@@ -436,13 +436,15 @@ impl ChildPair {
     }
 }
 
-/// A node of the tree: its bounds and, for an inner node, the index of its second child (the
-/// first follows it), or for a leaf the light it holds.
+/// A node of the tree: for an inner node, the index of its second child (the first follows it)
+/// and of its children's bounds in `pairs`; for a leaf, the light it holds. (A node's own
+/// bounds are only needed beside its sibling's, in its parent's pair.)
 #[derive(Debug, Clone)]
 struct Node {
-    bounds: Cluster,
     /// Index of the second child, or of the light for a leaf.
     index: u32,
+    /// Index into `pairs` (inner nodes).
+    pair: u32,
     leaf: bool,
 }
 
@@ -459,7 +461,7 @@ enum Slot {
 #[derive(Debug, Clone, Default)]
 pub struct LightTree {
     nodes: Vec<Node>,
-    /// For each inner node, its children's bounds side by side (default for leaves).
+    /// For each inner node, its children's bounds side by side.
     pairs: Vec<ChildPair>,
     slots: Vec<Slot>,
 }
@@ -480,25 +482,22 @@ impl LightTree {
             .collect();
         let mut tree = LightTree {
             nodes: Vec::with_capacity(2 * items.len()),
-            pairs: Vec::new(),
+            pairs: Vec::with_capacity(items.len()),
             slots: vec![Slot::Outside; lights.len()],
         };
         if !items.is_empty() {
-            tree.build(&mut items, 0, 0);
-        }
-        tree.pairs = (0..tree.nodes.len())
-            .map(|at| {
-                let node = &tree.nodes[at];
-                if node.leaf {
-                    ChildPair::default()
-                } else {
-                    ChildPair::of(
-                        &tree.nodes[at + 1].bounds,
-                        &tree.nodes[node.index as usize].bounds,
-                    )
+            // Each node's bounds, by node index, while building.
+            let mut clusters = Vec::with_capacity(2 * items.len());
+            tree.build(&mut items, 0, 0, &mut clusters);
+            for at in 0..tree.nodes.len() {
+                if !tree.nodes[at].leaf {
+                    tree.nodes[at].pair = tree.pairs.len() as u32;
+                    let second = tree.nodes[at].index as usize;
+                    tree.pairs
+                        .push(ChildPair::of(&clusters[at + 1], &clusters[second]));
                 }
-            })
-            .collect();
+            }
+        }
         tree
     }
 
@@ -538,25 +537,33 @@ impl LightTree {
 
     /// Adds the subtree over `items` (reached from the root by `trail`, `depth` bits long);
     /// returns its root's index.
-    fn build(&mut self, items: &mut [(u32, LightBounds)], depth: u32, trail: u64) -> usize {
+    fn build(
+        &mut self,
+        items: &mut [(u32, LightBounds)],
+        depth: u32,
+        trail: u64,
+        clusters: &mut Vec<Cluster>,
+    ) -> usize {
         let bounds = items[1..]
             .iter()
             .fold(items[0].1, |acc, (_, b)| acc.union(b));
         let at = self.nodes.len();
         if items.len() == 1 {
             self.nodes.push(Node {
-                bounds: Cluster::of(&bounds),
                 index: items[0].0,
+                pair: 0,
                 leaf: true,
             });
+            clusters.push(Cluster::of(&bounds));
             self.slots[items[0].0 as usize] = Slot::Trail(trail);
             return at;
         }
         self.nodes.push(Node {
-            bounds: Cluster::of(&bounds),
             index: 0,
+            pair: 0,
             leaf: false,
         });
+        clusters.push(Cluster::of(&bounds));
         let mid = if depth >= BALANCED_FROM_DEPTH {
             None
         } else {
@@ -574,8 +581,8 @@ impl LightTree {
             items.len() / 2
         });
         let (left, right) = items.split_at_mut(mid);
-        self.build(left, depth + 1, trail);
-        let second = self.build(right, depth + 1, trail | (1u64 << depth));
+        self.build(left, depth + 1, trail, clusters);
+        let second = self.build(right, depth + 1, trail | (1u64 << depth), clusters);
         self.nodes[at].index = second as u32;
         at
     }
@@ -642,7 +649,7 @@ impl LightTree {
     /// so the probability of a pick and that reported for the same light are the same floats.
     #[inline]
     fn first_child_probability(&self, at: usize, p: Vec3, n: Vec3) -> f32 {
-        let pair = &self.pairs[at];
+        let pair = &self.pairs[self.nodes[at].pair as usize];
         let i = pair.importance(p, n);
         let sum = i.x + i.y;
         if sum > 0.0 {
