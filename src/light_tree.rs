@@ -400,7 +400,7 @@ impl ChildPair {
     }
 
     /// The importances of both children at `p`, `n` (lanes 0 and 1).
-    #[inline]
+    #[inline(always)]
     fn importance(&self, p: Vec3, n: Vec3) -> Vec4 {
         let one = Vec4::ONE;
         let (vx, vy, vz) = (
@@ -647,7 +647,7 @@ impl LightTree {
     /// whatever is picked there contributes nothing, but the probabilities of all lights still
     /// sum to 1 at every point. Both [`LightTree::pick`] and [`LightTree::pmf`] go through here,
     /// so the probability of a pick and that reported for the same light are the same floats.
-    #[inline]
+    #[inline(always)]
     fn first_child_probability(&self, at: usize, p: Vec3, n: Vec3) -> f32 {
         let pair = &self.pairs[self.nodes[at].pair as usize];
         let i = pair.importance(p, n);
