@@ -31,6 +31,7 @@ pub mod load;
 
 pub use load::{load, LoadOptions, Loaded};
 pub mod light;
+pub mod light_tree;
 pub mod material;
 pub mod math;
 pub mod output;

@@ -1,4 +1,5 @@
-//! Light sources and light selection proportional to power.
+//! Light sources, and the choice of a light for next-event estimation: by power, or by the
+//! light tree of [`crate::light_tree`].
 
 use std::f32::consts::PI;
 
@@ -504,20 +505,24 @@ fn sample_sphere(center: Vec3, radius: f32, p: Vec3, u: Vec2) -> Option<LightSam
     })
 }
 
-/// Chooses lights with probability proportional to their power.
+/// Chooses lights with probability proportional to their power, whatever the shading point.
 #[derive(Debug, Clone, Default)]
-pub struct LightSampler {
+pub struct PowerSampler {
     cdf: Vec<f32>,
     total: f32,
 }
 
-impl LightSampler {
+impl PowerSampler {
     /// Builds the distribution over `lights`.
-    pub fn new(lights: &[Light]) -> LightSampler {
-        let mut cdf = Vec::with_capacity(lights.len());
+    pub fn new(lights: &[Light]) -> PowerSampler {
+        Self::weighted(lights.iter().map(Light::power))
+    }
+
+    /// The distribution proportional to `weights` (non-finite and negative ones count as 0).
+    fn weighted(weights: impl Iterator<Item = f32>) -> PowerSampler {
+        let mut cdf = Vec::new();
         let mut acc = 0.0f64;
-        for l in lights {
-            let p = l.power();
+        for p in weights {
             acc += if p.is_finite() && p > 0.0 {
                 f64::from(p)
             } else {
@@ -525,14 +530,18 @@ impl LightSampler {
             };
             cdf.push(acc as f32);
         }
-        LightSampler {
+        PowerSampler {
             total: acc as f32,
             cdf,
         }
     }
 
-    /// Picks a light; returns its index and selection probability.
-    pub fn pick(&self, u: f32) -> Option<(usize, f32)> {
+    /// Picks a light with `u`: its index, its selection probability, and `u` remapped to [0, 1)
+    /// within the chosen light's share of the unit interval, a fresh uniform number for sampling
+    /// that light (pbrt-v4's `SampleDiscrete`): one 2D sample point then covers the choice of
+    /// light and a point on it, so stratification carries over to the union of all lights (the
+    /// two triangles of a quad light are sampled like one rectangle).
+    pub fn pick(&self, u: f32) -> Option<(usize, f32, f32)> {
         if self.total <= 0.0 {
             return None;
         }
@@ -542,17 +551,9 @@ impl LightSampler {
             .partition_point(|&c| c <= target)
             .min(self.cdf.len() - 1);
         let p = self.pmf(i);
-        (p > 0.0).then_some((i, p))
-    }
-
-    /// Picks a light with `u` and also returns `u` remapped to [0, 1) within the chosen light's
-    /// share of the unit interval, a fresh uniform number for sampling that light (pbrt-v4's
-    /// `SampleDiscrete`): one 2D sample point then covers the choice of light and a point on it,
-    /// so stratification carries over to the union of all lights (the two triangles of a quad
-    /// light are sampled like one rectangle).
-    #[inline]
-    pub fn pick_remapped(&self, u: f32) -> Option<(usize, f32, f32)> {
-        let (i, p) = self.pick(u)?;
+        if p <= 0.0 {
+            return None;
+        }
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         let remapped =
             ((u * self.total - lo) / (self.cdf[i] - lo)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
@@ -561,11 +562,149 @@ impl LightSampler {
 
     /// Probability of picking light `i`.
     pub fn pmf(&self, i: usize) -> f32 {
-        if self.total <= 0.0 {
+        if self.total <= 0.0 || i >= self.cdf.len() {
             return 0.0;
         }
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         (self.cdf[i] - lo) / self.total
+    }
+}
+
+/// Which light-selection strategy a [`LightSampler`] uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LightSamplerKind {
+    /// [`LightSampler::TREE_MIN_LIGHTS`] decides.
+    Auto,
+    /// In proportion to power alone ([`PowerSampler`]).
+    Power,
+    /// By a light tree ([`crate::light_tree::LightTree`]) for the finite lights.
+    Tree,
+}
+
+/// Chooses the light that next-event estimation samples from a shading point, and gives the
+/// probability of that choice for MIS. The same two functions serve both, so they agree.
+#[derive(Debug, Clone)]
+pub enum LightSampler {
+    /// By power, whatever the shading point.
+    Power(PowerSampler),
+    /// By a light tree for the finite lights; the infinite ones are chosen with probability
+    /// `p_infinite` (their share of the total power estimate, so that they are picked as often
+    /// as the power sampler would), and among them by power.
+    Tree {
+        /// The finite lights.
+        tree: crate::light_tree::LightTree,
+        /// Probability of choosing an infinite light.
+        p_infinite: f32,
+        /// Among the infinite lights (indexed like all lights; finite ones weigh 0).
+        infinite: PowerSampler,
+    },
+}
+
+impl Default for LightSampler {
+    fn default() -> Self {
+        LightSampler::Power(PowerSampler::default())
+    }
+}
+
+impl LightSampler {
+    /// Fewest finite lights from which [`LightSamplerKind::Auto`] builds a tree: with fewer, the
+    /// tree cannot tell lights apart better than their power does by enough to pay for its
+    /// walk (measured in `docs/performance.md`, "Light tree").
+    pub const TREE_MIN_LIGHTS: usize = 3;
+
+    /// The sampler `kind` over `lights`.
+    pub fn new(lights: &[Light], kind: LightSamplerKind) -> LightSampler {
+        let finite = lights
+            .iter()
+            .filter(|l| crate::light_tree::LightBounds::of(l).is_some_and(|b| b.phi > 0.0))
+            .count();
+        let tree = match kind {
+            LightSamplerKind::Auto => finite >= Self::TREE_MIN_LIGHTS,
+            LightSamplerKind::Power => false,
+            LightSamplerKind::Tree => true,
+        };
+        if !tree {
+            return LightSampler::Power(PowerSampler::new(lights));
+        }
+        let tree = crate::light_tree::LightTree::new(lights);
+        let is_infinite =
+            |l: &Light| matches!(l, Light::Directional { .. } | Light::Environment { .. });
+        let infinite =
+            PowerSampler::weighted(
+                lights
+                    .iter()
+                    .map(|l| if is_infinite(l) { l.power() } else { 0.0 }),
+            );
+        let finite_power: f64 = lights
+            .iter()
+            .filter(|l| !is_infinite(l))
+            .map(|l| f64::from(l.power()))
+            .filter(|p| p.is_finite() && *p > 0.0)
+            .sum();
+        let p_infinite = if tree.is_empty() {
+            1.0
+        } else if infinite.total <= 0.0 {
+            0.0
+        } else {
+            (f64::from(infinite.total) / (f64::from(infinite.total) + finite_power)) as f32
+        };
+        LightSampler::Tree {
+            tree,
+            p_infinite,
+            infinite,
+        }
+    }
+
+    /// Whether this sampler uses a light tree.
+    pub fn is_tree(&self) -> bool {
+        matches!(self, LightSampler::Tree { .. })
+    }
+
+    /// Picks a light for the shading point `p` with normal `n` (zero for points not on a
+    /// surface) with the uniform number `u`: its index, its probability, and `u` remapped to a
+    /// fresh uniform number in [0, 1) for sampling a point on the light (see
+    /// [`PowerSampler::pick`]). `None` when no light can be picked.
+    #[inline]
+    pub fn pick(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
+        match self {
+            LightSampler::Power(s) => s.pick(u),
+            LightSampler::Tree {
+                tree,
+                p_infinite,
+                infinite,
+            } => {
+                let p_inf = *p_infinite;
+                if u < p_inf {
+                    let (i, pmf, u) = infinite.pick((u / p_inf).min(1.0 - f32::EPSILON / 2.0))?;
+                    Some((i, pmf * p_inf, u))
+                } else {
+                    let p_fin = 1.0 - p_inf;
+                    let u = ((u - p_inf) / p_fin).min(1.0 - f32::EPSILON / 2.0);
+                    let (i, pmf, u) = tree.pick(p, n, u)?;
+                    Some((i, pmf * p_fin, u))
+                }
+            }
+        }
+    }
+
+    /// Probability that [`LightSampler::pick`] at `p`, `n` returns light `i`.
+    #[inline]
+    pub fn pmf(&self, p: Vec3, n: Vec3, i: usize) -> f32 {
+        match self {
+            LightSampler::Power(s) => s.pmf(i),
+            LightSampler::Tree {
+                tree,
+                p_infinite,
+                infinite,
+            } => {
+                let from_infinite = infinite.pmf(i);
+                if from_infinite > 0.0 {
+                    from_infinite * p_infinite
+                } else {
+                    tree.pmf(p, n, i) * (1.0 - p_infinite)
+                }
+            }
+        }
     }
 }
 
@@ -800,7 +939,7 @@ mod tests {
                 intensity: Vec3::splat(3.0),
             },
         ];
-        let s = LightSampler::new(&lights);
+        let s = PowerSampler::new(&lights);
         assert!(
             (s.pmf(0) - 0.25).abs() < 1e-6 && s.pmf(1) == 0.0 && (s.pmf(2) - 0.75).abs() < 1e-6
         );
@@ -810,12 +949,12 @@ mod tests {
         // picks light 2 with v back, for v across [0, 1).
         for k in 0..100 {
             let v = k as f32 / 100.0;
-            let (i, p, r) = s.pick_remapped(0.25 + 0.75 * v).unwrap();
+            let (i, p, r) = s.pick(0.25 + 0.75 * v).unwrap();
             assert_eq!((i, p), (2, 0.75));
             assert!((r - v).abs() < 1e-5 && (0.0..1.0).contains(&r), "{v} → {r}");
         }
-        assert_eq!(s.pick_remapped(0.999_999_9).unwrap().0, 2);
-        assert!(s.pick_remapped(0.999_999_9).unwrap().2 < 1.0);
+        assert_eq!(s.pick(0.999_999_9).unwrap().0, 2);
+        assert!(s.pick(0.999_999_9).unwrap().2 < 1.0);
     }
 
     #[test]

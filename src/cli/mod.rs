@@ -267,12 +267,28 @@ pub struct RenderArgs {
     /// Print RMSE and relative MSE against this reference image (linear EXR/HDR).
     #[arg(long)]
     pub reference: Option<PathBuf>,
+    /// How next-event estimation chooses a light: `auto` (a light tree from
+    /// 3 finite lights on), `power` (by power alone), `tree` (by the light tree). For comparing
+    /// them: the image is unbiased either way, its noise differs.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub light_sampler: LightSamplerArg,
     /// Also write the per-pixel standard-error image (linear, EXR/HDR by extension).
     #[arg(long)]
     pub error_image: Option<PathBuf>,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// `--light-sampler`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LightSamplerArg {
+    /// The tree from [`lumo::light::LightSampler::TREE_MIN_LIGHTS`] finite lights on.
+    Auto,
+    /// By power alone.
+    Power,
+    /// By the light tree.
+    Tree,
 }
 
 /// Parses `30s`, `2m`, `1.5h`, `500ms` or a plain number of seconds.
@@ -629,9 +645,17 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     for w in load_warnings(&loaded, &args.overrides) {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    let (scene, warnings) = loaded
+    let (mut scene, warnings) = loaded
         .build()
         .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
+    if args.light_sampler != LightSamplerArg::Auto {
+        use lumo::light::{LightSampler, LightSamplerKind};
+        let kind = match args.light_sampler {
+            LightSamplerArg::Power => LightSamplerKind::Power,
+            _ => LightSamplerKind::Tree,
+        };
+        scene.light_sampler = LightSampler::new(&scene.lights, kind);
+    }
     let (width, height) = (scene.settings.width, scene.settings.height);
     let window = args
         .crop

@@ -23,13 +23,15 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
     let mut prev_pdf = 0.0f32;
     let mut prev_delta = true;
     let mut prev_p = ray.o;
+    // Its shading normal, which light selection saw there.
+    let mut prev_n = Vec3::ZERO;
     // Absorption coefficient of the medium the path is in (inside a `volume` material).
     let mut medium: Option<Vec3> = None;
     for depth in 1..=max_depth {
         stats.rays += 1;
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
             let bsdf_pdf = (!prev_delta).then_some(prev_pdf);
-            l += beta * scene.escaped(ray.d.normalize(), bsdf_pdf, depth == 1);
+            l += beta * scene.escaped(ray.d.normalize(), bsdf_pdf, (prev_p, prev_n), depth == 1);
             break;
         };
         if let Some(sigma) = medium {
@@ -47,8 +49,8 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         if le != Vec3::ZERO {
             let weight = match scene.light_of(&hit) {
                 Some(li) if !prev_delta => {
-                    let pdf_light =
-                        scene.light_sampler.pmf(li) * scene.lights[li].pdf(prev_p, hit.p, hit.ng);
+                    let pdf_light = scene.light_sampler.pmf(prev_p, prev_n, li)
+                        * scene.lights[li].pdf(prev_p, hit.p, hit.ng);
                     power_heuristic(prev_pdf, pdf_light)
                 }
                 _ => 1.0,
@@ -60,11 +62,12 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
         let bsdf = material.bsdf(&scene.textures, &hit, wo);
 
-        // Next-event estimation: one light, chosen by power with the first coordinate of the
-        // light's 2D sample, which is then remapped to sample a point on it.
+        // Next-event estimation: one light, chosen (by power or by the light tree, for this
+        // point and normal) with the first coordinate of the light's 2D sample, which is then
+        // remapped to sample a point on it.
         let u_light = sampler.get_2d();
         if bsdf.has_smooth_lobe() {
-            if let Some((index, pmf, u_x)) = scene.light_sampler.pick_remapped(u_light.x) {
+            if let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x) {
                 let light = &scene.lights[index];
                 if let Some(ls) = light.sample(hit.p, glam::Vec2::new(u_x, u_light.y)) {
                     let li = if ls.delta || matches!(light, Light::Environment { .. }) {
@@ -116,6 +119,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         prev_pdf = s.pdf;
         prev_delta = s.delta;
         prev_p = hit.p;
+        prev_n = hit.ns;
         ray = spawn(&hit, s.wi);
         if depth >= RR_DEPTH {
             let q = beta.max_element().min(0.95);

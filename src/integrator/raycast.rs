@@ -18,7 +18,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
             // Only camera rays and delta chains escape here; the environment's direct light is
             // `direct`'s.
-            l += beta * scene.escaped(ray.d.normalize(), None, depth == 1);
+            l += beta * scene.escaped(ray.d.normalize(), None, (ray.o, Vec3::ZERO), depth == 1);
             break;
         };
         let wo = -ray.d.normalize();
@@ -80,9 +80,9 @@ fn direct(
             }
         }
     }
-    // One area-light sample, chosen by power among all lights; punctual picks are skipped since
+    // One area-light sample, chosen by the light sampler among all lights; punctual picks are skipped since
     // they were summed above.
-    if let Some((index, pmf)) = scene.light_sampler.pick(u_area) {
+    if let Some((index, pmf, _)) = scene.light_sampler.pick(hit.p, hit.ns, u_area) {
         let light = &scene.lights[index];
         if matches!(light, Light::Triangle { .. } | Light::Sphere { .. }) {
             if let Some(ls) = light.sample(hit.p, u) {

@@ -12,7 +12,7 @@ use super::{IntegratorKind, Scene, Settings};
 use crate::camera::Camera;
 use crate::environment::Environment;
 use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
-use crate::light::{Light, LightSampler};
+use crate::light::{Light, LightSampler, LightSamplerKind};
 use crate::load::{Assets, MeshData};
 use crate::material::{AlphaMode, Material};
 use crate::math::{srgb8_table, srgb8_to_linear, unorm8_table, Affine3A, Vec2, Vec3};
@@ -391,7 +391,7 @@ pub fn build(
         });
         lights.len() - 1
     });
-    let light_sampler = LightSampler::new(&lights);
+    let light_sampler = LightSampler::new(&lights, LightSamplerKind::Auto);
 
     let c = &desc.camera;
     let aspect = desc.image.width as f32 / desc.image.height as f32;

@@ -60,7 +60,7 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Lights for next-event estimation (punctual lights and emissive shapes).
     pub lights: Vec<Light>,
-    /// Light selection by power.
+    /// Light selection for next-event estimation (by power, or by a light tree).
     pub light_sampler: LightSampler,
     /// Settings.
     pub settings: Settings,
@@ -123,9 +123,16 @@ impl Scene {
     /// Radiance arriving along a ray that left the scene in direction `d` (unit), the MIS
     /// weight against light sampling applied: `bsdf_pdf` is the pdf with which the previous
     /// vertex sampled `d` (`None` for camera rays and delta lobes, which light sampling cannot
-    /// produce).
+    /// produce), and `from` that vertex's position and normal, from which light sampling would
+    /// have chosen the environment.
     #[inline]
-    pub fn escaped(&self, d: Vec3, bsdf_pdf: Option<f32>, camera_ray: bool) -> Rgb {
+    pub fn escaped(
+        &self,
+        d: Vec3,
+        bsdf_pdf: Option<f32>,
+        from: (Vec3, Vec3),
+        camera_ray: bool,
+    ) -> Rgb {
         let Some(env) = &self.environment else {
             return Vec3::ZERO;
         };
@@ -135,7 +142,7 @@ impl Scene {
         let le = env.le(d);
         match (bsdf_pdf, self.environment_light) {
             (Some(pdf), Some(i)) => {
-                let pdf_light = self.light_sampler.pmf(i) * env.pdf(d);
+                let pdf_light = self.light_sampler.pmf(from.0, from.1, i) * env.pdf(d);
                 le * crate::sampling::power_heuristic(pdf, pdf_light)
             }
             _ => le,
