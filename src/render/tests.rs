@@ -149,9 +149,9 @@ fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
     }
 }
 
-/// After a cancel, each thread finishes at most the tile it is on: no tile starts after the
-/// cancel, at most one tile per thread is still in flight, and the pass in flight is dropped
-/// (the film keeps whole passes only). Counted, not timed.
+/// After a cancel, each thread finishes at most the tile it is on: at most one tile per thread is
+/// sampled after the cancel, and the pass in flight is dropped (the film keeps whole passes
+/// only). Counted, not timed.
 #[test]
 fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
     use std::collections::HashSet;
@@ -171,13 +171,12 @@ fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
     for cancel_at in [1u64, 700, 5_000, 20_000] {
         let cancel = AtomicBool::new(false);
         let calls = AtomicU64::new(0);
-        let before: Mutex<HashSet<u32>> = Mutex::new(HashSet::new());
         let after: Mutex<HashSet<u32>> = Mutex::new(HashSet::new());
         let sample = |x: u32, y: u32, range: Range<u32>, stats: &mut TraceStats| {
-            // Read the flag before counting: a call that saw no cancel belongs to `before`.
-            let cancelled = cancel.load(Ordering::SeqCst);
-            let set = if cancelled { &after } else { &before };
-            set.lock().unwrap().insert(tile_of(x, y));
+            // Read the flag before counting: a call that saw no cancel came before it.
+            if cancel.load(Ordering::SeqCst) {
+                after.lock().unwrap().insert(tile_of(x, y));
+            }
             if calls.fetch_add(1, Ordering::SeqCst) + 1 == cancel_at {
                 cancel.store(true, Ordering::SeqCst);
             }
@@ -194,12 +193,12 @@ fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
         let (film, _, interrupted) =
             pool.install(|| run_passes(&plan, &options, ErrorSource::Neighbours, sample));
         assert!(interrupted, "cancel at call {cancel_at}: not interrupted");
-        let (before, after) = (before.into_inner().unwrap(), after.into_inner().unwrap());
-        let started_after: Vec<_> = after.difference(&before).collect();
-        assert!(
-            started_after.is_empty(),
-            "cancel at call {cancel_at}: tiles {started_after:?} started after the cancel"
-        );
+        // Tiles sampled after the cancel: those in progress, and those a thread had already
+        // taken (it checked the flag before the cancel) but not yet sampled when the cancel came,
+        // which a preempted thread on a loaded machine does. Either way each thread is on one
+        // tile, so there are at most as many as threads; a loop that kept taking tiles would
+        // exceed that.
+        let after = after.into_inner().unwrap();
         assert!(
             after.len() <= THREADS,
             "cancel at call {cancel_at}: {} tiles still sampled after it, more than {THREADS} \
