@@ -709,11 +709,12 @@ impl LightSampler {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// The triangle light of corners `v` (one-sided, facing +z for counter-clockwise corners).
-    fn triangle(v: [Vec3; 3]) -> Light {
+    /// The triangle light of corners `v`, front face counter-clockwise (for the tests here and
+    /// the light tree's).
+    pub(crate) fn triangle_light(v: [Vec3; 3], emission: Vec3, two_sided: bool) -> Light {
         let c = (v[1] - v[0]).cross(v[2] - v[0]);
         Light::Triangle {
             instance: 0,
@@ -722,9 +723,15 @@ mod tests {
             uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
             n: c.normalize(),
             area: 0.5 * c.length(),
-            emission: Vec3::ONE,
-            two_sided: false,
+            emission,
+            two_sided,
         }
+    }
+
+    /// The one-sided white triangle light of corners `v` (facing +z for counter-clockwise
+    /// corners).
+    fn triangle(v: [Vec3; 3]) -> Light {
+        triangle_light(v, Vec3::ONE, false)
     }
 
     /// Where the ray from `p` along `w` meets the triangle (Möller–Trumbore), if it does.

@@ -726,6 +726,7 @@ fn centroid_box(items: &[(u32, LightBounds)]) -> (Vec3, Vec3) {
 mod tests {
     use super::*;
     use crate::bsdf::chi2;
+    use crate::light::tests::triangle_light as triangle;
     use crate::light::{LightSampler, LightSamplerKind};
     use crate::math::Vec2;
     use crate::sampler::Pcg32;
@@ -743,21 +744,6 @@ mod tests {
             (2.0 * rng.next_f32() - 1.0) * half,
             (2.0 * rng.next_f32() - 1.0) * half,
         )
-    }
-
-    /// The triangle light of corners `v`, front face counter-clockwise.
-    fn triangle(v: [Vec3; 3], emission: Vec3, two_sided: bool) -> Light {
-        let c = (v[1] - v[0]).cross(v[2] - v[0]);
-        Light::Triangle {
-            instance: 0,
-            prim: 0,
-            v,
-            uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
-            n: c.normalize(),
-            area: 0.5 * c.length(),
-            emission,
-            two_sided,
-        }
     }
 
     /// 60 triangles (a quarter two-sided) of random size, orientation and emission in a box of
