@@ -288,6 +288,14 @@ fn bad_partial_films_are_refused_with_the_file_and_the_reason() {
     let seeded = part(d, "seeded", 4, 8, &["--seed", "99"]);
     let err = merge(&[&good, &seeded]);
     assert!(err.contains("scene") || err.contains("seed"), "{err}");
+    // The Cornell box picks its light by power; the same samples with the light tree are other
+    // samples.
+    let treed = part(d, "treed", 4, 8, &["--light-sampler", "tree"]);
+    let err = merge(&[&good, &treed]);
+    assert!(
+        err.contains("the sampler") && err.contains("light tree"),
+        "{err}"
+    );
     let bigger = d.join("bigger.npz");
     ok(&[
         "render",

@@ -682,7 +682,17 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
             height,
             crop: [window.x0, window.y0, window.x1, window.y1],
             seed: scene.settings.seed,
-            sampler: lumo_schema::Keyword::keyword(s.render.sampler).to_string(),
+            // The light choice is part of how samples are drawn: films made with the light
+            // tree and by power must not be merged or resumed into each other.
+            sampler: format!(
+                "{}{}",
+                lumo_schema::Keyword::keyword(s.render.sampler),
+                if matches!(scene.light_sampler, lumo::light::LightSampler::Power(_)) {
+                    ""
+                } else {
+                    ", light tree"
+                }
+            ),
             samples,
             target_spp: Some(scene.settings.spp),
             time_left_s,
