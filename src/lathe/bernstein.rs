@@ -72,17 +72,30 @@ pub fn eval_with_derivative(b: &[f64], t: f64) -> (f64, f64) {
     value_and_derivative(b, t)
 }
 
-/// Value and first derivative at `t` of Bernstein coefficients (points or scalars): de
-/// Casteljau down to the last two points, whose lerp is the value and whose difference times the
-/// degree is the derivative.
-fn value_and_derivative<T>(c: &[T], t: f64) -> (T, T)
-where
+/// A Bernstein coefficient: a scalar (`f64`) or a point (`DVec2`), combined by de Casteljau's
+/// affine steps.
+trait Coefficient:
+    Copy
+    + Default
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<f64, Output = Self>
+{
+}
+
+impl<T> Coefficient for T where
     T: Copy
         + Default
         + std::ops::Add<Output = T>
         + std::ops::Sub<Output = T>
-        + std::ops::Mul<f64, Output = T>,
+        + std::ops::Mul<f64, Output = T>
 {
+}
+
+/// Value and first derivative at `t` of Bernstein coefficients (points or scalars): de
+/// Casteljau down to the last two points, whose lerp is the value and whose difference times the
+/// degree is the derivative.
+fn value_and_derivative<T: Coefficient>(c: &[T], t: f64) -> (T, T) {
     // The common sizes (a cubic profile's H has 7 coefficients) use a small work array: the
     // full one costs a 33-value fill and copy per evaluation, more than the arithmetic.
     if c.len() <= 8 {
@@ -94,14 +107,7 @@ where
 
 /// [`value_and_derivative`] with a work array of `N ≥ c.len()` values.
 #[inline(always)]
-fn casteljau<T, const N: usize>(c: &[T], t: f64) -> (T, T)
-where
-    T: Copy
-        + Default
-        + std::ops::Add<Output = T>
-        + std::ops::Sub<Output = T>
-        + std::ops::Mul<f64, Output = T>,
-{
+fn casteljau<T: Coefficient, const N: usize>(c: &[T], t: f64) -> (T, T) {
     let m = c.len() - 1;
     let s = 1.0 - t;
     match m {
@@ -138,10 +144,7 @@ pub fn eval_curve_with_derivative(p: &[DVec2], t: f64) -> (DVec2, DVec2) {
 
 /// Splits Bernstein coefficients (points or scalars) at `t` into those of the pieces over
 /// [0, t] and [t, 1] (de Casteljau). `left` and `right` must hold `c.len()` values.
-fn split<T>(c: &[T], t: f64, left: &mut [T], right: &mut [T])
-where
-    T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
-{
+fn split<T: Coefficient>(c: &[T], t: f64, left: &mut [T], right: &mut [T]) {
     let m = c.len() - 1;
     let mut w = [T::default(); MAX_COEFFS];
     w[..=m].copy_from_slice(c);
