@@ -8,11 +8,10 @@ use rayon::prelude::*;
 use crate::geometry::triangle_bvh::{TriRay, TriangleBvh};
 use crate::math::{Aabb, Vec2, Vec3};
 
-/// An indexed triangle mesh with optional per-vertex normals and texture coordinates. The
-/// arrays are shared (`Arc`) with the loaded assets they come from, so a mesh read from a file
-/// is in memory once.
-#[derive(Debug, Clone)]
-pub struct Mesh {
+/// A mesh's vertex and triangle arrays, as a loader reads them and as a [`Mesh`] keeps them. The
+/// arrays are shared (`Arc`), so a mesh read from a file is in memory once whatever uses it.
+#[derive(Debug, Clone, Default)]
+pub struct MeshData {
     /// Vertex positions.
     pub positions: Arc<Vec<Vec3>>,
     /// Triangles (counter-clockwise front), indices into `positions`.
@@ -23,10 +22,17 @@ pub struct Mesh {
     pub uvs: Option<Arc<Vec<Vec2>>>,
     /// The second set of vertex texture coordinates (glTF `TEXCOORD_1`), when present.
     pub uvs1: Option<Arc<Vec<Vec2>>>,
-    /// Vertex tangents (xyz) and bitangent handedness (w = ±1), when present.
+    /// Vertex tangents (xyz) and bitangent handedness (w = ±1, glTF `TANGENT`), when present.
     pub tangents: Option<Arc<Vec<Vec4>>>,
-    /// Linear RGBA vertex colours, when present.
+    /// Linear RGBA vertex colours (glTF `COLOR_0`), when present.
     pub colors: Option<Arc<Vec<Vec4>>>,
+}
+
+/// An indexed triangle mesh with optional per-vertex attributes, its bounds and its BVH.
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    /// The arrays.
+    pub data: MeshData,
     bounds: Aabb,
     /// Built on first use: a mesh whose only instances are flattened into the scene's
     /// world-space triangle set never needs its own.
@@ -49,14 +55,14 @@ pub struct MeshHit {
 impl Mesh {
     /// Makes a mesh (its BVH is built on first use, see [`Mesh::bvh`]). Degenerate (zero-area)
     /// triangles are removed; the number removed is returned alongside so the loader can warn
-    /// once.
-    pub fn new(
-        positions: impl Into<Arc<Vec<Vec3>>>,
-        triangles: impl Into<Arc<Vec<[u32; 3]>>>,
-        normals: Option<Arc<Vec<Vec3>>>,
-        uvs: Option<Arc<Vec<Vec2>>>,
-    ) -> (Mesh, usize) {
-        let (positions, mut triangles) = (positions.into(), triangles.into());
+    /// once. A second texture set, tangents or colours without one entry per vertex are
+    /// dropped (the loaders check lengths).
+    pub fn new(mut data: MeshData) -> (Mesh, usize) {
+        let n = data.positions.len();
+        data.uvs1 = data.uvs1.filter(|a| a.len() == n);
+        data.tangents = data.tangents.filter(|a| a.len() == n);
+        data.colors = data.colors.filter(|a| a.len() == n);
+        let positions = &data.positions;
         let area = |t: &[u32; 3]| {
             let [a, b, c] = t.map(|i| positions[i as usize]);
             (b - a).cross(c - a).length_squared() > 0.0
@@ -72,28 +78,31 @@ impl Mesh {
                 )
                 .reduce(|| (Aabb::EMPTY, true), |a, b| (a.0.union(b.0), a.1 && b.1))
         };
-        let before = triangles.len();
-        let (mut bounds, all_ok) = bounds_of(&triangles);
+        let before = data.triangles.len();
+        let (mut bounds, all_ok) = bounds_of(&data.triangles);
         // Copied only when some triangle is dropped; else shared with the caller.
         if !all_ok {
-            triangles = Arc::new(triangles.par_iter().copied().filter(area).collect());
-            bounds = bounds_of(&triangles).0;
+            data.triangles = Arc::new(data.triangles.par_iter().copied().filter(area).collect());
+            bounds = bounds_of(&data.triangles).0;
         }
-        let dropped = before - triangles.len();
+        let dropped = before - data.triangles.len();
         (
             Mesh {
-                positions,
-                triangles,
-                normals,
-                uvs,
-                uvs1: None,
-                tangents: None,
-                colors: None,
+                data,
                 bounds,
                 bvh: OnceLock::new(),
             },
             dropped,
         )
+    }
+
+    /// A mesh of positions and triangles alone ([`Mesh::new`]).
+    pub fn from_triangles(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> (Mesh, usize) {
+        Mesh::new(MeshData {
+            positions: Arc::new(positions),
+            triangles: Arc::new(triangles),
+            ..MeshData::default()
+        })
     }
 
     /// Bounds in object space.
@@ -105,7 +114,7 @@ impl Mesh {
     pub fn bvh(&self) -> &TriangleBvh {
         self.bvh.get_or_init(|| {
             TriangleBvh::build(
-                self.triangles.len(),
+                self.data.triangles.len(),
                 |p| self.corners(p as u32).map(Vec3A::from),
                 |p| [0, p as u32],
             )
@@ -115,7 +124,7 @@ impl Mesh {
     /// The three corners of triangle `prim`.
     #[inline]
     pub fn corners(&self, prim: u32) -> [Vec3; 3] {
-        self.triangles[prim as usize].map(|i| self.positions[i as usize])
+        self.data.triangles[prim as usize].map(|i| self.data.positions[i as usize])
     }
 
     /// Closest hit within (t_min, t_max).
@@ -135,32 +144,17 @@ impl Mesh {
         self.bvh().occluded(&TriRay::new(o, d), t_min, t_max)
     }
 
-    /// Sets the optional vertex attributes (each must have one entry per vertex; an array of
-    /// another length is ignored, as the loaders check lengths).
-    pub fn with_attributes(
-        mut self,
-        uvs1: Option<Arc<Vec<Vec2>>>,
-        tangents: Option<Arc<Vec<Vec4>>>,
-        colors: Option<Arc<Vec<Vec4>>>,
-    ) -> Mesh {
-        let n = self.positions.len();
-        self.uvs1 = uvs1.filter(|a| a.len() == n);
-        self.tangents = tangents.filter(|a| a.len() == n);
-        self.colors = colors.filter(|a| a.len() == n);
-        self
-    }
-
     /// Whether the mesh has any of the attributes [`Mesh::attributes`] interpolates.
     #[inline]
     pub fn has_attributes(&self) -> bool {
-        self.uvs1.is_some() || self.tangents.is_some() || self.colors.is_some()
+        self.data.uvs1.is_some() || self.data.tangents.is_some() || self.data.colors.is_some()
     }
 
     /// The vertex attributes of a hit beyond [`Mesh::surface`]'s: second texture coordinates,
     /// tangent (xyz, object space, not normalised; w = handedness) and colour, interpolated;
     /// defaults (0, zero tangent, white) where the mesh has none.
     pub fn attributes(&self, h: &MeshHit) -> (Vec2, Vec4, Vec4) {
-        let tri = self.triangles[h.prim as usize];
+        let tri = self.data.triangles[h.prim as usize];
         let b0 = 1.0 - h.b1 - h.b2;
         let lerp2 = |a: &Arc<Vec<Vec2>>| {
             a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
@@ -168,23 +162,23 @@ impl Mesh {
         let lerp4 = |a: &Arc<Vec<Vec4>>| {
             a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
         };
-        let uv1 = self.uvs1.as_ref().map_or(Vec2::ZERO, lerp2);
-        let tangent = self.tangents.as_ref().map_or(Vec4::ZERO, |t| {
+        let uv1 = self.data.uvs1.as_ref().map_or(Vec2::ZERO, lerp2);
+        let tangent = self.data.tangents.as_ref().map_or(Vec4::ZERO, |t| {
             // The handedness is per vertex; take the first corner's rather than a blend.
             lerp4(t).truncate().extend(t[tri[0] as usize].w.signum())
         });
-        let color = self.colors.as_ref().map_or(Vec4::ONE, lerp4);
+        let color = self.data.colors.as_ref().map_or(Vec4::ONE, lerp4);
         (uv1, tangent, color)
     }
 
     /// Interpolated point, geometric normal, shading normal and texture coordinates of a hit.
     pub fn surface(&self, h: &MeshHit) -> (Vec3, Vec3, Vec3, Vec2) {
-        let tri = self.triangles[h.prim as usize];
-        let [a, b, c] = tri.map(|i| self.positions[i as usize]);
+        let tri = self.data.triangles[h.prim as usize];
+        let [a, b, c] = tri.map(|i| self.data.positions[i as usize]);
         let b0 = 1.0 - h.b1 - h.b2;
         let p = a * b0 + b * h.b1 + c * h.b2;
         let ng = (b - a).cross(c - a).normalize();
-        let ns = match &self.normals {
+        let ns = match &self.data.normals {
             Some(n) => {
                 let s =
                     n[tri[0] as usize] * b0 + n[tri[1] as usize] * h.b1 + n[tri[2] as usize] * h.b2;
@@ -197,7 +191,7 @@ impl Mesh {
             }
             None => ng,
         };
-        let uv = match &self.uvs {
+        let uv = match &self.data.uvs {
             Some(t) => {
                 t[tri[0] as usize] * b0 + t[tri[1] as usize] * h.b1 + t[tri[2] as usize] * h.b2
             }
@@ -299,12 +293,12 @@ mod tests {
             }
             tris.push([3 * i, 3 * i + 1, 3 * i + 2]);
         }
-        let (mesh, _) = Mesh::new(positions, tris, None, None);
+        let (mesh, _) = Mesh::from_triangles(positions, tris);
         for _ in 0..3000 {
             let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 6.0 - 1.0;
             let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5);
             let shear = RayShear::new(o, d);
-            let brute = (0..mesh.triangles.len() as u32)
+            let brute = (0..mesh.data.triangles.len() as u32)
                 .filter_map(|p| {
                     let [a, b, c] = mesh.corners(p);
                     triangle::intersect(&shear, a, b, c, 0.0, f32::INFINITY).map(|h| (h.t, p))

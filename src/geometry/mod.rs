@@ -304,9 +304,11 @@ impl Geometry {
         let mut unbounded = Vec::new();
         for (k, inst) in instances.iter().enumerate() {
             if let Shape::Mesh(m) = &inst.shape {
-                if uses[&Arc::as_ptr(m)] == 1 || m.triangles.len() <= FLATTEN_MAX_SHARED_TRIANGLES {
+                if uses[&Arc::as_ptr(m)] == 1
+                    || m.data.triangles.len() <= FLATTEN_MAX_SHARED_TRIANGLES
+                {
                     flat.push((k, flat_count, &**m));
-                    flat_count += m.triangles.len();
+                    flat_count += m.data.triangles.len();
                     continue;
                 }
                 // Shared and large: instanced through its own BVH, built now rather than on
@@ -490,7 +492,7 @@ mod tests {
             [1, 3, 5],
             [3, 7, 5],
         ];
-        let (cube, _) = Mesh::new(cube_pos, cube_tris, None, None);
+        let (cube, _) = Mesh::from_triangles(cube_pos, cube_tris);
         let cube = Arc::new(cube);
         let mut instances = Vec::new();
         for i in 0..60 {
@@ -576,7 +578,7 @@ mod tests {
         let mut s = 21u64;
         let (pos, tris) = mesh::icosphere(3); // 1280 triangles: above the flattening limit
         assert!(tris.len() > FLATTEN_MAX_SHARED_TRIANGLES);
-        let shared = Arc::new(Mesh::new(pos.clone(), tris.clone(), None, None).0);
+        let shared = Arc::new(Mesh::from_triangles(pos.clone(), tris.clone()).0);
         let mut instances = Vec::new();
         for i in 0..12 {
             let t = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 16.0 - 8.0;
@@ -587,7 +589,7 @@ mod tests {
             );
             let m = Affine3A::from_scale_rotation_translation(scale, rot, t);
             let mesh = if i % 3 == 0 {
-                Arc::new(Mesh::new(pos.clone(), tris.clone(), None, None).0)
+                Arc::new(Mesh::from_triangles(pos.clone(), tris.clone()).0)
             } else {
                 shared.clone()
             };

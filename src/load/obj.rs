@@ -5,27 +5,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use crate::math::{Vec2, Vec3};
-use glam::Vec4;
 
-/// Mesh arrays read from a file. The arrays are shared (`Arc`): the scene graph's
-/// [`Mesh`](crate::geometry::mesh::Mesh) built from them holds the same arrays, not a copy.
-#[derive(Debug, Clone, Default)]
-pub struct MeshData {
-    /// Positions.
-    pub positions: Arc<Vec<Vec3>>,
-    /// Triangles.
-    pub triangles: Arc<Vec<[u32; 3]>>,
-    /// Per-vertex normals, if the file has them for every vertex.
-    pub normals: Option<Arc<Vec<Vec3>>>,
-    /// Per-vertex texture coordinates, if the file has them for every vertex.
-    pub uvs: Option<Arc<Vec<Vec2>>>,
-    /// The second set of texture coordinates (glTF `TEXCOORD_1`).
-    pub uvs1: Option<Arc<Vec<Vec2>>>,
-    /// Tangents (xyz) with the bitangent's handedness (w), as glTF's `TANGENT`.
-    pub tangents: Option<Arc<Vec<Vec4>>>,
-    /// Linear RGBA vertex colours (glTF `COLOR_0`).
-    pub colors: Option<Arc<Vec<Vec4>>>,
-}
+pub use crate::geometry::mesh::MeshData;
 
 /// Reads an OBJ file through the one OBJ reader ([`lumo_converters::obj::load`]) into the
 /// renderer's arrays (normals normalised). Errors name the problem; the caller names the file.

@@ -201,14 +201,9 @@ pub fn build(
                 })
             }
             schema::Object::Triangle(t) => {
-                let (mesh, dropped) = Mesh::new(
-                    t.vertices
-                        .iter()
-                        .map(|v| Vec3::from(*v))
-                        .collect::<Vec<_>>(),
+                let (mesh, dropped) = Mesh::from_triangles(
+                    t.vertices.iter().map(|v| Vec3::from(*v)).collect(),
                     vec![[0, 1, 2]],
-                    None,
-                    None,
                 );
                 degenerate += dropped;
                 total_triangles += 1;
@@ -219,12 +214,12 @@ pub fn build(
                 let mesh = match mesh_cache.get(&key) {
                     Some(mesh) => mesh.clone(),
                     None => {
-                        let data = mesh_data(&m.source, assets, &json_path)?;
+                        let mut data = mesh_data(&m.source, assets, &json_path)?;
                         total_triangles += data.triangles.len();
                         if total_triangles > MAX_TRIANGLES {
                             return Err(BuildError::TooManyTriangles { json_path });
                         }
-                        let normals = if m.smooth {
+                        data.normals = if m.smooth {
                             Some(data.normals.clone().unwrap_or_else(|| {
                                 Arc::new(Mesh::angle_weighted_normals(
                                     &data.positions,
@@ -234,9 +229,7 @@ pub fn build(
                         } else {
                             None
                         };
-                        let (mesh, dropped) =
-                            Mesh::new(data.positions, data.triangles, normals, data.uvs);
-                        let mesh = mesh.with_attributes(data.uvs1, data.tangents, data.colors);
+                        let (mesh, dropped) = Mesh::new(data);
                         degenerate += dropped;
                         let mesh = Arc::new(mesh);
                         mesh_cache.insert(key, mesh.clone());
@@ -269,15 +262,15 @@ pub fn build(
         match &inst.shape {
             Shape::Mesh(mesh) => {
                 inst.light_base = Some(lights.len() as u32);
-                for prim in 0..mesh.triangles.len() as u32 {
+                for prim in 0..mesh.data.triangles.len() as u32 {
                     let v = mesh
                         .corners(prim)
                         .map(|p| inst.to_world.transform_point3(p));
-                    let tri = mesh.triangles[prim as usize];
+                    let tri = mesh.data.triangles[prim as usize];
                     // The corners' coordinates in the set the emission texture samples (hits
                     // without coordinates use the barycentrics, or zero for set 1).
                     let set1 = m.emission_texture.is_some_and(|t| t.tex_coord == 1);
-                    let uv = match (set1, &mesh.uvs, &mesh.uvs1) {
+                    let uv = match (set1, &mesh.data.uvs, &mesh.data.uvs1) {
                         (false, Some(uvs), _) | (true, _, Some(uvs)) => {
                             tri.map(|i| uvs[i as usize])
                         }
