@@ -79,8 +79,12 @@ impl Environment {
 
     /// An image environment; negative texels (compression noise in HDR files) count as 0.
     pub fn image(mut texture: Texture, strength: f32, rotation: f32, visible: bool) -> Environment {
-        // Float texels: the loop below clamps them, and lookups of a sun need no decoding.
-        let mut rgb = texture.decoded();
+        // Float texels (taken, not copied): the loop below clamps them, and lookups of a sun
+        // need no decoding.
+        let mut rgb = match &mut texture.texels {
+            Texels::Float { rgb, .. } => std::mem::take(rgb),
+            Texels::Rgba8 { .. } => texture.decoded(),
+        };
         for t in rgb.iter_mut() {
             *t = t.max(Vec3::ZERO);
             if !t.is_finite() {
