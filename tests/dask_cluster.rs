@@ -268,8 +268,13 @@ impl Cluster {
 
     /// Starts `lumo-dask` on this cluster (the real lumo first on its PATH), writing `out`.
     fn driver(&self, out: &Path, extra: &[&str]) -> Proc {
+        self.driver_of(SCENE, out, extra)
+    }
+
+    /// [`Cluster::driver`] of another scene.
+    fn driver_of(&self, scene: &str, out: &Path, extra: &[&str]) -> Proc {
         let mut cmd = Command::new(self.venv.join("lumo-dask"));
-        cmd.arg(SCENE)
+        cmd.arg(scene)
             .args(RENDER)
             .args(["--chunk-spp", CHUNK_SPP, "--scheduler", &self.address])
             .args(extra)
@@ -282,10 +287,16 @@ impl Cluster {
 
     /// One-machine `lumo render` of the same image: the bytes every distributed render must give.
     fn reference(&self) -> Vec<u8> {
+        self.reference_of(SCENE, &[])
+    }
+
+    /// [`Cluster::reference`] of another scene, with more `lumo render` flags.
+    fn reference_of(&self, scene: &str, extra: &[&str]) -> Vec<u8> {
         let path = self.dir.0.join("reference.exr");
         let out = Command::new(LUMO)
-            .args(["render", SCENE])
+            .args(["render", scene])
             .args(RENDER)
+            .args(extra)
             .args(["-q", "-o"])
             .arg(&path)
             .current_dir(root())
@@ -353,6 +364,19 @@ fn two_workers_render_the_same_image_as_one_machine() {
         "8 chunks of 4 samples:\n{log}"
     );
     assert!(log.contains("done: "), "no summary:\n{log}");
+
+    // `--light-sampler` reaches every task: on a scene of many lights (where the default picks
+    // by the light tree) the image is that of `lumo render --light-sampler power`, not the
+    // default's.
+    let scene = "scenes/many_lights.json";
+    let by_tree = cluster.reference_of(scene, &[]);
+    let want = cluster.reference_of(scene, &["--light-sampler", "power"]);
+    assert_ne!(by_tree, want, "the light choice must change the image");
+    let mut driver = cluster.driver_of(scene, &out, &["--light-sampler", "power"]);
+    let status = driver.wait(deadline);
+    let log = driver.log();
+    assert!(status.success(), "lumo-dask failed ({status}):\n{log}");
+    assert_same_image(&out, &want);
 }
 
 #[test]

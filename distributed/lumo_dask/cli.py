@@ -25,6 +25,10 @@ BUNDLE_OVERRIDES = (
     ("--lights", str, "L", "legacy .txt scenes: keep, drop or auto"),
 )
 
+# `lumo render --light-sampler`: a render setting, not a scene's, so it is passed to every task
+# rather than baked into the bundle.
+LIGHT_SAMPLERS = ("auto", "power", "tree")
+
 
 def positive_int(text: str) -> int:
     value = int(text)
@@ -111,6 +115,14 @@ def parser() -> argparse.ArgumentParser:
         default=120.0,
         metavar="SECONDS",
         help="how long to wait for the first worker to join the scheduler (default 120)",
+    )
+    p.add_argument(
+        "--light-sampler",
+        choices=LIGHT_SAMPLERS,
+        default="auto",
+        help="`lumo render --light-sampler` of every task: how next-event estimation picks a "
+        "light (default auto: the light tree from 3 finite lights on); part of each film's "
+        "header, so films made otherwise are never merged in",
     )
     g = p.add_argument_group("render overrides (baked into the bundled scene by `lumo bundle`)")
     for flag, kind, metavar, text in BUNDLE_OVERRIDES:

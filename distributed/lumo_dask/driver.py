@@ -302,6 +302,7 @@ class Job:
                 worker_lumo,
                 run_id,
                 topic,
+                args.light_sampler,
                 key=run_id,
                 pure=False,
                 retries=args.retries,

@@ -102,6 +102,26 @@ def _worker():
         return None
 
 
+def render_command(
+    exe: str, scene: Path, start: int, end: int, film: Path, threads: int, light_sampler: str
+) -> list[str]:
+    """The `lumo render` of sample indices `start..end` into partial film `film`."""
+    return [
+        exe,
+        "render",
+        str(scene),
+        "--samples",
+        f"{start}..{end}",
+        "--film",
+        str(film),
+        "--threads",
+        str(threads),
+        "--light-sampler",
+        light_sampler,
+        "-q",
+    ]
+
+
 def render_chunk(
     bundle: bytes,
     bundle_sha256: str,
@@ -111,6 +131,7 @@ def render_chunk(
     lumo: str,
     run_id: str,
     topic: str | None = None,
+    light_sampler: str = "auto",
 ) -> dict:
     """Renders sample indices `start..end` of the bundled scene in a temporary folder and
     returns the partial film's bytes with where and how long it took.
@@ -142,18 +163,7 @@ def render_chunk(
         if not scene.is_file():
             raise RuntimeError(f"{where}: the bundle has no scene.json at its root")
         film = tmp / "part.npz"
-        cmd = [
-            exe,
-            "render",
-            str(scene),
-            "--samples",
-            f"{start}..{end}",
-            "--film",
-            str(film),
-            "--threads",
-            str(threads),
-            "-q",
-        ]
+        cmd = render_command(exe, scene, start, end, film, threads, light_sampler)
         proc = subprocess.run(
             cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=tmp
         )

@@ -123,9 +123,25 @@ class Cli(unittest.TestCase):
         self.assertEqual((args.spp, args.chunk_spp, args.threads_per_task), (8, 2, 1))
         self.assertEqual(args.env_strength, 2.0)
         self.assertIsNone(args.scheduler)
+        self.assertEqual(args.light_sampler, "auto")
+
+    def test_the_light_sampler_reaches_every_task(self):
+        args = parser().parse_args(
+            ["s.json", "--spp", "8", "--chunk-spp", "2", "-o", "o.exr", "--light-sampler", "power"]
+        )
+        cmd = worker.render_command(
+            "lumo", Path("scene.json"), 2, 4, Path("part.npz"), 1, args.light_sampler
+        )
+        self.assertEqual(cmd[cmd.index("--light-sampler") + 1], "power")
+        self.assertEqual(cmd[cmd.index("--samples") + 1], "2..4")
 
     def test_bad_numbers_exit_2(self):
-        for bad in (["--spp", "0"], ["--chunk-spp", "-1"], ["--retries", "-2"]):
+        for bad in (
+            ["--spp", "0"],
+            ["--chunk-spp", "-1"],
+            ["--retries", "-2"],
+            ["--light-sampler", "random"],
+        ):
             argv = ["s.json", "--spp", "8", "--chunk-spp", "2", "-o", "o.exr", *bad]
             with self.assertRaises(SystemExit) as caught, open(os.devnull, "w") as null:
                 stderr, sys.stderr = sys.stderr, null
