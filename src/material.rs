@@ -354,7 +354,10 @@ impl Material {
             hit.ns
         };
         let lobes = match self.layers(textures, hit, wo, front) {
-            (None, None) => Lobes::MetallicRoughness(base),
+            (None, None) => {
+                let probs = base.strategy_probs_for(&frame, wo);
+                Lobes::MetallicRoughness(base, probs)
+            }
             (clearcoat, sheen) => Lobes::Layered(Box::new(Layered {
                 base,
                 clearcoat,

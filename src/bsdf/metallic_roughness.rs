@@ -88,6 +88,14 @@ pub struct MetallicRoughness {
     pub energy_compensation: bool,
 }
 
+/// The probabilities of the three sampling strategies for one outgoing direction (local), made
+/// by [`MetallicRoughness::strategy_probs_for`].
+#[derive(Debug, Clone, Copy)]
+pub struct StrategyProbs {
+    wo: Vec3,
+    probs: [f32; 3],
+}
+
 /// Refractive index standing in for ior 0 or ∞ in the transmissive part (see `eta`).
 const DEGENERATE_IOR: f32 = 1e4;
 
@@ -331,10 +339,15 @@ impl MetallicRoughness {
     /// Samples an incident direction: `u_lobe` chooses the strategy (and, rescaled, reflection
     /// or transmission inside the dielectric), `u` the direction.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<LocalSample> {
+        self.sample_with(wo, u_lobe, u, &self.strategy_probs(wo))
+    }
+
+    /// [`sample`](Self::sample) given `wo`'s strategy probabilities.
+    fn sample_with(&self, wo: Vec3, u_lobe: f32, u: Vec2, probs: &[f32; 3]) -> Option<LocalSample> {
         if wo.z == 0.0 {
             return None;
         }
-        let probs = self.strategy_probs(wo);
+        let probs = *probs;
         let wi = match self.sample_direction_with(wo, u_lobe, u, &probs)? {
             Sampled::Delta(s) => return Some(s),
             Sampled::Smooth(wi) => wi,
@@ -451,11 +464,43 @@ impl MetallicRoughness {
     /// (its normal on the front side) and geometric normal `ng`, with the same signature and
     /// meaning as the legacy `Bsdf::eval`.
     pub fn eval_world(&self, frame: &Frame, ng: Vec3, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        self.eval_world_with(frame, ng, wo, wi, None)
+    }
+
+    /// [`eval_world`](Self::eval_world) using `at`'s strategy probabilities when it was made
+    /// for this `wo` (the same results, without computing them again).
+    pub fn eval_world_with(
+        &self,
+        frame: &Frame,
+        ng: Vec3,
+        wo: Vec3,
+        wi: Vec3,
+        at: Option<&StrategyProbs>,
+    ) -> (Rgb, f32) {
         let (lo, li) = (frame.to_local(wo), frame.to_local(wi));
         if Self::leaks(lo.z * li.z > 0.0, ng, wo, wi) {
             return (Vec3::ZERO, 0.0);
         }
-        self.eval(lo, li)
+        self.eval_with(lo, li, &self.probs_at(lo, at))
+    }
+
+    /// The strategy probabilities for local `wo`, computed once per shading point: both the
+    /// light sample's evaluation and the BSDF sample need them (they cost as much as an
+    /// evaluation, for the albedo estimates).
+    pub fn strategy_probs_for(&self, frame: &Frame, wo: Vec3) -> StrategyProbs {
+        let wo = frame.to_local(wo);
+        StrategyProbs {
+            wo,
+            probs: self.strategy_probs(wo),
+        }
+    }
+
+    /// `at`'s probabilities if they were made for local `wo`, else computed.
+    fn probs_at(&self, wo: Vec3, at: Option<&StrategyProbs>) -> [f32; 3] {
+        match at {
+            Some(p) if p.wo == wo => p.probs,
+            _ => self.strategy_probs(wo),
+        }
     }
 
     /// [`sample`](Self::sample) for a world-space `wo`, returning a world-space
@@ -468,8 +513,22 @@ impl MetallicRoughness {
         u_lobe: f32,
         u: Vec2,
     ) -> Option<BsdfSample> {
+        self.sample_world_with(frame, ng, wo, u_lobe, u, None)
+    }
+
+    /// [`sample_world`](Self::sample_world) using `at`'s strategy probabilities when it was
+    /// made for this `wo`.
+    pub fn sample_world_with(
+        &self,
+        frame: &Frame,
+        ng: Vec3,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        at: Option<&StrategyProbs>,
+    ) -> Option<BsdfSample> {
         let lo = frame.to_local(wo);
-        let s = self.sample(lo, u_lobe, u)?;
+        let s = self.sample_with(lo, u_lobe, u, &self.probs_at(lo, at))?;
         let world = s.to_world(frame);
         if Self::leaks(lo.z * s.wi.z > 0.0, ng, wo, world.wi) {
             return None;
@@ -724,6 +783,45 @@ mod tests {
                 assert!(
                     (a - 1.0).abs() < 0.01,
                     "plastic r {roughness} θ {theta}: {a}"
+                );
+            }
+        }
+    }
+
+    /// Strategy probabilities made once per shading point give exactly the results of
+    /// computing them per call, and probabilities made for another `wo` are not used.
+    #[test]
+    fn cached_strategy_probs_change_nothing() {
+        let mut rng = Pcg32::new(7, 3);
+        let frame = Frame::from_normal(Vec3::new(0.3, 0.2, 0.93).normalize());
+        let ng = frame.n;
+        for k in 0..2_000 {
+            let m = mat(
+                TINT,
+                [0.0, 0.4, 1.0][k % 3],
+                [0.0, 0.05, 0.3, 0.9][k % 4],
+                [1.0, 1.5, 2.4][k % 3],
+                [0.0, 0.0, 0.6, 1.0][(k / 3) % 4],
+            );
+            let (wo, wi, other) = (
+                random_dir(&mut rng),
+                random_dir(&mut rng),
+                random_dir(&mut rng),
+            );
+            let at = m.strategy_probs_for(&frame, wo);
+            let key = |e: (Rgb, f32)| (e.0.to_array().map(f32::to_bits), e.1.to_bits());
+            for (o, i) in [(wo, wi), (other, wi)] {
+                assert_eq!(
+                    key(m.eval_world_with(&frame, ng, o, i, Some(&at))),
+                    key(m.eval_world(&frame, ng, o, i))
+                );
+                let (ul, u) = u3(&mut rng);
+                let bits = |s: Option<BsdfSample>| {
+                    s.map(|s| (s.wi.to_array().map(f32::to_bits), s.pdf.to_bits(), s.delta))
+                };
+                assert_eq!(
+                    bits(m.sample_world_with(&frame, ng, o, ul, u, Some(&at))),
+                    bits(m.sample_world(&frame, ng, o, ul, u))
                 );
             }
         }

@@ -27,7 +27,7 @@ pub mod multiple_scattering;
 mod testing;
 
 pub use fresnel::fresnel_dielectric;
-pub use metallic_roughness::MetallicRoughness;
+pub use metallic_roughness::{MetallicRoughness, StrategyProbs};
 
 /// The scattering function of one surface point (textures already applied).
 #[derive(Debug, Clone)]
@@ -46,8 +46,9 @@ pub enum Lobes {
     /// A Lambertian reflector of this albedo, on both faces (a material with no metal, no
     /// specular reflection and no transmission).
     Lambert(Rgb),
-    /// The full glTF metallic-roughness BSDF.
-    MetallicRoughness(MetallicRoughness),
+    /// The full glTF metallic-roughness BSDF, with its strategy probabilities for the `wo` it
+    /// was made for.
+    MetallicRoughness(MetallicRoughness, StrategyProbs),
     /// The metallic-roughness base under sheen and/or clearcoat layers (boxed: it is large, and
     /// every other hit would pay for copying it).
     Layered(Box<layered::Layered>),
@@ -126,7 +127,7 @@ impl Bsdf {
     pub fn has_smooth_lobe(&self) -> bool {
         match &self.lobes {
             Lobes::Lambert(_) => true,
-            Lobes::MetallicRoughness(m) => m.has_smooth_lobe(),
+            Lobes::MetallicRoughness(m, _) => m.has_smooth_lobe(),
             Lobes::Layered(l) => l.has_smooth_lobe(),
         }
     }
@@ -145,7 +146,9 @@ impl Bsdf {
                 let pdf = li.z.abs() * FRAC_1_PI;
                 (*albedo * pdf, pdf)
             }
-            Lobes::MetallicRoughness(m) => m.eval_world(&self.frame, self.ng, wo, wi),
+            Lobes::MetallicRoughness(m, p) => {
+                m.eval_world_with(&self.frame, self.ng, wo, wi, Some(p))
+            }
             Lobes::Layered(l) => l.eval(&self.frame, self.ng, wo, wi),
         }
     }
@@ -178,7 +181,9 @@ impl Bsdf {
                     transmitted: false,
                 })
             }
-            Lobes::MetallicRoughness(m) => m.sample_world(&self.frame, self.ng, wo, u_lobe, u),
+            Lobes::MetallicRoughness(m, p) => {
+                m.sample_world_with(&self.frame, self.ng, wo, u_lobe, u, Some(p))
+            }
             Lobes::Layered(l) => l.sample(&self.frame, self.ng, wo, u_lobe, u),
         }
     }
