@@ -355,8 +355,8 @@ impl Material {
         };
         let lobes = match self.layers(textures, hit, wo, front) {
             (None, None) => {
-                let probs = base.strategy_probs_for(&frame, wo);
-                Lobes::MetallicRoughness(base, probs)
+                let outgoing = base.outgoing_for(&frame, wo);
+                Lobes::MetallicRoughness(base, outgoing)
             }
             (clearcoat, sheen) => Lobes::Layered(Box::new(Layered {
                 base,

@@ -50,7 +50,8 @@ use super::dielectric::{RoughDielectric, ThinDielectric};
 use super::fresnel::{conductor_fresnel, dielectric_f0, fresnel_dielectric, schlick_f0_f90};
 use super::microfacet::{ggx_d, ggx_g2, ggx_reflect_pdf, ggx_sample_visible};
 use super::multiple_scattering::{
-    compensation, compensation_albedo, specular_albedo, specular_average_albedo,
+    compensation_albedo, compensation_factor, compensation_from, specular_albedo,
+    specular_average_albedo,
 };
 use super::{BsdfSample, LocalSample, DELTA_ALPHA};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
@@ -88,12 +89,18 @@ pub struct MetallicRoughness {
     pub energy_compensation: bool,
 }
 
-/// The probabilities of the three sampling strategies for one outgoing direction (local), made
-/// by [`MetallicRoughness::strategy_probs_for`].
+/// What a [`MetallicRoughness`] computes for one outgoing direction (local) alone, made by
+/// [`MetallicRoughness::outgoing_for`]: evaluations and samples for that direction use it
+/// instead of computing it again (with the same results, bit for bit).
 #[derive(Debug, Clone, Copy)]
-pub struct StrategyProbs {
+pub struct Outgoing {
     wo: Vec3,
+    /// Probabilities of the specular, cosine and transmission strategies.
     probs: [f32; 3],
+    /// (1 − the dielectric layer's albedo at μo), clamped: the diffuse base's μo factor.
+    diffuse_o: f32,
+    /// The compensation lobes' μo factor ([`compensation_factor`]).
+    compensation_o: f32,
 }
 
 /// Refractive index standing in for ior 0 or ∞ in the transmissive part (see `eta`).
@@ -207,20 +214,21 @@ impl MetallicRoughness {
         self.spec_weight() * specular_albedo(mu, self.alpha(), f0, self.energy_compensation).x
     }
 
-    /// The albedo-scaling weight of the diffuse base (see the module doc).
-    fn diffuse_scale(&self, mu_o: f32, mu_i: f32) -> f32 {
+    /// The albedo-scaling weight of the diffuse base (see the module doc), given `o`'s
+    /// [`Outgoing::diffuse_o`].
+    fn diffuse_scale(&self, diffuse_o: f32, mu_i: f32) -> f32 {
         let f0 = Vec3::splat(self.f0().max_element());
         let avg = self.spec_weight()
             * specular_average_albedo(self.alpha(), f0, self.energy_compensation).x;
         if 1.0 - avg < 1e-6 {
             return 0.0;
         }
-        (1.0 - self.layer_albedo(mu_o)).max(0.0) * (1.0 - self.layer_albedo(mu_i)).max(0.0)
-            / (1.0 - avg)
+        diffuse_o * (1.0 - self.layer_albedo(mu_i)).max(0.0) / (1.0 - avg)
     }
 
-    /// Non-delta reflection BRDF (no cosine) for `o`, `i` in the upper hemisphere.
-    fn reflection(&self, o: Vec3, i: Vec3) -> Rgb {
+    /// Non-delta reflection BRDF (no cosine) for `o`, `i` in the upper hemisphere; `at` was
+    /// made for `o` (or its mirror image).
+    fn reflection(&self, o: Vec3, i: Vec3, at: &Outgoing) -> Rgb {
         let (m, d, _) = self.weights();
         let w = self.spec_weight();
         let alpha = self.alpha();
@@ -234,19 +242,21 @@ impl MetallicRoughness {
                 f += schlick_f0_f90(self.f0(), Vec3::ONE, c) * (d * w * spec);
             }
             if self.energy_compensation {
-                f += compensation(o.z, i.z, alpha, self.base_color) * m;
-                f += compensation(o.z, i.z, alpha, self.f0()) * (d * w);
+                f += compensation_from(at.compensation_o, i.z, alpha, self.base_color) * m;
+                f += compensation_from(at.compensation_o, i.z, alpha, self.f0()) * (d * w);
             }
         }
         if d > 0.0 {
-            f += self.base_color * (d * FRAC_1_PI * self.diffuse_scale(o.z, i.z));
+            f += self.base_color * (d * FRAC_1_PI * self.diffuse_scale(at.diffuse_o, i.z));
         }
         f
     }
 
-    /// Probabilities of the three strategies for `wo`, from albedo estimates of their lobes.
-    fn strategy_probs(&self, wo: Vec3) -> [f32; 3] {
+    /// What depends on `wo` alone (local): the probabilities of the three strategies, from
+    /// albedo estimates of their lobes, and the μo factors of the reflection lobes.
+    fn outgoing(&self, wo: Vec3) -> Outgoing {
         let mu = wo.z.abs();
+        let diffuse_o = (1.0 - self.layer_albedo(mu)).max(0.0);
         let (m, d, t) = self.weights();
         let w = self.spec_weight();
         let alpha = self.alpha();
@@ -262,7 +272,7 @@ impl MetallicRoughness {
         let spec = m * mean(specular_albedo(mu, alpha, self.base_color, false))
             + d * w * mean(specular_albedo(mu, alpha, self.f0(), false));
         let spec = floor(spec, m + d * w > 0.0);
-        let mut cosine = d * mean(self.base_color) * (1.0 - self.layer_albedo(mu)).max(0.0);
+        let mut cosine = d * mean(self.base_color) * diffuse_o;
         if comp && !self.specular_is_delta() {
             cosine += m * mean(compensation_albedo(mu, alpha, self.base_color))
                 + d * w * mean(compensation_albedo(mu, alpha, self.f0()));
@@ -278,10 +288,17 @@ impl MetallicRoughness {
             0.0
         };
         let total = spec + cosine + trans;
-        if total <= 0.0 {
-            return [0.0; 3];
+        let probs = if total <= 0.0 {
+            [0.0; 3]
+        } else {
+            [spec / total, cosine / total, trans / total]
+        };
+        Outgoing {
+            wo,
+            probs,
+            diffuse_o,
+            compensation_o: compensation_factor(mu, alpha),
         }
-        [spec / total, cosine / total, trans / total]
     }
 
     /// The transmissive part's f·|cos θi| and pdf (scalar), and its η′ for transmission.
@@ -296,11 +313,12 @@ impl MetallicRoughness {
     /// f·|cos θi| for the pair (local frame) and the pdf with which [`sample`](Self::sample)
     /// returns `wi`; delta lobes contribute nothing.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
-        self.eval_with(wo, wi, &self.strategy_probs(wo))
+        self.eval_with(wo, wi, &self.outgoing(wo))
     }
 
-    /// [`eval`](Self::eval) given `wo`'s strategy probabilities (computed once per sample).
-    fn eval_with(&self, wo: Vec3, wi: Vec3, probs: &[f32; 3]) -> (Rgb, f32) {
+    /// [`eval`](Self::eval) given what depends on `wo` alone (computed once per sample).
+    fn eval_with(&self, wo: Vec3, wi: Vec3, at: &Outgoing) -> (Rgb, f32) {
+        let probs = &at.probs;
         if wo.z == 0.0 || wi.z == 0.0 {
             return (Vec3::ZERO, 0.0);
         }
@@ -309,7 +327,7 @@ impl MetallicRoughness {
         let mut pdf = 0.0;
         if wo.z * wi.z > 0.0 {
             let (o, i) = (upper(wo), upper(wi));
-            f += self.reflection(o, i) * i.z;
+            f += self.reflection(o, i, at) * i.z;
             pdf += probs[COSINE] * i.z * FRAC_1_PI;
             if probs[SPECULAR] > 0.0 && !self.specular_is_delta() {
                 let wm = (o + i).normalize_or_zero();
@@ -339,20 +357,20 @@ impl MetallicRoughness {
     /// Samples an incident direction: `u_lobe` chooses the strategy (and, rescaled, reflection
     /// or transmission inside the dielectric), `u` the direction.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<LocalSample> {
-        self.sample_with(wo, u_lobe, u, &self.strategy_probs(wo))
+        self.sample_with(wo, u_lobe, u, &self.outgoing(wo))
     }
 
-    /// [`sample`](Self::sample) given `wo`'s strategy probabilities.
-    fn sample_with(&self, wo: Vec3, u_lobe: f32, u: Vec2, probs: &[f32; 3]) -> Option<LocalSample> {
+    /// [`sample`](Self::sample) given what depends on `wo` alone.
+    fn sample_with(&self, wo: Vec3, u_lobe: f32, u: Vec2, at: &Outgoing) -> Option<LocalSample> {
         if wo.z == 0.0 {
             return None;
         }
-        let probs = *probs;
+        let probs = at.probs;
         let wi = match self.sample_direction_with(wo, u_lobe, u, &probs)? {
             Sampled::Delta(s) => return Some(s),
             Sampled::Smooth(wi) => wi,
         };
-        let (f, pdf) = self.eval_with(wo, wi, &probs);
+        let (f, pdf) = self.eval_with(wo, wi, at);
         if pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
@@ -382,7 +400,7 @@ impl MetallicRoughness {
         if wo.z == 0.0 {
             return None;
         }
-        self.sample_direction_with(wo, u_lobe, u, &self.strategy_probs(wo))
+        self.sample_direction_with(wo, u_lobe, u, &self.outgoing(wo).probs)
     }
 
     /// [`sample_direction`](Self::sample_direction) given `wo`'s strategy probabilities.
@@ -475,32 +493,23 @@ impl MetallicRoughness {
         ng: Vec3,
         wo: Vec3,
         wi: Vec3,
-        at: Option<&StrategyProbs>,
+        at: Option<&Outgoing>,
     ) -> (Rgb, f32) {
         let (lo, li) = (frame.to_local(wo), frame.to_local(wi));
         if Self::leaks(lo.z * li.z > 0.0, ng, wo, wi) {
             return (Vec3::ZERO, 0.0);
         }
-        self.eval_with(lo, li, &self.probs_at(lo, at))
-    }
-
-    /// The strategy probabilities for local `wo`, computed once per shading point: both the
-    /// light sample's evaluation and the BSDF sample need them (they cost as much as an
-    /// evaluation, for the albedo estimates).
-    pub fn strategy_probs_for(&self, frame: &Frame, wo: Vec3) -> StrategyProbs {
-        let wo = frame.to_local(wo);
-        StrategyProbs {
-            wo,
-            probs: self.strategy_probs(wo),
-        }
-    }
-
-    /// `at`'s probabilities if they were made for local `wo`, else computed.
-    fn probs_at(&self, wo: Vec3, at: Option<&StrategyProbs>) -> [f32; 3] {
         match at {
-            Some(p) if p.wo == wo => p.probs,
-            _ => self.strategy_probs(wo),
+            Some(at) if at.wo == lo => self.eval_with(lo, li, at),
+            _ => self.eval_with(lo, li, &self.outgoing(lo)),
         }
+    }
+
+    /// What depends on world-space `wo` alone, computed once per shading point: the light
+    /// sample's evaluation and the BSDF sample both need it (the strategy probabilities cost
+    /// about an evaluation, for their albedo estimates).
+    pub fn outgoing_for(&self, frame: &Frame, wo: Vec3) -> Outgoing {
+        self.outgoing(frame.to_local(wo))
     }
 
     /// [`sample`](Self::sample) for a world-space `wo`, returning a world-space
@@ -525,10 +534,13 @@ impl MetallicRoughness {
         wo: Vec3,
         u_lobe: f32,
         u: Vec2,
-        at: Option<&StrategyProbs>,
+        at: Option<&Outgoing>,
     ) -> Option<BsdfSample> {
         let lo = frame.to_local(wo);
-        let s = self.sample_with(lo, u_lobe, u, &self.probs_at(lo, at))?;
+        let s = match at {
+            Some(at) if at.wo == lo => self.sample_with(lo, u_lobe, u, at)?,
+            _ => self.sample_with(lo, u_lobe, u, &self.outgoing(lo))?,
+        };
         let world = s.to_world(frame);
         if Self::leaks(lo.z * s.wi.z > 0.0, ng, wo, world.wi) {
             return None;
@@ -788,10 +800,10 @@ mod tests {
         }
     }
 
-    /// Strategy probabilities made once per shading point give exactly the results of
-    /// computing them per call, and probabilities made for another `wo` are not used.
+    /// What depends on `wo` alone, made once per shading point, gives exactly the results of
+    /// computing it per call, and what was made for another `wo` is not used.
     #[test]
-    fn cached_strategy_probs_change_nothing() {
+    fn outgoing_terms_made_once_change_nothing() {
         let mut rng = Pcg32::new(7, 3);
         let frame = Frame::from_normal(Vec3::new(0.3, 0.2, 0.93).normalize());
         let ng = frame.n;
@@ -808,7 +820,7 @@ mod tests {
                 random_dir(&mut rng),
                 random_dir(&mut rng),
             );
-            let at = m.strategy_probs_for(&frame, wo);
+            let at = m.outgoing_for(&frame, wo);
             let key = |e: (Rgb, f32)| (e.0.to_array().map(f32::to_bits), e.1.to_bits());
             for (o, i) in [(wo, wi), (other, wi)] {
                 assert_eq!(

@@ -27,7 +27,7 @@ pub mod multiple_scattering;
 mod testing;
 
 pub use fresnel::fresnel_dielectric;
-pub use metallic_roughness::{MetallicRoughness, StrategyProbs};
+pub use metallic_roughness::{MetallicRoughness, Outgoing};
 
 /// The scattering function of one surface point (textures already applied).
 #[derive(Debug, Clone)]
@@ -46,9 +46,9 @@ pub enum Lobes {
     /// A Lambertian reflector of this albedo, on both faces (a material with no metal, no
     /// specular reflection and no transmission).
     Lambert(Rgb),
-    /// The full glTF metallic-roughness BSDF, with its strategy probabilities for the `wo` it
-    /// was made for.
-    MetallicRoughness(MetallicRoughness, StrategyProbs),
+    /// The full glTF metallic-roughness BSDF, with what depends on the `wo` it was made for
+    /// alone.
+    MetallicRoughness(MetallicRoughness, Outgoing),
     /// The metallic-roughness base under sheen and/or clearcoat layers (boxed: it is large, and
     /// every other hit would pay for copying it).
     Layered(Box<layered::Layered>),

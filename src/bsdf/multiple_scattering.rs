@@ -167,13 +167,24 @@ pub fn schlick_average(f0: Rgb) -> Rgb {
 /// The multiple-scattering lobe f_ms(μo, μi) (no cosine) for a Schlick Fresnel of normal
 /// reflectance `f0` (F90 = 1); zero for smooth surfaces.
 pub fn compensation(mu_o: f32, mu_i: f32, alpha: f32, f0: Rgb) -> Rgb {
+    compensation_from(compensation_factor(mu_o, alpha), mu_i, alpha, f0)
+}
+
+/// The factor 1 − E(μ) of the multiple-scattering lobe for one direction (clamped at 0).
+pub fn compensation_factor(mu: f32, alpha: f32) -> f32 {
+    (1.0 - albedo(mu, alpha)).max(0.0)
+}
+
+/// [`compensation`] given μo's [`compensation_factor`] (the same bits), for a BSDF evaluated
+/// many times for one outgoing direction.
+pub fn compensation_from(factor_o: f32, mu_i: f32, alpha: f32, f0: Rgb) -> Rgb {
     let e_avg = average_albedo(alpha);
     if 1.0 - e_avg < 1e-6 {
         return Vec3::ZERO;
     }
     let f_avg = schlick_average(f0);
     let f_ms = f_avg * f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg));
-    let s = (1.0 - albedo(mu_o, alpha)).max(0.0) * (1.0 - albedo(mu_i, alpha)).max(0.0);
+    let s = factor_o * compensation_factor(mu_i, alpha);
     f_ms * (s * FRAC_1_PI / (1.0 - e_avg))
 }
 
