@@ -212,16 +212,36 @@ impl Environment {
     pub fn pdf(&self, d: Vec3) -> f32 {
         match &self.radiance {
             Radiance::Constant(_) => 1.0 / (4.0 * PI),
-            Radiance::Image { distribution, .. } => {
+            Radiance::Image { distribution, .. } => Self::image_pdf(distribution, self.uv(d)),
+        }
+    }
+
+    /// [`le`](Self::le) and [`pdf`](Self::pdf) of one direction, finding its image
+    /// coordinates once (MIS of an escaped ray needs both).
+    pub fn le_and_pdf(&self, d: Vec3) -> (Rgb, f32) {
+        match &self.radiance {
+            Radiance::Constant(c) => (*c * self.strength, 1.0 / (4.0 * PI)),
+            Radiance::Image {
+                texture,
+                distribution,
+            } => {
                 let uv = self.uv(d);
-                let xy = Vec2::new(uv.x, 1.0 - uv.y);
-                let sin_theta = (PI * xy.y).sin();
-                if sin_theta <= 0.0 {
-                    return 0.0;
-                }
-                distribution.pdf(xy) / (2.0 * PI * PI * sin_theta)
+                (
+                    texture.lookup(uv) * self.strength,
+                    Self::image_pdf(distribution, uv),
+                )
             }
         }
+    }
+
+    /// The solid-angle density of image coordinates `uv` under `distribution`.
+    fn image_pdf(distribution: &Distribution2D, uv: Vec2) -> f32 {
+        let xy = Vec2::new(uv.x, 1.0 - uv.y);
+        let sin_theta = (PI * xy.y).sin();
+        if sin_theta <= 0.0 {
+            return 0.0;
+        }
+        distribution.pdf(xy) / (2.0 * PI * PI * sin_theta)
     }
 
     /// The power estimate for choosing among lights: the flux through a disc of the scene's
@@ -288,6 +308,26 @@ mod tests {
         for d in [Vec3::new(0.3, 0.5, -0.8), Vec3::new(-0.9, -0.2, 0.1)] {
             let d = d.normalize();
             assert!((turned.direction(turned.uv(d)) - d).length() < 1e-5);
+        }
+    }
+
+    /// `le_and_pdf` is `le` and `pdf` of the same direction, bit for bit.
+    #[test]
+    fn le_and_pdf_are_le_and_pdf() {
+        let mut rng = crate::sampler::Pcg32::new(5, 1);
+        for env in [image_env(0.7), Environment::constant(Vec3::ONE, 2.0, true)] {
+            for _ in 0..10_000 {
+                let z = 1.0 - 2.0 * rng.next_f32();
+                let phi = std::f32::consts::TAU * rng.next_f32();
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let d = Vec3::new(r * phi.cos(), z, r * phi.sin());
+                let (le, pdf) = env.le_and_pdf(d);
+                assert_eq!(
+                    le.to_array().map(f32::to_bits),
+                    env.le(d).to_array().map(f32::to_bits)
+                );
+                assert_eq!(pdf.to_bits(), env.pdf(d).to_bits());
+            }
         }
     }
 

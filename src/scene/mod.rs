@@ -139,13 +139,13 @@ impl Scene {
         if camera_ray && !env.visible {
             return Vec3::ZERO;
         }
-        let le = env.le(d);
         match (bsdf_pdf, self.environment_light) {
             (Some(pdf), Some(i)) => {
-                let pdf_light = self.light_sampler.pmf(from.0, from.1, i) * env.pdf(d);
+                let (le, pdf_env) = env.le_and_pdf(d);
+                let pdf_light = self.light_sampler.pmf(from.0, from.1, i) * pdf_env;
                 le * crate::sampling::power_heuristic(pdf, pdf_light)
             }
-            _ => le,
+            _ => env.le(d),
         }
     }
 
