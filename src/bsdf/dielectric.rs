@@ -452,23 +452,7 @@ impl MultipleScattering {
 /// η = inside over outside, from their values on the albedo table's (η, r) nodes, bilinearly
 /// interpolated.
 fn lobe_weights(alpha: f32, eta: f32) -> (f32, f32, f32, f32, f32) {
-    static WEIGHTS: std::sync::OnceLock<Vec<[f32; 5]>> = std::sync::OnceLock::new();
-    let w = WEIGHTS.get_or_init(|| {
-        let mut w = vec![[0.0f32; 5]; T_ETA * T_R];
-        for k in 0..T_ETA {
-            let eta = node_eta(k);
-            for j in 0..T_R {
-                let alpha = node_alpha(j);
-                let (loss1, loss2) = (
-                    1.0 - average_albedo(alpha, eta),
-                    1.0 - average_albedo(alpha, 1.0 / eta),
-                );
-                let [a1, a2, b] = weights_at(loss1, loss2, eta);
-                w[k * T_R + j] = [a1, a2, b, loss1.max(0.0), loss2.max(0.0)];
-            }
-        }
-        w
-    });
+    let w = &super::tables::DIELECTRIC_LOBE_WEIGHTS;
     let (j, fy, k, fz) = table_position_r_eta(alpha, eta);
     let at = |k: usize, j: usize, c: usize| w[k * T_R + j][c];
     let f = |c: usize| {
@@ -478,7 +462,28 @@ fn lobe_weights(alpha: f32, eta: f32) -> (f32, f32, f32, f32, f32) {
     (f(0), f(1), f(2), f(3), f(4))
 }
 
+/// The lobe weights (a₁, a₂, b, A₁, A₂) on the albedo table's (η, r) nodes, `[k * T_R + j]`
+/// (embedded as `super::tables::DIELECTRIC_LOBE_WEIGHTS`).
+#[cfg(test)]
+pub(super) fn compute_lobe_weights() -> Vec<[f32; 5]> {
+    let mut w = vec![[0.0f32; 5]; T_ETA * T_R];
+    for k in 0..T_ETA {
+        let eta = node_eta(k);
+        for j in 0..T_R {
+            let alpha = node_alpha(j);
+            let (loss1, loss2) = (
+                1.0 - average_albedo(alpha, eta),
+                1.0 - average_albedo(alpha, 1.0 / eta),
+            );
+            let [a1, a2, b] = weights_at(loss1, loss2, eta);
+            w[k * T_R + j] = [a1, a2, b, loss1.max(0.0), loss2.max(0.0)];
+        }
+    }
+    w
+}
+
 /// The weights for losses A₁ (outside) and A₂ (inside) at relative index η.
+#[cfg(test)]
 fn weights_at(loss1: f32, loss2: f32, eta: f32) -> [f32; 3] {
     let (loss1, loss2) = (loss1.max(0.0), loss2.max(0.0));
     if loss1 < 1e-6 || loss2 < 1e-6 {
@@ -495,6 +500,7 @@ fn weights_at(loss1: f32, loss2: f32, eta: f32) -> [f32; 3] {
 
 /// Hemispherical average 2 ∫ F(μ) μ dμ of the exact Fresnel reflectance for light arriving
 /// from outside (η = inside over outside), by the midpoint rule on 64 nodes.
+#[cfg(test)]
 fn fresnel_average(eta: f32) -> f32 {
     let n = 64;
     (0..n)

@@ -30,7 +30,6 @@
 //! [`Layered::eval`] and [`Layered::sample`] agree.
 
 use std::f32::consts::{FRAC_1_PI, PI};
-use std::sync::OnceLock;
 
 use super::metallic_roughness::{MetallicRoughness, Sampled};
 use super::microfacet::{ggx_d, ggx_g2, ggx_reflect_pdf, ggx_sample_visible};
@@ -156,24 +155,29 @@ impl Sheen {
     }
 
     fn table() -> &'static SheenTable {
-        static TABLE: OnceLock<SheenTable> = OnceLock::new();
-        TABLE.get_or_init(|| {
-            let mut e = [[0.0f32; SHEEN_N_MU]; SHEEN_N_ALPHA];
-            // Midpoint rule in (cos θi, φ) on 64 × 64 cells of equal solid angle.
-            let n = 64;
-            for (a, row) in e.iter_mut().enumerate() {
-                let alpha = MIN_SHEEN_ALPHA
-                    + (1.0 - MIN_SHEEN_ALPHA) * a as f32 / (SHEEN_N_ALPHA - 1) as f32;
-                for (m, cell) in row.iter_mut().enumerate() {
-                    let mu = (m as f32 + 0.5) / SHEEN_N_MU as f32;
-                    let o = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-                    *cell =
-                        super::hemisphere_integral(n, |i| f64::from(Self::brdf(alpha, o, i) * i.z))
-                            as f32;
-                }
+        static TABLE: SheenTable = SheenTable {
+            e: super::tables::SHEEN_E,
+        };
+        &TABLE
+    }
+
+    /// Computes E_s(μ, α) on the table's nodes (embedded as `super::tables::SHEEN_E`): the
+    /// midpoint rule in (cos θi, φ) on 64 × 64 cells of equal solid angle.
+    #[cfg(test)]
+    pub(super) fn compute_table() -> [[f32; SHEEN_N_MU]; SHEEN_N_ALPHA] {
+        let mut e = [[0.0f32; SHEEN_N_MU]; SHEEN_N_ALPHA];
+        let n = 64;
+        for (a, row) in e.iter_mut().enumerate() {
+            let alpha =
+                MIN_SHEEN_ALPHA + (1.0 - MIN_SHEEN_ALPHA) * a as f32 / (SHEEN_N_ALPHA - 1) as f32;
+            for (m, cell) in row.iter_mut().enumerate() {
+                let mu = (m as f32 + 0.5) / SHEEN_N_MU as f32;
+                let o = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+                *cell = super::hemisphere_integral(n, |i| f64::from(Self::brdf(alpha, o, i) * i.z))
+                    as f32;
             }
-            SheenTable { e }
-        })
+        }
+        e
     }
 
     /// Directional albedo of the colour-1 sheen BRDF, E_s(μ, α), bilinear in the table.

@@ -13,15 +13,16 @@
 //! F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)), F_avg = 2 ∫ F(μ) μ dμ, which for
 //! Schlick with F90 = 1 is F0 + (1 − F0)/21.
 //!
-//! E and E_avg are tabulated once per process (lazily, [`OnceLock`]) by numerical integration
-//! over the microfacet normals (see `integrate`) on 32 × 32 nodes in (μ, √α), bilinearly
-//! interpolated; E_avg by the midpoint rule on the μ nodes. A
+//! E and E_avg are tabulated by numerical integration over the microfacet normals (see
+//! `integrate`) on 32 × 32 nodes in (μ, √α), bilinearly interpolated; E_avg by the midpoint rule
+//! on the μ nodes. The tables are computed once, when the code changes, and embedded
+//! (`src/bsdf/tables.rs`, checked against `compute` bit for bit by a test), so that no render
+//! waits for them (computing them took ≈ 80 M instructions at the first glossy hit). A
 //! second table E5 = ∫ (1 − |ωo·ωm|)⁵ f cos dωi makes the albedo of a Schlick-Fresnel lobe exact
 //! from the tables: E_F(μ) = F0·E(μ) + (1 − F0)·E5(μ) (Schlick is linear in F0), which the
 //! glTF layering of a diffuse base under the specular layer uses ([`specular_albedo`]).
 
 use std::f32::consts::FRAC_1_PI;
-use std::sync::OnceLock;
 
 use crate::math::{Rgb, Vec3};
 
@@ -30,24 +31,28 @@ const N_MU: usize = 32;
 /// Nodes in roughness r = √α, at j/(N − 1) over [0, 1].
 const N_ROUGH: usize = 32;
 /// Integration nodes per table entry in the warped GGX CDF coordinate.
+#[cfg(test)]
 const N_S: usize = 64;
 /// Integration nodes per table entry in φ ∈ [0, π].
+#[cfg(test)]
 const N_PHI: usize = 32;
 /// Smallest α integrated (the GGX formulas degenerate at α = 0, where E = 1 anyway).
+#[cfg(test)]
 const MIN_ALPHA: f32 = 1e-4;
 
 /// The tabulated single-scattering albedos of GGX.
-struct Tables {
+pub(super) struct Tables {
     /// E(μ, r): `e[r][μ]`.
-    e: [[f32; N_MU]; N_ROUGH],
+    pub(super) e: [[f32; N_MU]; N_ROUGH],
     /// E5(μ, r): `e5[r][μ]`.
-    e5: [[f32; N_MU]; N_ROUGH],
+    pub(super) e5: [[f32; N_MU]; N_ROUGH],
     /// E_avg(r).
-    e_avg: [f32; N_ROUGH],
+    pub(super) e_avg: [f32; N_ROUGH],
     /// 2 ∫ E5(μ) μ dμ.
-    e5_avg: [f32; N_ROUGH],
+    pub(super) e5_avg: [f32; N_ROUGH],
 }
 
+#[cfg(test)]
 fn mu_node(i: usize) -> f32 {
     (i as f32 + 0.5) / N_MU as f32
 }
@@ -58,6 +63,7 @@ fn mu_node(i: usize) -> f32 {
 /// is taken in the GGX CDF coordinate ξ = tan²θm / (α² + tan²θm), in which D cos θm dωm =
 /// dξ dφ/(2π), warped by ξ = 1 − (1 − s)² to resolve GGX's long tail (the microfacets that
 /// reflect below the horizon, ≈ 1 % of the albedo even at α = 0.09), midpoint rule in (s, φ).
+#[cfg(test)]
 fn integrate(mu: f32, alpha: f32, phis: &[(f64, f64); N_PHI]) -> (f64, f64) {
     let mu = mu as f64;
     let a2 = (alpha as f64) * (alpha as f64);
@@ -95,7 +101,9 @@ fn integrate(mu: f32, alpha: f32, phis: &[(f64, f64); N_PHI]) -> (f64, f64) {
     (e, e5)
 }
 
-fn compute() -> Tables {
+/// Computes the tables (embedded as `super::tables::GGX_*`).
+#[cfg(test)]
+pub(super) fn compute() -> Tables {
     let mut t = Tables {
         e: [[0.0; N_MU]; N_ROUGH],
         e5: [[0.0; N_MU]; N_ROUGH],
@@ -126,8 +134,13 @@ fn compute() -> Tables {
 }
 
 fn tables() -> &'static Tables {
-    static TABLES: OnceLock<Tables> = OnceLock::new();
-    TABLES.get_or_init(compute)
+    static TABLES: Tables = Tables {
+        e: super::tables::GGX_E,
+        e5: super::tables::GGX_E5,
+        e_avg: super::tables::GGX_E_AVG,
+        e5_avg: super::tables::GGX_E5_AVG,
+    };
+    &TABLES
 }
 
 /// Linear interpolation position in the roughness axis for α: (index, fraction).
