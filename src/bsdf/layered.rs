@@ -300,6 +300,7 @@ impl Layered {
                     pdf: p_coat,
                     delta: true,
                     transmitted: false,
+                    etap: 1.0,
                 });
             }
             let u_within = u_lobe / p_coat;
@@ -361,6 +362,7 @@ impl Layered {
             pdf,
             delta: false,
             transmitted,
+            etap: self.base.etap(bo, frame.to_local(wi)),
         })
     }
 }

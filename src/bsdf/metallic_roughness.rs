@@ -349,6 +349,18 @@ impl MetallicRoughness {
         (f, pdf)
     }
 
+    /// The relative index η_i / η_o a pair (local frame) crosses: that of the transmissive part
+    /// for a refraction through a volume, 1 for reflections and thin-walled transmission.
+    pub fn etap(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z * wi.z >= 0.0 || self.thin_walled {
+            1.0
+        } else if wo.z > 0.0 {
+            self.eta()
+        } else {
+            1.0 / self.eta()
+        }
+    }
+
     /// The pdf with which [`sample`](Self::sample) returns `wi` (that of [`eval`](Self::eval)).
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.eval(wo, wi).1
@@ -375,13 +387,7 @@ impl MetallicRoughness {
             return None;
         }
         let transmitted = wo.z * wi.z < 0.0;
-        let etap = if !transmitted || self.thin_walled {
-            1.0
-        } else if wo.z > 0.0 {
-            self.eta()
-        } else {
-            1.0 / self.eta()
-        };
+        let etap = self.etap(wo, wi);
         Some(LocalSample {
             wi,
             weight: f / pdf,

@@ -88,6 +88,10 @@ pub struct BsdfSample {
     pub delta: bool,
     /// Whether the direction passes through the surface.
     pub transmitted: bool,
+    /// Relative index of refraction η_i / η_o across the boundary for transmitted samples, 1
+    /// otherwise (as [`LocalSample::etap`]): a refraction scales radiance by 1/η′², which the
+    /// path tracer's Russian roulette divides back out of the throughput.
+    pub etap: f32,
 }
 
 /// A direction sampled by the lobes of [`metallic_roughness`] and [`dielectric`], in the local
@@ -120,6 +124,7 @@ impl LocalSample {
             pdf: self.pdf,
             delta: self.delta,
             transmitted: self.transmitted,
+            etap: self.etap,
         }
     }
 }
@@ -181,6 +186,7 @@ impl Bsdf {
                     pdf,
                     delta: false,
                     transmitted: false,
+                    etap: 1.0,
                 })
             }
             Lobes::MetallicRoughness(m, p) => {
