@@ -128,6 +128,32 @@ impl Sampler {
         }
     }
 
+    /// A number for choosing among lobes and a 2D point for sampling within the chosen one,
+    /// jointly stratified: with Sobol points, dimensions 0–2 of one Owen-scrambled Sobol point
+    /// (the 2D point is that dimension pair, exactly what [`get_2d`](Self::get_2d) would give in
+    /// its place; the choice its third dimension), so the samples that pick a lobe are spread
+    /// over its 2D domain instead of being a random subset of the pixel's points (Cycles draws
+    /// the lobe choice and the direction from one 3D Sobol point the same way). Takes the
+    /// dimensions of a `get_1d` and a `get_2d`, in that order, and with independent numbers
+    /// gives what those two calls would.
+    #[inline]
+    pub fn get_choice_2d(&mut self) -> (f32, glam::Vec2) {
+        match self.kind {
+            SamplerKind::Independent => {
+                let choice = self.rng.next_f32();
+                (choice, self.get_2d())
+            }
+            SamplerKind::Sobol => {
+                self.dimension += 1;
+                let hash = self.next_dimension_hash();
+                let shuffled = shuffled_index(self.reversed_index, hash);
+                let choice = laine_karras(sobol_dim2_reversed(shuffled), scramble_seed_z(hash))
+                    .reverse_bits();
+                (to_unit(choice), owen_sobol_2d_shuffled(shuffled, hash))
+            }
+        }
+    }
+
     /// The scrambling hash of the next dimension (pair) of this pixel.
     #[inline]
     fn next_dimension_hash(&mut self) -> u64 {
@@ -157,7 +183,12 @@ pub fn owen_sobol_2d(index: u32, hash: u64) -> glam::Vec2 {
 /// reversal of an XOR of direction numbers is the XOR of the reversed numbers).
 #[inline]
 fn owen_sobol_2d_reversed(reversed_index: u32, hash: u64) -> glam::Vec2 {
-    let shuffled = shuffled_index(reversed_index, hash);
+    owen_sobol_2d_shuffled(shuffled_index(reversed_index, hash), hash)
+}
+
+/// [`owen_sobol_2d_reversed`] given the shuffled index.
+#[inline(always)]
+fn owen_sobol_2d_shuffled(shuffled: u32, hash: u64) -> glam::Vec2 {
     let x = owen_sobol_x(shuffled, hash);
     let y = laine_karras(sobol_dim1_reversed(shuffled), scramble_seed_y(hash)).reverse_bits();
     glam::Vec2::new(to_unit(x), to_unit(y))
@@ -181,6 +212,18 @@ fn owen_sobol_x(shuffled: u32, hash: u64) -> u32 {
 #[inline(always)]
 fn scramble_seed_y(hash: u64) -> u32 {
     let mut x = (hash as u32) ^ ((hash >> 32) as u32).rotate_left(16) ^ 0x63d8_3595;
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+/// The seed of dimension 2's scramble ([`Sampler::get_choice_2d`]): a fourth 32-bit value from
+/// the hash, the same integer hash applied to dimension 1's seed.
+#[inline(always)]
+fn scramble_seed_z(hash: u64) -> u32 {
+    let mut x = scramble_seed_y(hash) ^ 0x9e37_79b9;
     x ^= x >> 16;
     x = x.wrapping_mul(0x7feb_352d);
     x ^= x >> 15;
@@ -230,6 +273,56 @@ static SOBOL1_TABLES: [[u32; 256]; 4] = {
             while bit < 8 {
                 if x & (1 << bit) != 0 {
                     out ^= sobol1_direction(8 * b as u32 + bit).reverse_bits();
+                }
+                bit += 1;
+            }
+            t[b][x] = out;
+            x += 1;
+        }
+        b += 1;
+    }
+    t
+};
+
+/// Sobol dimension 2, bit-reversed, by byte tables as [`sobol_dim1_reversed`].
+#[inline]
+fn sobol_dim2_reversed(i: u32) -> u32 {
+    SOBOL2_TABLES[0][(i & 0xff) as usize]
+        ^ SOBOL2_TABLES[1][((i >> 8) & 0xff) as usize]
+        ^ SOBOL2_TABLES[2][((i >> 16) & 0xff) as usize]
+        ^ SOBOL2_TABLES[3][(i >> 24) as usize]
+}
+
+/// The direction number for index bit `k` of Sobol dimension 2: primitive polynomial
+/// x² + x + 1 with initial numbers m = 1, 3 (Joe and Kuo 2008, the third dimension), so
+/// v₁ = 2³¹, v₂ = 3·2³⁰ and vₖ = vₖ₋₁ ⊕ vₖ₋₂ ⊕ (vₖ₋₂ ≫ 2).
+const fn sobol2_direction(k: u32) -> u32 {
+    let (mut older, mut old) = (1u32 << 31, 3u32 << 30);
+    if k == 0 {
+        return older;
+    }
+    let mut j = 1;
+    while j < k {
+        let next = old ^ older ^ (older >> 2);
+        older = old;
+        old = next;
+        j += 1;
+    }
+    old
+}
+
+/// `SOBOL2_TABLES[b][x]`: as [`SOBOL1_TABLES`], for dimension 2.
+static SOBOL2_TABLES: [[u32; 256]; 4] = {
+    let mut t = [[0u32; 256]; 4];
+    let mut b = 0;
+    while b < 4 {
+        let mut x = 0;
+        while x < 256 {
+            let mut out = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if x & (1 << bit) != 0 {
+                    out ^= sobol2_direction(8 * b as u32 + bit).reverse_bits();
                 }
                 bit += 1;
             }
@@ -360,6 +453,78 @@ mod tests {
             assert_eq!(
                 sobol_dim1_reversed(i),
                 sobol_dim1_loop(i).reverse_bits(),
+                "index {i}"
+            );
+        }
+    }
+
+    /// A pixel's (choice, 2D point) draws are one Owen-scrambled 3D Sobol point per sample:
+    /// 1,024 samples form a (1, 3)-net (every box of 2^a × 2^b × 2^c cells with a + b + c = 9
+    /// holds exactly two points; dimension 2's direction numbers are those of x² + x + 1), the
+    /// 2D part is exactly what `get_2d` gives after a `get_1d`, and with independent numbers the
+    /// three are those of `get_1d` and `get_2d`.
+    #[test]
+    fn choice_and_direction_are_one_3d_sobol_point() {
+        let n = 1024u64;
+        for pixel in [7u64, 4242] {
+            let pts: Vec<(f32, glam::Vec2)> = (0..n)
+                .map(|i| Sampler::with_kind(SamplerKind::Sobol, 3, pixel, i).get_choice_2d())
+                .collect();
+            for a in 0..=9 {
+                for b in 0..=9 - a {
+                    let c = 9 - a - b;
+                    let (na, nb, nc) = (1usize << a, 1usize << b, 1usize << c);
+                    let mut cells = vec![0u32; 512];
+                    for (z, p) in &pts {
+                        let (i, j, k) = (
+                            (p.x * na as f32) as usize,
+                            (p.y * nb as f32) as usize,
+                            (z * nc as f32) as usize,
+                        );
+                        cells[(k * nb + j) * na + i] += 1;
+                    }
+                    assert!(
+                        cells.iter().all(|&c| c == 2),
+                        "pixel {pixel}: {na}×{nb}×{nc} boxes not stratified"
+                    );
+                }
+            }
+            for i in 0..64 {
+                let mut old = Sampler::with_kind(SamplerKind::Sobol, 3, pixel, i);
+                old.get_1d();
+                assert_eq!(old.get_2d(), pts[i as usize].1);
+                let (mut a, mut b) = (
+                    Sampler::independent(3, pixel, i),
+                    Sampler::independent(3, pixel, i),
+                );
+                let (choice, p) = a.get_choice_2d();
+                assert_eq!((choice, p), (b.get_1d(), b.get_2d()));
+            }
+        }
+    }
+
+    #[test]
+    fn sobol_dimension_2_tables_equal_the_definition() {
+        let loop_def = |mut i: u32| {
+            let mut out = 0u32;
+            let mut k = 0;
+            while i != 0 {
+                if i & 1 != 0 {
+                    out ^= sobol2_direction(k);
+                }
+                i >>= 1;
+                k += 1;
+            }
+            out
+        };
+        // The first points of the unscrambled dimension: 0, 1/2, 3/4, 1/4, 3/8.
+        let first: Vec<u32> = (0..5).map(loop_def).collect();
+        assert_eq!(first, [0, 1 << 31, 3 << 30, 1 << 30, 3 << 29]);
+        let mut r = Pcg32::new(4, 5);
+        for i in (0..5000).map(|_| r.next_u32()).chain([0, 1, u32::MAX]) {
+            assert_eq!(
+                sobol_dim2_reversed(i),
+                loop_def(i).reverse_bits(),
                 "index {i}"
             );
         }

@@ -108,8 +108,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
 
         // Continue the path by sampling the BSDF.
-        let u_lobe = sampler.get_1d();
-        let u_dir = sampler.get_2d();
+        let (u_lobe, u_dir) = sampler.get_choice_2d();
         let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else {
             break;
         };
