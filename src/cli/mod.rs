@@ -908,7 +908,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         None => String::new(),
     };
     eprintln!(
-        "rendered {}×{} at {} spp{resumed_note} in {:.2} s: {:.2} M rays/s, {:.2} M samples/s, estimated relative error {:.4}{vs_reference}{nan} → {}",
+        "rendered {}×{} at {} spp{resumed_note} in {:.3} s: {:.2} M rays/s, {:.2} M samples/s, estimated relative error {:.4}{vs_reference}{nan} → {}",
         image.width,
         image.height,
         stats.spp,
