@@ -39,6 +39,13 @@ pub enum Radiance {
         texture: Texture,
         /// Luminance × sin θ per texel, rows top first as the texture.
         distribution: Distribution2D,
+        /// The distribution next-event estimation draws from when BSDF sampling also covers
+        /// every direction (MIS): (luminance − its mean over the sphere)⁺ × sin θ, so that
+        /// light samples go to the texels brighter than average and the rest is left to BSDF
+        /// sampling (MIS compensation: Karlík, Šik, Vévoda, Skřivan and Křivánek 2019;
+        /// pbrt-v4's `allowIncompletePDF`). Its pdf is zero where a direction is no brighter
+        /// than the mean, so it must never be used without MIS.
+        mis: Box<Distribution2D>,
     },
 }
 
@@ -126,10 +133,30 @@ impl Environment {
             })
             .collect();
         let distribution = Distribution2D::new(&weights, w, h);
+        // The mean luminance over the sphere: Σ weight / Σ sin θ (each cell's solid angle is
+        // proportional to its sin θ).
+        let sin_theta = |row: usize| (PI * (row as f32 + 0.5) / h as f32).sin();
+        let solid_angle: f64 = (0..h).map(|row| f64::from(sin_theta(row)) * w as f64).sum();
+        let mean = (weights.iter().map(|&x| f64::from(x)).sum::<f64>() / solid_angle) as f32;
+        let compensated: Vec<f32> = weights
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| {
+                let s = sin_theta(i / w);
+                (x - mean * s).max(0.0)
+            })
+            .collect();
+        // A constant image has nothing above its mean: then the complete distribution.
+        let mis = Box::new(if compensated.iter().any(|&x| x > 0.0) {
+            Distribution2D::new(&compensated, w, h)
+        } else {
+            distribution.clone()
+        });
         Environment {
             radiance: Radiance::Image {
                 texture,
                 distribution,
+                mis,
             },
             strength,
             rotation,
@@ -176,6 +203,16 @@ impl Environment {
 
     /// Samples a direction towards the environment from the 2D point `u`.
     pub fn sample(&self, u: Vec2) -> Option<EnvironmentSample> {
+        self.sample_from(u, false)
+    }
+
+    /// Samples a direction for next-event estimation combined with BSDF sampling by MIS: from
+    /// the compensated distribution (see [`Radiance::Image`]), with [`Environment::pdf_mis`].
+    pub fn sample_mis(&self, u: Vec2) -> Option<EnvironmentSample> {
+        self.sample_from(u, true)
+    }
+
+    fn sample_from(&self, u: Vec2, for_mis: bool) -> Option<EnvironmentSample> {
         match &self.radiance {
             Radiance::Constant(c) => {
                 let z = 1.0 - 2.0 * u.x;
@@ -190,7 +227,9 @@ impl Environment {
             Radiance::Image {
                 texture,
                 distribution,
+                mis,
             } => {
+                let distribution = if for_mis { mis } else { distribution };
                 // The distribution's rows are top first; image v counts from the bottom.
                 let (xy, pdf_xy) = distribution.sample(u)?;
                 let uv = Vec2::new(xy.x, 1.0 - xy.y);
@@ -216,20 +255,23 @@ impl Environment {
         }
     }
 
-    /// [`le`](Self::le) and [`pdf`](Self::pdf) of one direction, finding its image
+    /// The solid-angle pdf with which [`Environment::sample_mis`] returns direction `d` (zero
+    /// where the radiance is no brighter than the mean).
+    pub fn pdf_mis(&self, d: Vec3) -> f32 {
+        match &self.radiance {
+            Radiance::Constant(_) => 1.0 / (4.0 * PI),
+            Radiance::Image { mis, .. } => Self::image_pdf(mis, self.uv(d)),
+        }
+    }
+
+    /// [`le`](Self::le) and [`pdf_mis`](Self::pdf_mis) of one direction, finding its image
     /// coordinates once (MIS of an escaped ray needs both).
-    pub fn le_and_pdf(&self, d: Vec3) -> (Rgb, f32) {
+    pub fn le_and_pdf_mis(&self, d: Vec3) -> (Rgb, f32) {
         match &self.radiance {
             Radiance::Constant(c) => (*c * self.strength, 1.0 / (4.0 * PI)),
-            Radiance::Image {
-                texture,
-                distribution,
-            } => {
+            Radiance::Image { texture, mis, .. } => {
                 let uv = self.uv(d);
-                (
-                    texture.lookup(uv) * self.strength,
-                    Self::image_pdf(distribution, uv),
-                )
+                (texture.lookup(uv) * self.strength, Self::image_pdf(mis, uv))
             }
         }
     }
@@ -311,9 +353,9 @@ mod tests {
         }
     }
 
-    /// `le_and_pdf` is `le` and `pdf` of the same direction, bit for bit.
+    /// `le_and_pdf_mis` is `le` and `pdf_mis` of the same direction, bit for bit.
     #[test]
-    fn le_and_pdf_are_le_and_pdf() {
+    fn le_and_pdf_mis_are_le_and_pdf_mis() {
         let mut rng = crate::sampler::Pcg32::new(5, 1);
         for env in [image_env(0.7), Environment::constant(Vec3::ONE, 2.0, true)] {
             for _ in 0..10_000 {
@@ -321,19 +363,24 @@ mod tests {
                 let phi = std::f32::consts::TAU * rng.next_f32();
                 let r = (1.0 - z * z).max(0.0).sqrt();
                 let d = Vec3::new(r * phi.cos(), z, r * phi.sin());
-                let (le, pdf) = env.le_and_pdf(d);
+                let (le, pdf) = env.le_and_pdf_mis(d);
                 assert_eq!(
                     le.to_array().map(f32::to_bits),
                     env.le(d).to_array().map(f32::to_bits)
                 );
-                assert_eq!(pdf.to_bits(), env.pdf(d).to_bits());
+                assert_eq!(pdf.to_bits(), env.pdf_mis(d).to_bits());
             }
         }
     }
 
     #[test]
     fn pdf_integrates_to_one_over_the_sphere() {
-        for env in [image_env(0.7), Environment::constant(Vec3::ONE, 1.0, true)] {
+        type Pdf = fn(&Environment, Vec3) -> f32;
+        let pdfs: [(&str, Pdf); 2] = [("pdf", Environment::pdf), ("pdf_mis", Environment::pdf_mis)];
+        for (env, (name, pdf)) in [image_env(0.7), Environment::constant(Vec3::ONE, 1.0, true)]
+            .into_iter()
+            .flat_map(|e| pdfs.map(|p| (e.clone(), p)))
+        {
             // Midpoint rule over the image's (u, v), 8 × 8 points per texel (so the sun texel
             // is resolved), with dω = 2π du · π dv · sin θ; the directions come from
             // `direction`, so this also checks it against `pdf`'s `uv`.
@@ -345,12 +392,29 @@ mod tests {
                 for i in 0..n_u {
                     let u = (i as f32 + 0.5) / n_u as f32;
                     let d = env.direction(Vec2::new(u, v));
-                    sum += f64::from(env.pdf(d) * 2.0 * PI * PI * sin_theta);
+                    sum += f64::from(pdf(&env, d) * 2.0 * PI * PI * sin_theta);
                 }
             }
             let integral = sum / (n_u * n_v) as f64;
-            assert!((integral - 1.0).abs() < 1e-3, "∫ pdf = {integral}");
+            assert!((integral - 1.0).abs() < 1e-3, "∫ {name} = {integral}");
         }
+    }
+
+    /// The compensated distribution leaves the texels no brighter than the mean to BSDF
+    /// sampling (density 0) and gives the brighter ones more density than the complete one.
+    #[test]
+    fn compensated_pdf_is_zero_below_the_mean() {
+        let env = image_env(0.0);
+        let sun = env.direction(Vec2::new(11.5 / 16.0, 1.0 - 2.5 / 8.0));
+        let dim = env.direction(Vec2::new(0.5 / 16.0, 0.5));
+        assert!(
+            env.pdf_mis(sun) > env.pdf(sun),
+            "{} {}",
+            env.pdf_mis(sun),
+            env.pdf(sun)
+        );
+        assert_eq!(env.pdf_mis(dim), 0.0);
+        assert!(env.pdf(dim) > 0.0);
     }
 
     #[test]
@@ -366,7 +430,20 @@ mod tests {
             },
             |wi| env.pdf(wi),
         );
-        chi2::assert_all_pass(&[("environment".to_string(), p)]);
+        let p_mis = chi2::p_value(
+            "environment, compensated",
+            200_000,
+            7,
+            |rng| {
+                env.sample_mis(Vec2::new(rng.next_f32(), rng.next_f32()))
+                    .map(|s| s.wi)
+            },
+            |wi| env.pdf_mis(wi),
+        );
+        chi2::assert_all_pass(&[
+            ("environment".to_string(), p),
+            ("environment, compensated".to_string(), p_mis),
+        ]);
         // The radiance a sample carries is the lookup in its direction.
         let s = env.sample(Vec2::new(0.3, 0.6)).unwrap();
         assert!((s.le - env.le(s.wi)).abs().max_element() < 1e-3 * s.le.max_element());

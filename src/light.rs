@@ -243,16 +243,21 @@ impl Light {
                 })
             }
             Light::Sphere { center, radius, .. } => sample_sphere(center, radius, p, u),
-            Light::Environment { ref env, .. } => env.sample(u).map(|s| LightSample {
-                wi: s.wi,
-                distance: f32::INFINITY,
-                point: p,
-                normal: Vec3::ZERO,
-                uv: Vec2::ZERO,
-                li: s.le,
-                pdf: s.pdf,
-                delta: false,
-            }),
+            Light::Environment { ref env, .. } => env.sample(u).map(|s| environment_sample(s, p)),
+        }
+    }
+
+    /// [`Light::sample`] for next-event estimation combined with BSDF sampling by MIS: the
+    /// same, but an environment samples its compensated distribution
+    /// ([`Environment::sample_mis`](crate::environment::Environment::sample_mis)), which leaves
+    /// the directions no brighter than its mean to BSDF sampling. Its pdf is then
+    /// `Environment::pdf_mis`, which the MIS weights of BSDF samples must use too.
+    pub fn sample_mis(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match *self {
+            Light::Environment { ref env, .. } => {
+                env.sample_mis(u).map(|s| environment_sample(s, p))
+            }
+            _ => self.sample(p, u),
         }
     }
 
@@ -705,6 +710,20 @@ impl LightSampler {
                 }
             }
         }
+    }
+}
+
+/// An environment's sample as seen from `p`.
+fn environment_sample(s: crate::environment::EnvironmentSample, p: Vec3) -> LightSample {
+    LightSample {
+        wi: s.wi,
+        distance: f32::INFINITY,
+        point: p,
+        normal: Vec3::ZERO,
+        uv: Vec2::ZERO,
+        li: s.le,
+        pdf: s.pdf,
+        delta: false,
     }
 }
 

@@ -97,10 +97,13 @@ const CASES: &[Case] = &[
         max_mean_diff: 0.01,
         without_normal_maps: None,
     },
-    // R = 3.58, 0.25 %: rough glass, Kulla-Conty compensation against Cycles' random walk.
+    // R = 5.46, 0.24 %: rough glass, Kulla-Conty compensation against Cycles' random walk. (R
+    // was 3.58 until Russian roulette stopped ending most paths inside glass and the lobe choice
+    // joined the direction's Sobol point: lumo's noise fell, the difference by design did not,
+    // and R measures the difference against the noise; the mean difference is unchanged.)
     Case {
         name: "TransmissionRoughnessTest",
-        max_ratio: 5.4,
+        max_ratio: 8.2,
         max_mean_diff: 0.01,
         without_normal_maps: None,
     },
@@ -496,10 +499,13 @@ const ENV_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
     // base under the specular layer is scaled by (1 − a(μo))(1 − a(μi))/(1 − a_avg)
     // (reciprocal, docs/gltf.md), Cycles' by 1 − a(μo) alone; for light from near the normal
     // lumo's factor is (0.96/0.9) ≈ 1.07× Cycles'. Under a uniform sky the two agree.
+    // (R was 13.8 until next-event estimation sampled the environment's compensated
+    // distribution: lumo's noise fell, the 8 % by design did not; the mean difference is the
+    // same 1.4 %.)
     (
         "TextureEncodingTest",
-        Some((21.0, 0.021)),
-        "R 13.8, 1.4 %: texture encodings",
+        Some((35.0, 0.021)),
+        "R 23.1, 1.4 %: texture encodings",
     ),
     // At 1024 spp every pixel agrees within 0.009 (RMS 0.001); R reflects a 0.07 % offset
     // where both renders are nearly noiseless (the same layering as above, at a grazing view).

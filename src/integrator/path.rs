@@ -73,7 +73,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         if bsdf.has_smooth_lobe() {
             if let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x) {
                 let light = &scene.lights[index];
-                if let Some(ls) = light.sample(hit.p, glam::Vec2::new(u_x, u_light.y)) {
+                if let Some(ls) = light.sample_mis(hit.p, glam::Vec2::new(u_x, u_light.y)) {
                     let li = if ls.delta || matches!(light, Light::Environment { .. }) {
                         ls.li
                     } else {

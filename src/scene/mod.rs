@@ -141,7 +141,7 @@ impl Scene {
         }
         match (bsdf_pdf, self.environment_light) {
             (Some(pdf), Some(i)) => {
-                let (le, pdf_env) = env.le_and_pdf(d);
+                let (le, pdf_env) = env.le_and_pdf_mis(d);
                 let pdf_light = self.light_sampler.pmf(from.0, from.1, i) * pdf_env;
                 le * crate::sampling::power_heuristic(pdf, pdf_light)
             }
