@@ -262,27 +262,15 @@ const fn sobol1_direction(k: u32) -> u32 {
 
 /// `SOBOL1_TABLES[b][x]`: XOR of the reversed direction numbers of the set bits of byte `x` at
 /// byte `b`.
-static SOBOL1_TABLES: [[u32; 256]; 4] = {
-    let mut t = [[0u32; 256]; 4];
-    let mut b = 0;
-    while b < 4 {
-        let mut x = 0;
-        while x < 256 {
-            let mut out = 0u32;
-            let mut bit = 0;
-            while bit < 8 {
-                if x & (1 << bit) != 0 {
-                    out ^= sobol1_direction(8 * b as u32 + bit).reverse_bits();
-                }
-                bit += 1;
-            }
-            t[b][x] = out;
-            x += 1;
-        }
-        b += 1;
+static SOBOL1_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&{
+    let mut v = [0u32; 32];
+    let mut k = 0;
+    while k < 32 {
+        v[k] = sobol1_direction(k as u32);
+        k += 1;
     }
-    t
-};
+    v
+});
 
 /// Sobol dimension 2, bit-reversed, by byte tables as [`sobol_dim1_reversed`].
 #[inline]
@@ -312,7 +300,20 @@ const fn sobol2_direction(k: u32) -> u32 {
 }
 
 /// `SOBOL2_TABLES[b][x]`: as [`SOBOL1_TABLES`], for dimension 2.
-static SOBOL2_TABLES: [[u32; 256]; 4] = {
+static SOBOL2_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&{
+    let mut v = [0u32; 32];
+    let mut k = 0;
+    while k < 32 {
+        v[k] = sobol2_direction(k as u32);
+        k += 1;
+    }
+    v
+});
+
+/// For direction numbers `v` (index bit k ↦ v[k]): `[b][x]` = XOR of the reversed direction
+/// numbers of the set bits of byte `x` at byte `b`, so a dimension's value for a 32-bit index is
+/// four lookups.
+const fn reversed_byte_tables(v: &[u32; 32]) -> [[u32; 256]; 4] {
     let mut t = [[0u32; 256]; 4];
     let mut b = 0;
     while b < 4 {
@@ -322,7 +323,7 @@ static SOBOL2_TABLES: [[u32; 256]; 4] = {
             let mut bit = 0;
             while bit < 8 {
                 if x & (1 << bit) != 0 {
-                    out ^= sobol2_direction(8 * b as u32 + bit).reverse_bits();
+                    out ^= v[8 * b + bit].reverse_bits();
                 }
                 bit += 1;
             }
@@ -332,7 +333,7 @@ static SOBOL2_TABLES: [[u32; 256]; 4] = {
         b += 1;
     }
     t
-};
+}
 
 /// Bit-by-bit Sobol dimension 1 (the definition; kept to test the tables against).
 #[cfg(test)]

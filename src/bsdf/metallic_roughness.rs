@@ -491,8 +491,8 @@ impl MetallicRoughness {
         self.eval_world_with(frame, ng, wo, wi, None)
     }
 
-    /// [`eval_world`](Self::eval_world) using `at`'s strategy probabilities when it was made
-    /// for this `wo` (the same results, without computing them again).
+    /// [`eval_world`](Self::eval_world) using what `at` holds when it was made for this `wo`
+    /// (the same results, without computing it again).
     pub fn eval_world_with(
         &self,
         frame: &Frame,
@@ -531,8 +531,8 @@ impl MetallicRoughness {
         self.sample_world_with(frame, ng, wo, u_lobe, u, None)
     }
 
-    /// [`sample_world`](Self::sample_world) using `at`'s strategy probabilities when it was
-    /// made for this `wo`.
+    /// [`sample_world`](Self::sample_world) using what `at` holds when it was made for this
+    /// `wo` (the same results).
     pub fn sample_world_with(
         &self,
         frame: &Frame,
