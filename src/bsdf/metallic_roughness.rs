@@ -173,6 +173,13 @@ impl MetallicRoughness {
         !self.specular_is_delta() || d > 0.0 || (t > 0.0 && !self.transmission_is_delta())
     }
 
+    /// Whether nothing is transmitted and the specular lobe is smooth (not a mirror) and
+    /// chosen with probability ≥ ½ for the `wo` that `at` was made for.
+    pub fn is_glossy_dominated(&self, at: &Outgoing) -> bool {
+        let (_, _, t) = self.weights();
+        !self.specular_is_delta() && t == 0.0 && at.probs[SPECULAR] >= 0.5
+    }
+
     fn transmission_is_delta(&self) -> bool {
         if self.thin_walled {
             self.thin().is_delta()

@@ -139,6 +139,17 @@ impl Bsdf {
         }
     }
 
+    /// Whether the BSDF is an opaque glossy reflector whose smooth specular lobe is sampled at
+    /// least half of the time for the `wo` it was made for (metals, shiny plastics): where BSDF
+    /// sampling finds most of the direct light, and where the path tracer draws a second BSDF
+    /// sample for it at the first vertex.
+    pub fn is_glossy_dominated(&self) -> bool {
+        match &self.lobes {
+            Lobes::MetallicRoughness(m, at) => m.is_glossy_dominated(at),
+            Lobes::Lambert(_) | Lobes::Layered(_) => false,
+        }
+    }
+
     /// f·|cos θi| and the pdf with which [`sample`](Self::sample) returns `wi` (delta lobes
     /// contribute nothing to evaluation). Pairs on the same side by the shading normal but not
     /// by the geometric normal, or the reverse, are not scattered (light would leak).
