@@ -154,16 +154,18 @@ fn constant_environment_white_furnace() {
     }
 }
 
-/// White furnace with a rough white metal: energy-compensated GGX reflects (within 1 %) all
-/// of a constant environment L, and the path tracer, which draws two BSDF samples for the
-/// direct light of such glossy surfaces seen from the camera, renders L in the mean. Counting
-/// the second sample at full weight, or leaving it out of the MIS weights, is off by 10–100 %.
+/// White furnace with a rough white metal: energy-compensated GGX reflects all of a constant
+/// environment L (1.0004 L measured without extra BSDF samples), and the path tracer, which
+/// draws several BSDF samples for the direct light of such glossy surfaces seen from the camera,
+/// renders L in the mean within 0.5 %. Counting the extra samples at full weight, leaving them
+/// out of the MIS weights, or skipping them when the first sample fails (−1.2 % with two
+/// samples) all fail.
 #[test]
 fn glossy_white_furnace_with_split_bsdf_samples() {
     let dir = tempfile::tempdir().unwrap();
     let text = r#"{"format_version": 2,
         "image": {"width": 16, "height": 16},
-        "render": {"spp": 256, "max_depth": 64, "seed": 5},
+        "render": {"spp": 1024, "max_depth": 64, "seed": 5},
         "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y_deg": 20},
         "background": {"color": [0.5, 0.5, 0.5]},
         "materials": {"metal": {"base_color": [1, 1, 1], "metallic": 1, "roughness": 0.4}},
@@ -173,7 +175,7 @@ fn glossy_white_furnace_with_split_bsdf_samples() {
     let scene = common::build(&common::load_scene(&path), dir.path());
     let mean = common::render(&scene).mean();
     for c in mean.to_array() {
-        assert!((c - 0.5).abs() < 0.5 * 0.015, "mean {mean:?}");
+        assert!((c - 0.5).abs() < 0.5 * 0.005, "mean {mean:?}");
     }
 }
 

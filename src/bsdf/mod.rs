@@ -141,8 +141,8 @@ impl Bsdf {
 
     /// Whether the BSDF is an opaque glossy reflector whose smooth specular lobe is sampled at
     /// least half of the time for the `wo` it was made for (metals, shiny plastics): where BSDF
-    /// sampling finds most of the direct light, and where the path tracer draws a second BSDF
-    /// sample for it at the first vertex.
+    /// sampling finds most of the direct light, and where the path tracer draws more BSDF
+    /// samples for it at the first vertex.
     pub fn is_glossy_dominated(&self) -> bool {
         match &self.lobes {
             Lobes::MetallicRoughness(m, at) => m.is_glossy_dominated(at),
