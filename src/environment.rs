@@ -112,10 +112,14 @@ impl Environment {
             lum[y * w + x]
         };
         const TAP: [f32; 3] = [0.125, 0.75, 0.125];
+        // Row `row` (top first) spans polar angles [row, row + 1] · π / h; its cells' solid
+        // angles are proportional to sin θ at its middle.
+        let sin_theta: Vec<f32> = (0..h)
+            .map(|row| (PI * (row as f32 + 0.5) / h as f32).sin())
+            .collect();
         let weights: Vec<f32> = (0..h)
             .flat_map(|row| {
-                // Row `row` (top first) spans polar angles [row, row + 1] · π / h.
-                let sin_theta = (PI * (row as f32 + 0.5) / h as f32).sin();
+                let sin_theta = sin_theta[row];
                 (0..w).map(move |col| {
                     let mut sum = 0.0;
                     for (dy, ty) in TAP.iter().enumerate() {
@@ -133,18 +137,13 @@ impl Environment {
             })
             .collect();
         let distribution = Distribution2D::new(&weights, w, h);
-        // The mean luminance over the sphere: Σ weight / Σ sin θ (each cell's solid angle is
-        // proportional to its sin θ).
-        let sin_theta = |row: usize| (PI * (row as f32 + 0.5) / h as f32).sin();
-        let solid_angle: f64 = (0..h).map(|row| f64::from(sin_theta(row)) * w as f64).sum();
+        // The mean luminance over the sphere: Σ weight / Σ sin θ.
+        let solid_angle: f64 = sin_theta.iter().map(|&s| f64::from(s) * w as f64).sum();
         let mean = (weights.iter().map(|&x| f64::from(x)).sum::<f64>() / solid_angle) as f32;
         let compensated: Vec<f32> = weights
             .iter()
             .enumerate()
-            .map(|(i, &x)| {
-                let s = sin_theta(i / w);
-                (x - mean * s).max(0.0)
-            })
+            .map(|(i, &x)| (x - mean * sin_theta[i / w]).max(0.0))
             .collect();
         // A constant image has nothing above its mean: then the complete distribution.
         let mis = Box::new(if compensated.iter().any(|&x| x > 0.0) {

@@ -249,28 +249,20 @@ fn sobol_dim1_reversed(i: u32) -> u32 {
         ^ SOBOL1_TABLES[3][(i >> 24) as usize]
 }
 
-/// The direction number for index bit `k` of Sobol dimension 1.
-const fn sobol1_direction(k: u32) -> u32 {
-    let mut v = 1u32 << 31;
-    let mut j = 0;
-    while j < k {
-        v ^= v >> 1;
-        j += 1;
+/// The direction numbers of Sobol dimension 1, by index bit: vₖ = vₖ₋₁ ⊕ (vₖ₋₁ ≫ 1), v₀ = 2³¹.
+const fn sobol1_directions() -> [u32; 32] {
+    let mut v = [1u32 << 31; 32];
+    let mut k = 1;
+    while k < 32 {
+        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        k += 1;
     }
     v
 }
 
 /// `SOBOL1_TABLES[b][x]`: XOR of the reversed direction numbers of the set bits of byte `x` at
 /// byte `b`.
-static SOBOL1_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&{
-    let mut v = [0u32; 32];
-    let mut k = 0;
-    while k < 32 {
-        v[k] = sobol1_direction(k as u32);
-        k += 1;
-    }
-    v
-});
+static SOBOL1_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&sobol1_directions());
 
 /// Sobol dimension 2, bit-reversed, by byte tables as [`sobol_dim1_reversed`].
 #[inline]
@@ -281,34 +273,23 @@ fn sobol_dim2_reversed(i: u32) -> u32 {
         ^ SOBOL2_TABLES[3][(i >> 24) as usize]
 }
 
-/// The direction number for index bit `k` of Sobol dimension 2: primitive polynomial
-/// x² + x + 1 with initial numbers m = 1, 3 (Joe and Kuo 2008, the third dimension), so
-/// v₁ = 2³¹, v₂ = 3·2³⁰ and vₖ = vₖ₋₁ ⊕ vₖ₋₂ ⊕ (vₖ₋₂ ≫ 2).
-const fn sobol2_direction(k: u32) -> u32 {
-    let (mut older, mut old) = (1u32 << 31, 3u32 << 30);
-    if k == 0 {
-        return older;
-    }
-    let mut j = 1;
-    while j < k {
-        let next = old ^ older ^ (older >> 2);
-        older = old;
-        old = next;
-        j += 1;
-    }
-    old
-}
-
-/// `SOBOL2_TABLES[b][x]`: as [`SOBOL1_TABLES`], for dimension 2.
-static SOBOL2_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&{
+/// The direction numbers of Sobol dimension 2, by index bit: primitive polynomial x² + x + 1
+/// with initial numbers m = 1, 3 (Joe and Kuo 2008, the third dimension), so v₀ = 2³¹,
+/// v₁ = 3·2³⁰ and vₖ = vₖ₋₁ ⊕ vₖ₋₂ ⊕ (vₖ₋₂ ≫ 2).
+const fn sobol2_directions() -> [u32; 32] {
     let mut v = [0u32; 32];
-    let mut k = 0;
+    v[0] = 1 << 31;
+    v[1] = 3 << 30;
+    let mut k = 2;
     while k < 32 {
-        v[k] = sobol2_direction(k as u32);
+        v[k] = v[k - 1] ^ v[k - 2] ^ (v[k - 2] >> 2);
         k += 1;
     }
     v
-});
+}
+
+/// `SOBOL2_TABLES[b][x]`: as [`SOBOL1_TABLES`], for dimension 2.
+static SOBOL2_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&sobol2_directions());
 
 /// For direction numbers `v` (index bit k ↦ v[k]): `[b][x]` = XOR of the reversed direction
 /// numbers of the set bits of byte `x` at byte `b`, so a dimension's value for a 32-bit index is
@@ -511,7 +492,7 @@ mod tests {
             let mut k = 0;
             while i != 0 {
                 if i & 1 != 0 {
-                    out ^= sobol2_direction(k);
+                    out ^= sobol2_directions()[k];
                 }
                 i >>= 1;
                 k += 1;
