@@ -306,8 +306,15 @@ impl RoughDielectric {
         })
     }
 
+    /// The probability with which a smooth interface reflects light arriving along `wo` (local;
+    /// negative z inside), the weight of its mirror direction: Fresnel's R, 1 beyond the
+    /// critical angle.
+    pub fn smooth_reflectance(&self, cos_o: f32) -> f32 {
+        fresnel_dielectric(cos_o, self.eta)
+    }
+
     fn sample_smooth(&self, wo: Vec3, uc: f32) -> Option<LocalSample> {
-        let r = fresnel_dielectric(wo.z, self.eta);
+        let r = self.smooth_reflectance(wo.z);
         if uc < r {
             return Some(LocalSample {
                 wi: Vec3::new(-wo.x, -wo.y, wo.z),
@@ -606,6 +613,12 @@ impl ThinDielectric {
     /// Whether both lobes are Dirac deltas.
     pub fn is_delta(&self) -> bool {
         self.alpha < DELTA_ALPHA
+    }
+
+    /// The weight of a smooth slab's mirror direction for |cos θo| = `cos`: its reflectance R′
+    /// (the sum over paths bouncing inside it).
+    pub fn smooth_reflectance(&self, cos: f32) -> f32 {
+        self.slab_reflectance(cos)
     }
 
     /// Slab reflectance R′ for cos θ = `cos` on a microfacet.

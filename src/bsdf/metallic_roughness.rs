@@ -518,6 +518,44 @@ impl MetallicRoughness {
         }
     }
 
+    /// For a smooth transmissive surface (glass: every lobe a Dirac delta, some light
+    /// transmitted), the mirror direction of world-space `wo` and the weight (f·|cos θi| / δ)
+    /// with which all its lobes together reflect light from there: the expectation of
+    /// [`sample_world`](Self::sample_world)'s weight over the samples that return that
+    /// direction. `None` for other surfaces, or where the mirror direction would leak through
+    /// the geometric surface (then no sample returns it).
+    pub fn mirror_reflection_world(
+        &self,
+        frame: &Frame,
+        ng: Vec3,
+        wo: Vec3,
+    ) -> Option<(Vec3, Rgb)> {
+        let (m, d, t) = self.weights();
+        if t <= 0.0 || !self.specular_is_delta() {
+            return None;
+        }
+        let lo = frame.to_local(wo);
+        if lo.z == 0.0 {
+            return None;
+        }
+        let li = Vec3::new(-lo.x, -lo.y, lo.z);
+        let wi = frame.to_world(li);
+        if Self::leaks(true, ng, wo, wi) {
+            return None;
+        }
+        let c = lo.z.abs();
+        // The opaque specular lobes (the probability of choosing them times their weight),
+        // then the transmissive part's reflection: R for a volume, the slab's R′ thin-walled.
+        let specular = conductor_fresnel(self.base_color, c) * m
+            + schlick_f0_f90(self.f0(), Vec3::ONE, c) * (d * self.spec_weight());
+        let r = if self.thin_walled {
+            self.thin().smooth_reflectance(c)
+        } else {
+            self.volume().smooth_reflectance(lo.z)
+        };
+        Some((wi, specular + Vec3::splat(t * r)))
+    }
+
     /// What depends on world-space `wo` alone, computed once per shading point: the light
     /// sample's evaluation and the BSDF sample both need it (the strategy probabilities cost
     /// about an evaluation, for their albedo estimates).

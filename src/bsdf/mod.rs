@@ -150,6 +150,16 @@ impl Bsdf {
         }
     }
 
+    /// For smooth glass, the mirror direction of `wo` and the weight with which the surface
+    /// reflects light from there (see [`MetallicRoughness::mirror_reflection_world`]); `None`
+    /// for every other surface.
+    pub fn mirror_reflection(&self, wo: Vec3) -> Option<(Vec3, Rgb)> {
+        match &self.lobes {
+            Lobes::MetallicRoughness(m, _) => m.mirror_reflection_world(&self.frame, self.ng, wo),
+            Lobes::Lambert(_) | Lobes::Layered(_) => None,
+        }
+    }
+
     /// f·|cos θi| and the pdf with which [`sample`](Self::sample) returns `wi` (delta lobes
     /// contribute nothing to evaluation). Pairs on the same side by the shading normal but not
     /// by the geometric normal, or the reverse, are not scattered (light would leak).
