@@ -49,10 +49,7 @@ use std::f32::consts::FRAC_1_PI;
 use super::dielectric::{RoughDielectric, ThinDielectric};
 use super::fresnel::{conductor_fresnel, dielectric_f0, fresnel_dielectric, schlick_f0_f90};
 use super::microfacet::{ggx_d, ggx_g2, ggx_reflect_pdf, ggx_sample_visible};
-use super::multiple_scattering::{
-    compensation_albedo, compensation_factor, compensation_from, specular_albedo,
-    specular_average_albedo,
-};
+use super::multiple_scattering::AtRoughness;
 use super::{BsdfSample, LocalSample, DELTA_ALPHA};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::cosine_hemisphere;
@@ -101,6 +98,29 @@ pub struct Outgoing {
     diffuse_o: f32,
     /// The compensation lobes' μo factor ([`compensation_factor`]).
     compensation_o: f32,
+    /// What every pair of directions shares.
+    shared: Shared,
+}
+
+/// The table terms of a [`MetallicRoughness`] that depend on its roughness and colours alone,
+/// found once per shading point for its evaluations: the same values, bit for bit, as the
+/// `multiple_scattering` functions give for each pair (which found α's place in the tables,
+/// F_ms and the layer's average albedo again in every evaluation).
+#[derive(Debug, Clone, Copy)]
+struct Shared {
+    tables: AtRoughness,
+    /// The dielectric F0 ([`MetallicRoughness::f0`]) and its largest channel, the F0 of the
+    /// layer albedo that scales the diffuse base.
+    f0: Rgb,
+    f0_max: f32,
+    /// F_ms of the compensation lobes of the metal, the dielectric and the layer albedo; zero
+    /// where there are none (smooth, or compensation off).
+    f_ms_metal: Rgb,
+    f_ms_dielectric: Rgb,
+    f_ms_layer: f32,
+    /// 1 − the dielectric layer's average albedo (the diffuse base's normalization); ≤ 10⁻⁶
+    /// leaves no diffuse base.
+    layer_norm: f32,
 }
 
 /// Refractive index standing in for ior 0 or ∞ in the transmissive part (see `eta`).
@@ -215,22 +235,46 @@ impl MetallicRoughness {
         }
     }
 
-    /// Largest-channel directional albedo of the dielectric specular layer, times its weight.
-    fn layer_albedo(&self, mu: f32) -> f32 {
-        let f0 = Vec3::splat(self.f0().max_element());
-        self.spec_weight() * specular_albedo(mu, self.alpha(), f0, self.energy_compensation).x
+    /// The terms shared by all pairs of directions (see [`Shared`]).
+    fn shared(&self) -> Shared {
+        let tables = AtRoughness::new(self.alpha());
+        let f0 = self.f0();
+        let f0_max = f0.max_element();
+        let comp = self.energy_compensation;
+        let f_ms = |c: Rgb| tables.f_ms(c).filter(|_| comp).unwrap_or(Vec3::ZERO);
+        let f_ms_layer = f_ms(Vec3::splat(f0_max)).x;
+        // 2 ∫ (layer albedo) μ dμ, as `specular_average_albedo` of the splatted F0.
+        let single = f0_max * tables.e_avg + (1.0 - f0_max) * tables.e5_avg;
+        let avg = if comp && 1.0 - tables.e_avg >= 1e-6 {
+            single + f_ms_layer * (1.0 - tables.e_avg)
+        } else {
+            single
+        };
+        Shared {
+            tables,
+            f0,
+            f0_max,
+            f_ms_metal: f_ms(self.base_color),
+            f_ms_dielectric: f_ms(f0),
+            f_ms_layer,
+            layer_norm: 1.0 - self.spec_weight() * avg,
+        }
+    }
+
+    /// Largest-channel directional albedo of the dielectric specular layer, times its weight,
+    /// given E and E5 at its μ.
+    fn layer_albedo(&self, sh: &Shared, (e, e5): (f32, f32)) -> f32 {
+        let single = sh.f0_max * e + (1.0 - sh.f0_max) * e5;
+        self.spec_weight() * (single + sh.f_ms_layer * (1.0 - e).max(0.0))
     }
 
     /// The albedo-scaling weight of the diffuse base (see the module doc), given `o`'s
-    /// [`Outgoing::diffuse_o`].
-    fn diffuse_scale(&self, diffuse_o: f32, mu_i: f32) -> f32 {
-        let f0 = Vec3::splat(self.f0().max_element());
-        let avg = self.spec_weight()
-            * specular_average_albedo(self.alpha(), f0, self.energy_compensation).x;
-        if 1.0 - avg < 1e-6 {
+    /// [`Outgoing::diffuse_o`] and E and E5 at μi.
+    fn diffuse_scale(&self, sh: &Shared, diffuse_o: f32, e_e5_i: (f32, f32)) -> f32 {
+        if sh.layer_norm < 1e-6 {
             return 0.0;
         }
-        diffuse_o * (1.0 - self.layer_albedo(mu_i)).max(0.0) / (1.0 - avg)
+        diffuse_o * (1.0 - self.layer_albedo(sh, e_e5_i)).max(0.0) / sh.layer_norm
     }
 
     /// Non-delta reflection BRDF (no cosine) for `o`, `i` in the upper hemisphere; `at` was
@@ -239,22 +283,33 @@ impl MetallicRoughness {
         let (m, d, _) = self.weights();
         let w = self.spec_weight();
         let alpha = self.alpha();
+        let sh = &at.shared;
+        let smooth = !self.specular_is_delta();
+        // E and E5 at μi, which the compensation lobes and the diffuse base share.
+        let e_e5_i = if (smooth && self.energy_compensation) || d > 0.0 {
+            sh.tables.e_e5(i.z)
+        } else {
+            (0.0, 0.0)
+        };
         let mut f = Vec3::ZERO;
-        if !self.specular_is_delta() {
+        if smooth {
             let wm = (o + i).normalize_or_zero();
             if wm != Vec3::ZERO {
                 let spec = ggx_d(wm, alpha) * ggx_g2(o, i, alpha) / (4.0 * o.z * i.z);
                 let c = o.dot(wm);
                 f += conductor_fresnel(self.base_color, c) * (m * spec);
-                f += schlick_f0_f90(self.f0(), Vec3::ONE, c) * (d * w * spec);
+                f += schlick_f0_f90(sh.f0, Vec3::ONE, c) * (d * w * spec);
             }
-            if self.energy_compensation {
-                f += compensation_from(at.compensation_o, i.z, alpha, self.base_color) * m;
-                f += compensation_from(at.compensation_o, i.z, alpha, self.f0()) * (d * w);
+            if self.energy_compensation && 1.0 - sh.tables.e_avg >= 1e-6 {
+                // `compensation_from` for each lobe, with μi's factor found once.
+                let s = at.compensation_o * (1.0 - e_e5_i.0).max(0.0);
+                let scale = s * FRAC_1_PI / (1.0 - sh.tables.e_avg);
+                f += sh.f_ms_metal * scale * m;
+                f += sh.f_ms_dielectric * scale * (d * w);
             }
         }
         if d > 0.0 {
-            f += self.base_color * (d * FRAC_1_PI * self.diffuse_scale(at.diffuse_o, i.z));
+            f += self.base_color * (d * FRAC_1_PI * self.diffuse_scale(sh, at.diffuse_o, e_e5_i));
         }
         f
     }
@@ -263,11 +318,16 @@ impl MetallicRoughness {
     /// albedo estimates of their lobes, and the μo factors of the reflection lobes.
     fn outgoing(&self, wo: Vec3) -> Outgoing {
         let mu = wo.z.abs();
-        let diffuse_o = (1.0 - self.layer_albedo(mu)).max(0.0);
+        let shared = self.shared();
+        let (e, e5) = shared.tables.e_e5(mu);
+        let diffuse_o = (1.0 - self.layer_albedo(&shared, (e, e5))).max(0.0);
         let (m, d, t) = self.weights();
         let w = self.spec_weight();
-        let alpha = self.alpha();
         let comp = self.energy_compensation;
+        // The lobes' directional albedos at μo, from the one lookup (`specular_albedo` without
+        // and `compensation_albedo`).
+        let specular_albedo = |c: Rgb| c * e + (Vec3::ONE - c) * e5;
+        let compensation_albedo = |f_ms: Rgb| f_ms * (1.0 - e).max(0.0);
         // A small floor keeps every lobe that can be non-zero samplable.
         let floor = |albedo: f32, present: bool| {
             if present {
@@ -276,13 +336,13 @@ impl MetallicRoughness {
                 0.0
             }
         };
-        let spec = m * mean(specular_albedo(mu, alpha, self.base_color, false))
-            + d * w * mean(specular_albedo(mu, alpha, self.f0(), false));
+        let spec =
+            m * mean(specular_albedo(self.base_color)) + d * w * mean(specular_albedo(shared.f0));
         let spec = floor(spec, m + d * w > 0.0);
         let mut cosine = d * mean(self.base_color) * diffuse_o;
         if comp && !self.specular_is_delta() {
-            cosine += m * mean(compensation_albedo(mu, alpha, self.base_color))
-                + d * w * mean(compensation_albedo(mu, alpha, self.f0()));
+            cosine += m * mean(compensation_albedo(shared.f_ms_metal))
+                + d * w * mean(compensation_albedo(shared.f_ms_dielectric));
         }
         let cosine = floor(
             cosine,
@@ -304,7 +364,8 @@ impl MetallicRoughness {
             wo,
             probs,
             diffuse_o,
-            compensation_o: compensation_factor(mu, alpha),
+            compensation_o: (1.0 - e).max(0.0),
+            shared,
         }
     }
 
@@ -885,6 +946,87 @@ mod tests {
                 assert_eq!(
                     bits(m.sample_world_with(&frame, ng, o, ul, u, Some(&at))),
                     bits(m.sample_world(&frame, ng, o, ul, u))
+                );
+            }
+        }
+    }
+
+    /// The reflection lobes with their table terms found once per shading point (`Shared`)
+    /// equal, bit for bit, the glTF reflection written with the per-pair functions of
+    /// `multiple_scattering` (each finding α's place in the tables, F_ms and the layer's
+    /// average albedo for itself), and so do the strategy probabilities and μo factors.
+    #[test]
+    fn shared_table_terms_equal_the_per_pair_formulas() {
+        use super::super::multiple_scattering::{
+            compensation_albedo, compensation_factor, compensation_from, specular_albedo,
+            specular_average_albedo,
+        };
+        let mut rng = Pcg32::new(11, 5);
+        for k in 0..3_000 {
+            let mut m = mat(
+                Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
+                [0.0, 0.3, 1.0][k % 3],
+                [0.0, 0.02, 0.05, 0.3, 0.7, 1.0][k % 6],
+                [1.0, 1.33, 1.5, 2.4][k % 4],
+                0.0,
+            );
+            m.specular_factor = [1.0, 0.5, 0.0][(k / 3) % 3];
+            m.energy_compensation = k % 5 != 0;
+            let (o, i) = (upper(random_dir(&mut rng)), upper(random_dir(&mut rng)));
+            let at = m.outgoing(o);
+            // The formulas as written per pair.
+            let (mm, d, _) = m.weights();
+            let w = m.spec_weight();
+            let alpha = m.alpha();
+            let comp = m.energy_compensation;
+            let f0_max = Vec3::splat(m.f0().max_element());
+            let layer = |mu: f32| w * specular_albedo(mu, alpha, f0_max, comp).x;
+            let mut f = Vec3::ZERO;
+            if !m.specular_is_delta() {
+                let wm = (o + i).normalize_or_zero();
+                if wm != Vec3::ZERO {
+                    let spec = ggx_d(wm, alpha) * ggx_g2(o, i, alpha) / (4.0 * o.z * i.z);
+                    let c = o.dot(wm);
+                    f += conductor_fresnel(m.base_color, c) * (mm * spec);
+                    f += schlick_f0_f90(m.f0(), Vec3::ONE, c) * (d * w * spec);
+                }
+                if comp {
+                    let factor_o = compensation_factor(o.z, alpha);
+                    f += compensation_from(factor_o, i.z, alpha, m.base_color) * mm;
+                    f += compensation_from(factor_o, i.z, alpha, m.f0()) * (d * w);
+                }
+            }
+            let diffuse_o = (1.0 - layer(o.z)).max(0.0);
+            if d > 0.0 {
+                let avg = w * specular_average_albedo(alpha, f0_max, comp).x;
+                let scale = if 1.0 - avg < 1e-6 {
+                    0.0
+                } else {
+                    diffuse_o * (1.0 - layer(i.z)).max(0.0) / (1.0 - avg)
+                };
+                f += m.base_color * (d * FRAC_1_PI * scale);
+            }
+            let bits = |c: Rgb| c.to_array().map(f32::to_bits);
+            assert_eq!(bits(m.reflection(o, i, &at)), bits(f), "case {k}: {m:?}");
+            assert_eq!(at.diffuse_o.to_bits(), diffuse_o.to_bits(), "case {k}");
+            assert_eq!(
+                at.compensation_o.to_bits(),
+                compensation_factor(o.z, alpha).to_bits()
+            );
+            let spec = mm * mean(specular_albedo(o.z, alpha, m.base_color, false))
+                + d * w * mean(specular_albedo(o.z, alpha, m.f0(), false));
+            let mut cosine = d * mean(m.base_color) * diffuse_o;
+            if comp && !m.specular_is_delta() {
+                cosine += mm * mean(compensation_albedo(o.z, alpha, m.base_color))
+                    + d * w * mean(compensation_albedo(o.z, alpha, m.f0()));
+            }
+            let (spec, cosine) = (spec.max(1e-3), cosine.max(1e-3));
+            let total = spec + cosine;
+            if mm + d * w > 0.0 && (d > 0.0 || (comp && !m.specular_is_delta())) {
+                assert_eq!(
+                    at.probs[SPECULAR].to_bits(),
+                    (spec / total).to_bits(),
+                    "case {k}"
                 );
             }
         }

@@ -150,13 +150,75 @@ fn rough_pos(alpha: f32) -> (usize, f32) {
     (i, x - i as f32)
 }
 
-fn lookup(table: &[[f32; N_MU]; N_ROUGH], mu: f32, alpha: f32) -> f32 {
-    let (r, fr) = rough_pos(alpha);
+/// Linear interpolation position in the μ axis: (index, fraction).
+#[inline(always)]
+fn mu_pos(mu: f32) -> (usize, f32) {
     let x = (mu.abs().min(1.0) * N_MU as f32 - 0.5).clamp(0.0, (N_MU - 1) as f32);
     let m = (x as usize).min(N_MU - 2);
-    let fm = x - m as f32;
+    (m, x - m as f32)
+}
+
+/// Bilinear interpolation of `table` at the positions of [`mu_pos`] and [`rough_pos`].
+#[inline(always)]
+fn interpolate(
+    table: &[[f32; N_MU]; N_ROUGH],
+    (m, fm): (usize, f32),
+    (r, fr): (usize, f32),
+) -> f32 {
     let row = |r: usize| table[r][m] * (1.0 - fm) + table[r][m + 1] * fm;
     row(r) * (1.0 - fr) + row(r + 1) * fr
+}
+
+fn lookup(table: &[[f32; N_MU]; N_ROUGH], mu: f32, alpha: f32) -> f32 {
+    interpolate(table, mu_pos(mu), rough_pos(alpha))
+}
+
+/// The tables at one roughness α, for the many lookups a BSDF makes at its α: the same values,
+/// bit for bit, as [`albedo`], [`average_albedo`] and the functions built on them, without
+/// finding α's place in the tables (a square root) for each.
+#[derive(Debug, Clone, Copy)]
+pub struct AtRoughness {
+    rough: (usize, f32),
+    /// E_avg(α) ([`average_albedo`]).
+    pub e_avg: f32,
+    /// The cosine-weighted average of E5(μ, α).
+    pub e5_avg: f32,
+}
+
+impl AtRoughness {
+    /// The tables at roughness `alpha`.
+    pub fn new(alpha: f32) -> AtRoughness {
+        let (r, fr) = rough_pos(alpha);
+        let t = tables();
+        AtRoughness {
+            rough: (r, fr),
+            e_avg: t.e_avg[r] * (1.0 - fr) + t.e_avg[r + 1] * fr,
+            e5_avg: t.e5_avg[r] * (1.0 - fr) + t.e5_avg[r + 1] * fr,
+        }
+    }
+
+    /// E(μ, α) and E5(μ, α): the albedo of the lobe with F = 1 ([`albedo`]) and with the
+    /// (1 − μ)⁵ weight of Schlick's Fresnel.
+    #[inline]
+    pub fn e_e5(&self, mu: f32) -> (f32, f32) {
+        let at = mu_pos(mu);
+        let t = tables();
+        (
+            interpolate(&t.e, at, self.rough),
+            interpolate(&t.e5, at, self.rough),
+        )
+    }
+
+    /// The colour F_ms of the multiple-scattering lobe for Schlick's F0 = `f0`, as in
+    /// [`compensation_from`] and [`compensation_albedo`]; `None` where they are zero (no lobe:
+    /// 1 − E_avg < 10⁻⁶, a smooth surface).
+    pub fn f_ms(&self, f0: Rgb) -> Option<Rgb> {
+        if 1.0 - self.e_avg < 1e-6 {
+            return None;
+        }
+        let f_avg = schlick_average(f0);
+        Some(f_avg * f_avg * self.e_avg / (Vec3::ONE - f_avg * (1.0 - self.e_avg)))
+    }
 }
 
 /// Directional albedo E(μ, α) of the single-scattering GGX reflection lobe with F = 1.
