@@ -91,3 +91,53 @@ fn blend_at_one_half_transmits_half() {
         assert!((f64::from(c) - 0.5).abs() < tol, "mean radiance {mean:?}");
     }
 }
+
+/// Rays pass ten stacked blended quads of alpha 0.2 with probability 0.8¹⁰, and both surfaces
+/// of a blended sphere of alpha 0.5 with probability 0.25: every layer decides on its own
+/// (meshes skip their transparent hits within one traversal, other shapes are asked again past
+/// each), for shadow rays and closest-hit rays alike.
+#[test]
+fn stacked_layers_and_blended_spheres_transmit_the_product() {
+    let dir = tempfile::tempdir().unwrap();
+    let quads: Vec<String> = (0..10)
+        .map(|k| {
+            let y = 1.0 + 0.1 * k as f32;
+            format!(
+                r#"{{"mesh": {{"material": "leaf", "source": {{"inline": {{
+                "positions": [[-1, {y}, 1], [1, {y}, 1], [1, {y}, -1], [-1, {y}, -1]],
+                "indices": [[0, 1, 2], [0, 2, 3]]}}}}}}}}"#
+            )
+        })
+        .collect();
+    let text = format!(
+        r#"{{"format_version": 2,
+        "camera": {{"position": [0, 9, 0], "look_at": [0, 0, 0], "up": [0, 0, -1], "fov_y_deg": 30}},
+        "materials": {{
+            "leaf": {{"alpha": 0.2, "alpha_mode": "blend"}},
+            "glass": {{"alpha": 0.5, "alpha_mode": "blend"}}
+        }},
+        "objects": [{}, {{"sphere": {{"material": "glass", "center": [5, 1.5, 0], "radius": 0.5}}}}]}}"#,
+        quads.join(", ")
+    );
+    let path = dir.path().join("layers.json");
+    std::fs::write(&path, text).unwrap();
+    let scene = common::build(&common::load_scene(&path), dir.path());
+    let n = 20_000;
+    for (x, expected) in [(0.0f32, 0.8f64.powi(10)), (5.0, 0.25)] {
+        let (mut shadow, mut camera) = (0usize, 0usize);
+        for i in 0..n {
+            let z = -0.3 + 0.6 * (i as f32 + 0.5) / n as f32;
+            let ray = Ray::new(Vec3::new(x + 0.1 * (z * 7.0).sin(), 0.5, z), Vec3::Y);
+            shadow += usize::from(!scene.occluded(&ray, 0.0, 3.0));
+            camera += usize::from(scene.intersect(&ray, 0.0, 3.0).is_none());
+        }
+        let tol = 4.0 * (expected * (1.0 - expected) / n as f64).sqrt();
+        for (name, passed) in [("shadow", shadow), ("camera", camera)] {
+            let p = passed as f64 / n as f64;
+            assert!(
+                (p - expected).abs() < tol,
+                "x {x}, {name} rays: {p} vs {expected}"
+            );
+        }
+    }
+}

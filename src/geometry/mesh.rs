@@ -144,6 +144,49 @@ impl Mesh {
         self.bvh().occluded(&TriRay::new(o, d), t_min, t_max)
     }
 
+    /// [`Mesh::intersect`] keeping only the hits `accept` takes (see
+    /// [`TriangleBvh::intersect_accepted`]).
+    pub fn intersect_accepted(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut(&MeshHit) -> bool,
+    ) -> Option<MeshHit> {
+        let hit = |id: [u32; 2], h: &crate::geometry::triangle::TriHit| MeshHit {
+            t: h.t,
+            prim: id[1],
+            b1: h.b1,
+            b2: h.b2,
+        };
+        self.bvh()
+            .intersect_accepted(&TriRay::new(o, d), t_min, t_max, &mut |id, h| {
+                accept(&hit(id, h))
+            })
+            .map(|(id, h)| hit(id, &h))
+    }
+
+    /// Whether a hit within (t_min, t_max) is one `accept` takes.
+    pub fn occluded_accepted(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut(&MeshHit) -> bool,
+    ) -> bool {
+        self.bvh()
+            .occluded_accepted(&TriRay::new(o, d), t_min, t_max, &mut |id, h| {
+                accept(&MeshHit {
+                    t: h.t,
+                    prim: id[1],
+                    b1: h.b1,
+                    b2: h.b2,
+                })
+            })
+    }
+
     /// Whether the mesh has any of the attributes [`Mesh::attributes`] interpolates.
     #[inline]
     pub fn has_attributes(&self) -> bool {

@@ -141,6 +141,60 @@ impl Instance {
         }
     }
 
+    /// The nearest hit within (t_min, t_max) that `accept` takes: found within one traversal
+    /// for meshes; other shapes are asked again past each hit they give (at most
+    /// [`MAX_REJECTED_HITS`] times, then there is none).
+    pub fn intersect_accepted(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut(&RawHit) -> bool,
+    ) -> Option<RawHit> {
+        if let Shape::Mesh(m) = &self.shape {
+            let r = self.local_ray(ray);
+            let raw = |h: &mesh::MeshHit| RawHit {
+                t: h.t,
+                prim: h.prim,
+                coords: [h.b1, h.b2],
+            };
+            return m
+                .intersect_accepted(r.o, r.d, t_min, t_max, &mut |h| accept(&raw(h)))
+                .map(|h| raw(&h));
+        }
+        let mut from = t_min;
+        for _ in 0..MAX_REJECTED_HITS {
+            let h = self.intersect(ray, from, t_max)?;
+            if accept(&h) {
+                return Some(h);
+            }
+            from = h.t;
+        }
+        None
+    }
+
+    /// Whether a hit within (t_min, t_max) is one `accept` takes (see
+    /// [`intersect_accepted`](Self::intersect_accepted)).
+    pub fn occluded_accepted(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut(&RawHit) -> bool,
+    ) -> bool {
+        if let Shape::Mesh(m) = &self.shape {
+            let r = self.local_ray(ray);
+            return m.occluded_accepted(r.o, r.d, t_min, t_max, &mut |h| {
+                accept(&RawHit {
+                    t: h.t,
+                    prim: h.prim,
+                    coords: [h.b1, h.b2],
+                })
+            });
+        }
+        self.intersect_accepted(ray, t_min, t_max, accept).is_some()
+    }
+
     /// The full surface description of a hit.
     pub fn surface(&self, ray: &Ray, raw: &RawHit, instance: u32) -> SurfaceHit {
         let r = self.local_ray(ray);
@@ -256,6 +310,10 @@ pub trait Accel: Sync {
     /// Whether anything lies within (t_min, t_max).
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool;
 }
+
+/// Most hits a shape other than a mesh gives one ray before it counts as missed when all of
+/// them are rejected (an alpha-masked sphere or lathe: a sphere has two, a lathe a few).
+pub const MAX_REJECTED_HITS: u32 = 64;
 
 /// Meshes with at most this many triangles are flattened into the world-space triangle set
 /// even when several instances share them (copying them costs less than a second BVH level).
@@ -407,6 +465,115 @@ impl Geometry {
             );
         }
         best
+    }
+}
+
+impl Geometry {
+    /// The nearest hit within (t_min, t_max) that `accept` (given the instance and the hit)
+    /// takes, looked for within one traversal of each level.
+    pub fn intersect_accepted(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut(u32, &RawHit) -> bool,
+    ) -> Option<(u32, RawHit)> {
+        let mut best: Option<(u32, RawHit)> = None;
+        let mut t_max = t_max;
+        if !self.flat.is_empty() {
+            let raw = |id: [u32; 2], h: &triangle::TriHit| RawHit {
+                t: h.t,
+                prim: id[1],
+                coords: [h.b1, h.b2],
+            };
+            if let Some((id, h)) = self.flat.intersect_accepted(
+                &TriRay::new(ray.o, ray.d),
+                t_min,
+                t_max,
+                &mut |id, h| accept(id[0], &raw(id, h)),
+            ) {
+                t_max = h.t;
+                best = Some((id[0], raw(id, &h)));
+            }
+        }
+        for &k in &self.unbounded {
+            if let Some(h) =
+                self.instances[k as usize]
+                    .intersect_accepted(ray, t_min, t_max, &mut |h| accept(k, h))
+            {
+                t_max = h.t;
+                best = Some((k, h));
+            }
+        }
+        if !self.top_instances.is_empty() {
+            self.top.traverse(
+                &TraversalRay::new(ray.o, ray.d),
+                t_min,
+                &mut t_max,
+                |slot, t_max| {
+                    let k = self.top_instances[self.top.prims[slot as usize] as usize];
+                    if let Some(h) = self.instances[k as usize].intersect_accepted(
+                        ray,
+                        t_min,
+                        *t_max,
+                        &mut |h| accept(k, h),
+                    ) {
+                        *t_max = h.t;
+                        best = Some((k, h));
+                    }
+                    false
+                },
+            );
+        }
+        best
+    }
+
+    /// Whether a hit within (t_min, t_max) is one `accept` takes.
+    pub fn occluded_accepted(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut(u32, &RawHit) -> bool,
+    ) -> bool {
+        if !self.flat.is_empty()
+            && self.flat.occluded_accepted(
+                &TriRay::new(ray.o, ray.d),
+                t_min,
+                t_max,
+                &mut |id, h| {
+                    accept(
+                        id[0],
+                        &RawHit {
+                            t: h.t,
+                            prim: id[1],
+                            coords: [h.b1, h.b2],
+                        },
+                    )
+                },
+            )
+        {
+            return true;
+        }
+        if self.unbounded.iter().any(|&k| {
+            self.instances[k as usize].occluded_accepted(ray, t_min, t_max, &mut |h| accept(k, h))
+        }) {
+            return true;
+        }
+        if self.top_instances.is_empty() {
+            return false;
+        }
+        let mut t_max = t_max;
+        self.top.traverse(
+            &TraversalRay::new(ray.o, ray.d),
+            t_min,
+            &mut t_max,
+            |slot, t_max| {
+                let k = self.top_instances[self.top.prims[slot as usize] as usize];
+                self.instances[k as usize]
+                    .occluded_accepted(ray, t_min, *t_max, &mut |h| accept(k, h))
+            },
+        )
     }
 }
 

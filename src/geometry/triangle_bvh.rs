@@ -91,6 +91,8 @@ const WIDTH: usize = 8;
 struct Packet {
     v: [Vec4; 9],
     first: u32,
+    /// How many lanes hold triangles of their own (the rest repeat lane 0).
+    count: u32,
 }
 
 /// The lanes of a packet a ray hits within (t_min, t_max), with what is needed to finish a hit.
@@ -121,6 +123,7 @@ impl Packet {
         Packet {
             v,
             first: first as u32,
+            count: count as u32,
         }
     }
 
@@ -220,6 +223,85 @@ impl Leaf for Closest<'_> {
                     b2: h.w[lane] * inv,
                 },
             ));
+        }
+        false
+    }
+}
+
+/// Closest-hit queries that keep only the hits `accept` takes (given the triangle's id and the
+/// hit): the nearest accepted hit. Within a packet the hits are offered nearest first (lane
+/// order breaking ties, as [`Closest`]) until one is accepted; each triangle is offered once
+/// per packet (the lanes repeating lane 0 are left out).
+struct ClosestAccepted<'a> {
+    ray: &'a TriRay,
+    t_min: f32,
+    ids: &'a [[u32; 2]],
+    accept: &'a mut dyn FnMut([u32; 2], &TriHit) -> bool,
+    best: Option<(u32, TriHit)>,
+}
+
+impl Leaf for ClosestAccepted<'_> {
+    #[inline(always)]
+    fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
+        let h = p.hits(self.ray, self.t_min, *t_max);
+        let mut mask = h.mask & ((1u32 << p.count) - 1);
+        while mask != 0 {
+            let mut lane = mask.trailing_zeros() as usize;
+            let mut rest = mask & (mask - 1);
+            while rest != 0 {
+                let l = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if h.t[l] < h.t[lane] {
+                    lane = l;
+                }
+            }
+            let inv = h.inv_det[lane];
+            let hit = TriHit {
+                t: h.t[lane],
+                b1: h.v[lane] * inv,
+                b2: h.w[lane] * inv,
+            };
+            let slot = p.first + lane as u32;
+            // SAFETY: packets hold slots of the tree's triangles only.
+            let id = unsafe { *self.ids.get_unchecked(slot as usize) };
+            if (self.accept)(id, &hit) {
+                *t_max = hit.t;
+                self.best = Some((slot, hit));
+                break;
+            }
+            mask &= !(1 << lane);
+        }
+        false
+    }
+}
+
+/// Any-hit queries that count only the hits `accept` takes: stop at the first of them.
+struct AnyAccepted<'a> {
+    ray: &'a TriRay,
+    t_min: f32,
+    ids: &'a [[u32; 2]],
+    accept: &'a mut dyn FnMut([u32; 2], &TriHit) -> bool,
+}
+
+impl Leaf for AnyAccepted<'_> {
+    #[inline(always)]
+    fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
+        let h = p.hits(self.ray, self.t_min, *t_max);
+        let mut mask = h.mask & ((1u32 << p.count) - 1);
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let inv = h.inv_det[lane];
+            let hit = TriHit {
+                t: h.t[lane],
+                b1: h.v[lane] * inv,
+                b2: h.w[lane] * inv,
+            };
+            // SAFETY: packets hold slots of the tree's triangles only.
+            let id = unsafe { *self.ids.get_unchecked((p.first + lane as u32) as usize) };
+            if (self.accept)(id, &hit) {
+                return true;
+            }
         }
         false
     }
@@ -534,6 +616,81 @@ impl TriangleBvh {
         }
         // SAFETY: as in `intersect`.
         unsafe { self.occluded_with::<Sse>(ray, t_min, t_max) }
+    }
+
+    /// [`TriangleBvh::intersect`] keeping only the hits `accept` takes (given the triangle's id
+    /// and the hit): the nearest of them. Surfaces cut away by alpha masks are skipped so within
+    /// one traversal, instead of tracing a new ray past each (Embree's filter functions, OptiX's
+    /// any-hit programs). With an `accept` that takes everything, the same hit as `intersect`.
+    pub fn intersect_accepted(
+        &self,
+        ray: &TriRay,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut([u32; 2], &TriHit) -> bool,
+    ) -> Option<([u32; 2], TriHit)> {
+        if self.ids.is_empty() {
+            return None;
+        }
+        let mut leaf = ClosestAccepted {
+            ray,
+            t_min,
+            ids: &self.ids,
+            accept,
+            best: None,
+        };
+        let mut t_max = t_max;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is only set when the CPU has AVX2.
+            unsafe { self.traverse_avx2::<true>(ray, t_min, &mut t_max, &mut leaf) };
+            return leaf.best.map(|(slot, h)| (self.ids[slot as usize], h));
+        }
+        // SAFETY: SSE2 is part of the x86-64 baseline.
+        unsafe { self.traverse::<Sse, true>(ray, t_min, &mut t_max, &mut leaf) };
+        leaf.best.map(|(slot, h)| (self.ids[slot as usize], h))
+    }
+
+    /// Whether any triangle hit within (t_min, t_max) is one `accept` takes (see
+    /// [`intersect_accepted`](Self::intersect_accepted)).
+    pub fn occluded_accepted(
+        &self,
+        ray: &TriRay,
+        t_min: f32,
+        t_max: f32,
+        accept: &mut dyn FnMut([u32; 2], &TriHit) -> bool,
+    ) -> bool {
+        if self.ids.is_empty() {
+            return false;
+        }
+        let mut leaf = AnyAccepted {
+            ray,
+            t_min,
+            ids: &self.ids,
+            accept,
+        };
+        let mut t_max = t_max;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is only set when the CPU has AVX2.
+            return unsafe { self.traverse_avx2::<false>(ray, t_min, &mut t_max, &mut leaf) };
+        }
+        // SAFETY: SSE2 is part of the x86-64 baseline.
+        unsafe { self.traverse::<Sse, false>(ray, t_min, &mut t_max, &mut leaf) }
+    }
+
+    /// The traversal with AVX2 box tests, for the queries with an `accept` function.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn traverse_avx2<const ORDERED: bool>(
+        &self,
+        r: &TriRay,
+        t_min: f32,
+        t_max: &mut f32,
+        leaf: &mut impl Leaf,
+    ) -> bool {
+        // SAFETY: this function runs only on CPUs with AVX2.
+        unsafe { self.traverse::<Avx2, ORDERED>(r, t_min, t_max, leaf) }
     }
 
     /// [`TriangleBvh::intersect`] compiled for AVX2 (the whole traversal, so that the box test's
@@ -876,6 +1033,106 @@ mod tests {
                 hits += check(&bvh, &tris, o, d) as u32;
             }
             assert!(hits > 0, "{n} triangles: the test must exercise hits");
+        }
+    }
+
+    /// Traversals that skip rejected hits (alpha masks) find, on both box-test paths, the
+    /// nearest hit the predicate accepts, as testing every triangle does, and report
+    /// occlusion exactly when there is one; with a predicate that takes everything they equal
+    /// the plain queries bit for bit. Each triangle is offered at most once per packet.
+    #[test]
+    fn accepted_hits_match_brute_force() {
+        let mut s = 23u64;
+        // Dense soups, so that most rays meet several triangles (layers of leaves).
+        for n in [1usize, 3, 5, 40, 3000, 20_000] {
+            let tris: Vec<[Vec3; 3]> = (0..n)
+                .map(|_| {
+                    let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 2.0;
+                    [0; 3].map(|_| c + Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 0.6)
+                })
+                .collect();
+            // Rejects about half the triangles, by a hash of the triangle and of the distance
+            // (as a blended surface's hash depends on the hit).
+            let takes = |i: u32, t: f32| (i.wrapping_mul(0x9e37_79b9) ^ t.to_bits()) % 7 < 4;
+            for avx2 in [false, true] {
+                if avx2 && !avx2_available() {
+                    continue;
+                }
+                let bvh = bvh_of(&tris).with_avx2(avx2);
+                let (mut hits, mut skipped) = (0, 0);
+                for k in 0..1500 {
+                    let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.0 - 1.0;
+                    let d = if k % 2 == 0 {
+                        Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5)
+                    } else {
+                        let [a, b, c] = tris[(lcg(&mut s) * n as f32) as usize % n];
+                        (a + b + c) / 3.0 - o
+                    };
+                    let ray = TriRay::new(o, d);
+                    // The oracle: every triangle, the nearest accepted hit.
+                    let shear = RayShear::new(o, d);
+                    let mut slow: Option<(u32, TriHit)> = None;
+                    for (i, [a, b, c]) in tris.iter().enumerate() {
+                        let t_max = slow.map_or(f32::INFINITY, |b| b.1.t);
+                        if let Some(h) = triangle::intersect(&shear, *a, *b, *c, 0.0, t_max) {
+                            if takes(i as u32, h.t) {
+                                slow = Some((i as u32, h));
+                            }
+                        }
+                    }
+                    let mut offered = std::collections::HashMap::new();
+                    let fast = bvh.intersect_accepted(&ray, 0.0, f32::INFINITY, &mut |id, h| {
+                        *offered.entry((id[1], h.t.to_bits())).or_insert(0u32) += 1;
+                        takes(id[1], h.t)
+                    });
+                    skipped += offered
+                        .keys()
+                        .filter(|(i, t)| !takes(*i, f32::from_bits(*t)))
+                        .count();
+                    assert!(
+                        offered.values().all(|&c| c == 1),
+                        "{n}: a hit offered twice"
+                    );
+                    match (fast, slow) {
+                        (Some((id, f)), Some((i, h))) => {
+                            hits += 1;
+                            assert_eq!(id[0], 7);
+                            if id[1] == i {
+                                assert_eq!(
+                                    (f.t.to_bits(), f.b1.to_bits()),
+                                    (h.t.to_bits(), h.b1.to_bits())
+                                );
+                            } else {
+                                // A tie at a shared edge, as in `check`.
+                                assert!((f.t - h.t).abs() <= 1e-6 * h.t.abs(), "{n}: {f:?} {h:?}");
+                            }
+                        }
+                        (None, None) => {}
+                        (f, h) => panic!("{n} triangles, ray {o} {d}: {f:?} vs {h:?}"),
+                    }
+                    let any = bvh.occluded_accepted(&ray, 0.0, f32::INFINITY, &mut |id, h| {
+                        takes(id[1], h.t)
+                    });
+                    assert_eq!(any, slow.is_some(), "{n}: occlusion of ray {o} {d}");
+                    // With everything accepted: the plain queries' answers.
+                    let all = bvh.intersect_accepted(&ray, 0.0, f32::INFINITY, &mut |_, _| true);
+                    let plain = bvh.intersect(&ray, 0.0, f32::INFINITY);
+                    let key = |h: Option<([u32; 2], TriHit)>| {
+                        h.map(|(id, h)| (id, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits()))
+                    };
+                    assert_eq!(key(all), key(plain));
+                    assert_eq!(
+                        bvh.occluded_accepted(&ray, 0.0, f32::INFINITY, &mut |_, _| true),
+                        bvh.occluded(&ray, 0.0, f32::INFINITY)
+                    );
+                }
+                if n >= 40 {
+                    assert!(
+                        hits > 100 && skipped > 100,
+                        "{n}: {hits} hits, {skipped} skipped"
+                    );
+                }
+            }
         }
     }
 

@@ -5,7 +5,7 @@ pub mod build;
 
 use crate::camera::Camera;
 use crate::environment::Environment;
-use crate::geometry::{Accel, Geometry, SurfaceHit};
+use crate::geometry::{Accel, Geometry, RawHit, SurfaceHit};
 use crate::light::{Light, LightSampler};
 use crate::material::Material;
 use crate::math::{Ray, Rgb, Vec3};
@@ -69,20 +69,20 @@ pub struct Scene {
     pub has_alpha: bool,
 }
 
-/// Most transparent surfaces a ray passes through before the next one counts as opaque (as
-/// Cycles' "transparent max bounces", 64 in lumo's Cycles comparisons).
-pub const MAX_ALPHA_LAYERS: u32 = 64;
-
 impl Scene {
     /// Closest hit along a ray, looking past the cut-away parts of alpha-masked surfaces and,
-    /// with probability 1 − alpha, past alpha-blended ones (stochastic transparency).
+    /// with probability 1 − alpha, past alpha-blended ones (stochastic transparency). The
+    /// transparent hits are skipped within the traversal that finds them (as Embree's filter
+    /// functions do), however many there are, instead of a new ray being traced past each.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
-        let hit = self.geometry.intersect(ray, t_min, t_max)?;
         if !self.has_alpha {
-            return Some(hit);
+            return self.geometry.intersect(ray, t_min, t_max);
         }
-        self.past_transparent(ray, hit, t_max)
+        let (k, raw) = self
+            .geometry
+            .intersect_accepted(ray, t_min, t_max, &mut |k, raw| self.stops(ray, k, raw))?;
+        Some(self.geometry.instances[k as usize].surface(ray, &raw, k))
     }
 
     /// Whether anything blocks the ray within (t_min, t_max); transparent parts let it through
@@ -93,31 +93,23 @@ impl Scene {
             return self.geometry.occluded(ray, t_min, t_max);
         }
         self.geometry
-            .intersect(ray, t_min, t_max)
-            .and_then(|hit| self.past_transparent(ray, hit, t_max))
-            .is_some()
+            .occluded_accepted(ray, t_min, t_max, &mut |k, raw| self.stops(ray, k, raw))
     }
 
-    /// The first hit from `hit` on (inclusive) along the ray that stops it.
-    #[cold]
-    #[inline(never)]
-    fn past_transparent(&self, ray: &Ray, mut hit: SurfaceHit, t_max: f32) -> Option<SurfaceHit> {
-        for _ in 0..MAX_ALPHA_LAYERS {
-            let material = self.material(&hit);
-            if !material.has_alpha() {
-                return Some(hit);
-            }
-            let opacity = material.opacity(&self.textures, &hit);
-            // The decision for a blended surface is a hash of the ray and the hit (as pbrt-v4
-            // does), so it consumes no sampler dimension and a shadow ray decides like the
-            // camera ray along the same line; distinct layers get independent numbers.
-            if opacity >= 1.0 || (opacity > 0.0 && alpha_hash(ray, &hit) < opacity) {
-                return Some(hit);
-            }
-            // Triangles and shapes hit at exactly `hit.t` are excluded (the interval is open).
-            hit = self.geometry.intersect(ray, hit.t, t_max)?;
+    /// Whether hit `raw` on instance `k` stops the ray: always on opaque materials; on
+    /// transparent ones where the opacity is 1, or, for a blended surface, when a hash of the
+    /// ray and the hit (as pbrt-v4 does: it consumes no sampler dimension, a shadow ray decides
+    /// like the camera ray along the same line, and distinct layers get independent numbers)
+    /// falls below the opacity.
+    fn stops(&self, ray: &Ray, k: u32, raw: &RawHit) -> bool {
+        let instance = &self.geometry.instances[k as usize];
+        let material = &self.materials[instance.material as usize];
+        if !material.has_alpha() {
+            return true;
         }
-        Some(hit)
+        let hit = instance.surface(ray, raw, k);
+        let opacity = material.opacity(&self.textures, &hit);
+        opacity >= 1.0 || (opacity > 0.0 && alpha_hash(ray, &hit) < opacity)
     }
 
     /// Radiance arriving along a ray that left the scene in direction `d` (unit), the MIS
