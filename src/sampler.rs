@@ -154,6 +154,38 @@ impl Sampler {
         }
     }
 
+    /// As many lobe choices and 2D points as `out` holds (a power of two, n), drawn together as
+    /// [`get_choice_2d`](Self::get_choice_2d) draws one: points n·i … n·i + n − 1 (i this
+    /// pixel sample's index) of one Owen-scrambled 3D Sobol sequence (padding), so that over a
+    /// pixel's N samples the n·N points form one stratified set rather than n sets of N. Takes
+    /// the dimensions of one `get_choice_2d` (with independent numbers, 3n numbers).
+    pub fn get_choice_2d_padded(&mut self, out: &mut [(f32, glam::Vec2)]) {
+        let n = out.len() as u32;
+        debug_assert!(n.is_power_of_two());
+        match self.kind {
+            SamplerKind::Independent => {
+                for o in out.iter_mut() {
+                    let choice = self.rng.next_f32();
+                    *o = (
+                        choice,
+                        glam::Vec2::new(self.rng.next_f32(), self.rng.next_f32()),
+                    );
+                }
+            }
+            SamplerKind::Sobol => {
+                self.dimension += 1;
+                let hash = self.next_dimension_hash();
+                let first = self.reversed_index.reverse_bits().wrapping_mul(n);
+                for (j, o) in (0u32..).zip(out.iter_mut()) {
+                    let shuffled = shuffled_index((first + j).reverse_bits(), hash);
+                    let choice = laine_karras(sobol_dim2_reversed(shuffled), scramble_seed_z(hash))
+                        .reverse_bits();
+                    *o = (to_unit(choice), owen_sobol_2d_shuffled(shuffled, hash));
+                }
+            }
+        }
+    }
+
     /// The scrambling hash of the next dimension (pair) of this pixel.
     #[inline]
     fn next_dimension_hash(&mut self) -> u64 {
@@ -481,6 +513,50 @@ mod tests {
                 );
                 let (choice, p) = a.get_choice_2d();
                 assert_eq!((choice, p), (b.get_1d(), b.get_2d()));
+            }
+        }
+    }
+
+    /// Padded draws: over N pixel samples the n·N points of `get_choice_2d_padded` (n = 4, 8)
+    /// are stratified as 1,024 consecutive points of the 3D sequence are (every box of volume
+    /// 2⁻⁹ holds two), and with independent numbers they are the next 3n numbers.
+    #[test]
+    fn padded_choices_are_one_stratified_set() {
+        for (count, n) in [(4usize, 256u64), (8, 128)] {
+            for pixel in [7u64, 4242] {
+                let mut pts = Vec::new();
+                for i in 0..n {
+                    let mut out = vec![(0.0f32, glam::Vec2::ZERO); count];
+                    Sampler::with_kind(SamplerKind::Sobol, 3, pixel, i)
+                        .get_choice_2d_padded(&mut out);
+                    pts.extend(out);
+                }
+                assert_eq!(pts.len(), 1024);
+                for a in 0..=9 {
+                    for b in 0..=9 - a {
+                        let c = 9 - a - b;
+                        let (na, nb, nc) = (1usize << a, 1usize << b, 1usize << c);
+                        let mut cells = vec![0u32; 512];
+                        for (z, p) in &pts {
+                            let (i, j, k) = (
+                                (p.x * na as f32) as usize,
+                                (p.y * nb as f32) as usize,
+                                (z * nc as f32) as usize,
+                            );
+                            cells[(k * nb + j) * na + i] += 1;
+                        }
+                        assert!(
+                            cells.iter().all(|&c| c == 2),
+                            "{count} per sample, pixel {pixel}: {na}×{nb}×{nc} boxes"
+                        );
+                    }
+                }
+            }
+            let (mut a, mut b) = (Sampler::independent(3, 9, 5), Sampler::independent(3, 9, 5));
+            let mut out = vec![(0.0f32, glam::Vec2::ZERO); count];
+            a.get_choice_2d_padded(&mut out);
+            for o in out {
+                assert_eq!(o, (b.get_1d(), b.get_2d()));
             }
         }
     }

@@ -157,9 +157,10 @@ fn constant_environment_white_furnace() {
 /// White furnace with a rough white metal: energy-compensated GGX reflects all of a constant
 /// environment L (1.0004 L measured without extra BSDF samples), and the path tracer, which
 /// draws several BSDF samples for the direct light of such glossy surfaces seen from the camera,
-/// renders L in the mean within 0.5 %. Counting the extra samples at full weight, leaving them
-/// out of the MIS weights, or skipping them when the first sample fails (−1.2 % with two
-/// samples) all fail.
+/// renders L in the mean within 0.5 %. Counting the light the path's own sample finds as well
+/// (0.934 for L = 0.5), leaving the samples' count out of the MIS weights (0.443), or, with the
+/// earlier two-sample scheme, skipping the extra sample when the first failed (−1.2 %) all
+/// fail.
 #[test]
 fn glossy_white_furnace_with_split_bsdf_samples() {
     let dir = tempfile::tempdir().unwrap();

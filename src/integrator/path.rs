@@ -31,22 +31,18 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
     // (radiance is compressed into the denser medium), which Russian roulette must not read as
     // lost energy (pbrt-v4's `etaScale`, Mitsuba 3's `eta`).
     let mut eta_scale = 1.0f32;
-    // How many BSDF samples the previous vertex drew for the light its scattered rays meet
-    // (1, or `SPLIT` where it split); what this vertex finds by BSDF sampling (emission,
-    // the environment, an unlit surface) is one of them, and counts 1/prev_split.
-    let mut prev_split = 1.0f32;
-    // What the light this vertex finds by BSDF sampling counts: 1/prev_split, or 0 after a
-    // mirror reflection off glass whose light the previous vertex collected with a ray of its
-    // own (see `MIRROR_SPLIT_DEPTH`).
-    let mut found_scale = 1.0f32;
+    // Whether the light this vertex finds by BSDF sampling (emission, the environment, an
+    // unlit surface) counts: not where the previous vertex collected that light with rays of
+    // its own (its `SPLIT` samples, or the mirror reflection of glass), the path's ray then
+    // only carrying on for the light from further surfaces.
+    let mut count_found = true;
     for depth in 1..=max_depth {
         stats.rays += 1;
         let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
-            if found_scale > 0.0 {
-                let bsdf_pdf = (!prev_delta).then_some(prev_split * prev_pdf);
-                l += beta
-                    * scene.escaped(ray.d.normalize(), bsdf_pdf, (prev_p, prev_n), depth == 1)
-                    * found_scale;
+            if count_found {
+                let bsdf_pdf = (!prev_delta).then_some(prev_pdf);
+                l +=
+                    beta * scene.escaped(ray.d.normalize(), bsdf_pdf, (prev_p, prev_n), depth == 1);
             }
             break;
         };
@@ -63,10 +59,10 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             wo,
             prev_p,
             prev_n,
-            (!prev_delta).then_some(prev_split * prev_pdf),
+            (!prev_delta).then_some(prev_pdf),
         );
-        if direct.weight > 0.0 {
-            l += beta * direct.radiance * (direct.weight * found_scale);
+        if count_found && direct.weight > 0.0 {
+            l += beta * direct.radiance * direct.weight;
         }
         if direct.unlit {
             break;
@@ -75,9 +71,9 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             break;
         }
         let bsdf = material.bsdf(&scene.textures, &hit, wo);
-        // Glossy-dominated surfaces seen from the camera draw SPLIT BSDF samples for their
-        // direct light (multi-sample MIS, Veach 1997 §9.2: the weights compare SPLIT × the BSDF
-        // pdf with the light's); one of them continues the path.
+        // Glossy-dominated surfaces seen from the camera estimate the direct light that BSDF
+        // sampling finds with `SPLIT` samples of their own (multi-sample MIS, Veach 1997 §9.2:
+        // the weights compare SPLIT × the BSDF pdf with the light's).
         let split = if depth == 1 && bsdf.is_glossy_dominated() {
             SPLIT
         } else {
@@ -128,28 +124,18 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         // Continue the path by sampling the BSDF.
         let (u_lobe, u_dir) = sampler.get_choice_2d();
         let sampled = bsdf.sample(wo, u_lobe, u_dir);
-        // (Drawn whether or not the first sample succeeded: each is one of `split` samples of
-        // the direct light, and one that fails counts zero, not the others.)
-        for _ in 1..split as u32 {
-            // The other samples: only the light their rays meet.
-            let (u_lobe, u_dir) = sampler.get_choice_2d();
-            if let Some(s2) = bsdf.sample(wo, u_lobe, u_dir) {
-                stats.rays += 1;
-                let ray2 = spawn(&hit, s2.wi);
-                let pdf = (!s2.delta).then_some(split * s2.pdf);
-                let found = match scene.intersect(&ray2, 0.0, f32::INFINITY) {
-                    None => scene.escaped(ray2.d.normalize(), pdf, (hit.p, hit.ns), false),
-                    Some(hit2) => {
-                        let tr = medium.map_or(Vec3::ONE, |sigma| {
-                            transmittance(sigma, hit2.t * ray2.d.length())
-                        });
-                        let wo2 = -ray2.d.normalize();
-                        let material2 = scene.material(&hit2);
-                        let f = found_light(scene, material2, &hit2, wo2, hit.p, hit.ns, pdf);
-                        tr * f.radiance * f.weight
-                    }
-                };
-                l += beta * s2.weight * found / split;
+        if split > 1.0 {
+            // Drawn together, so that over a pixel's samples they are one stratified set; each
+            // counts 1/SPLIT, whether or not the others succeed. The path goes on with its own
+            // sample, whose found light the next vertex leaves to these.
+            let mut points = [(0.0f32, glam::Vec2::ZERO); SPLIT as usize];
+            sampler.get_choice_2d_padded(&mut points);
+            for &(u_lobe, u_dir) in &points {
+                if let Some(s2) = bsdf.sample(wo, u_lobe, u_dir) {
+                    let pdf = (!s2.delta).then_some(split * s2.pdf);
+                    let found = light_along(scene, &hit, s2.wi, pdf, medium, stats);
+                    l += beta * s2.weight * found / split;
+                }
             }
         }
         // Smooth glass near the camera: its mirror reflection, chosen with probability R (a few
@@ -163,21 +149,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             None
         };
         if let Some((wi, weight)) = mirror {
-            stats.rays += 1;
-            let ray2 = spawn(&hit, wi);
-            let found = match scene.intersect(&ray2, 0.0, f32::INFINITY) {
-                None => scene.escaped(ray2.d.normalize(), None, (hit.p, hit.ns), false),
-                Some(hit2) => {
-                    let tr = medium.map_or(Vec3::ONE, |sigma| {
-                        transmittance(sigma, hit2.t * ray2.d.length())
-                    });
-                    let wo2 = -ray2.d.normalize();
-                    let material2 = scene.material(&hit2);
-                    let f = found_light(scene, material2, &hit2, wo2, hit.p, hit.ns, None);
-                    tr * f.radiance * f.weight
-                }
-            };
-            l += beta * weight * found;
+            l += beta * weight * light_along(scene, &hit, wi, None, medium, stats);
         }
         let Some(s) = sampled else {
             break;
@@ -192,12 +164,7 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         }
         prev_pdf = s.pdf;
         prev_delta = s.delta;
-        prev_split = split;
-        found_scale = if mirror.is_some() && s.delta && !s.transmitted {
-            0.0
-        } else {
-            1.0 / split
-        };
+        count_found = split == 1.0 && !(mirror.is_some() && s.delta && !s.transmitted);
         prev_p = hit.p;
         prev_n = hit.ns;
         ray = spawn(&hit, s.wi);
@@ -224,15 +191,52 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
 }
 
 /// BSDF samples drawn for direct light at a glossy-dominated surface seen from the camera (see
-/// `radiance`): there the error of glTF assets under an HDR environment is almost all direct
-/// light found by BSDF sampling (DamagedHelmet: 80 % of the variance per sample). Each extra
-/// sample costs a ray and an environment lookup; on DamagedHelmet (160², 64 spp, 16 seeds) MSE
-/// × time per sample fell by 38 % with 2 samples, 43 % with 3 and 49 % with 4.
-const SPLIT: f32 = 4.0;
+/// `radiance`; a power of two, for the padded draw): there the error of glTF assets under an
+/// HDR environment is almost all direct light found by BSDF sampling (DamagedHelmet: 80 % of
+/// the variance per sample). Each costs a ray and an environment lookup. On DamagedHelmet (160²,
+/// 64 spp, 16 seeds, 1 thread) MSE × time was 0.0290 with the path's own sample and 3 more
+/// drawn independently; with 4, 8 (kept) or 2 padded samples besides the path's, 0.0261, 0.0248
+/// and 0.0333.
+const SPLIT: f32 = 8.0;
 
 /// The depths up to which smooth glass collects the light of its mirror direction with a ray of
 /// its own (see `radiance`).
 const MIRROR_SPLIT_DEPTH: u32 = 1;
+
+/// The light a ray leaving `hit` in direction `wi` finds (emission, the environment or an
+/// unlit surface: see [`found_light`]), its MIS weight against light sampling for a direction
+/// sampled with density `bsdf_pdf` (`None` for delta lobes) applied, attenuated by the medium
+/// the ray travels in.
+fn light_along(
+    scene: &Scene,
+    hit: &crate::geometry::SurfaceHit,
+    wi: Vec3,
+    bsdf_pdf: Option<f32>,
+    medium: Option<Vec3>,
+    stats: &mut TraceStats,
+) -> Vec3 {
+    stats.rays += 1;
+    let ray = spawn(hit, wi);
+    match scene.intersect(&ray, 0.0, f32::INFINITY) {
+        None => scene.escaped(ray.d.normalize(), bsdf_pdf, (hit.p, hit.ns), false),
+        Some(hit2) => {
+            let tr = medium.map_or(Vec3::ONE, |sigma| {
+                transmittance(sigma, hit2.t * ray.d.length())
+            });
+            let material = scene.material(&hit2);
+            let f = found_light(
+                scene,
+                material,
+                &hit2,
+                -ray.d.normalize(),
+                hit.p,
+                hit.ns,
+                bsdf_pdf,
+            );
+            tr * f.radiance * f.weight
+        }
+    }
+}
 
 /// The light a BSDF-sampled ray finds where it hits: see [`found_light`].
 struct Found {
