@@ -16,7 +16,9 @@ pattern; lumo with its defaults (Owen-scrambled Sobol, NEE + MIS).
 
 For each model and renderer: a reference of --ref-spp samples (Cycles: passes of 256 spp with
 seeds 1000 + k, averaged; lumo: one render with seed 1000000), then the ladder, each rung
-rendered with --seeds seeds (spp + 1000 k): its RMSE is the root of the mean over seeds of the
+rendered with --seeds seeds (spp + 1000 k), the renderers taking turns rung by rung (Cycles,
+light tree off then on, then lumo) so that the shared machine's changing load reaches all of
+them alike: its RMSE is the root of the mean over seeds of the
 squared error (these scenes have fireflies, so one image's RMSE moves by 10-20 % between seeds)
 and its time the median over seeds. Cycles runs with its light tree off (as in the glTF
 comparison) and on (Blender's default); the faster of the two to the target error is the peer. Times are the renderers' own
@@ -147,12 +149,23 @@ def main() -> int:
                 [CYCLES_REF_SEED + k for k in range(passes)], "gltf_bench_")
             common.write_exr(ref_path, stack.mean(axis=0))
             print(f"{model}: cycles reference {args.ref_spp} spp in {secs:.1f} s")
-        ref = common.read_exr(ref_path)
-        for tree in light_trees:
-            peer = f"cycles, light tree {tree}"
-            scene.cycles.use_light_tree = tree == "on"
-            cg.render_passes(bpy, scene, Timer(bpy), 1, [999_979], "gltf_bench_warmup_")
-            for spp in ladder:
+        cycles_ref = common.read_exr(ref_path)
+        ref_path = folder / "lumo_ref.exr"
+        if not (args.reuse_references and ref_path.is_file()):
+            secs = lumo_render(args.lumo, model_file, env, args.size, args.ref_spp, LUMO_REF_SEED,
+                               ref_path)
+            print(f"{model}: lumo reference {args.ref_spp} spp in {secs:.1f} s")
+        lumo_ref = common.read_exr(ref_path)
+        with tempfile.TemporaryDirectory() as tmp:
+            lumo_render(args.lumo, model_file, env, args.size, 1, 999_983, Path(tmp) / "w.exr")
+
+        # The ladder, the renderers taking turns rung by rung, so that a change in the machine's
+        # load (it is shared) reaches them alike instead of whichever ran last.
+        for spp in ladder:
+            for tree in light_trees:
+                peer = f"cycles, light tree {tree}"
+                scene.cycles.use_light_tree = tree == "on"
+                cg.render_passes(bpy, scene, Timer(bpy), 1, [999_979], "gltf_bench_warmup_")
                 images, times = [], []
                 for seed in seeds(spp):
                     timer = Timer(bpy)
@@ -162,18 +175,7 @@ def main() -> int:
                     times.append(secs)
                 common.write_exr(folder / f"cycles_{'tree_' if tree == 'on' else ''}{spp}spp.exr",
                                  images[0])
-                rows.append(rung_row(model, peer, spp, times, images, ref, args.size))
-
-        # lumo.
-        ref_path = folder / "lumo_ref.exr"
-        if not (args.reuse_references and ref_path.is_file()):
-            secs = lumo_render(args.lumo, model_file, env, args.size, args.ref_spp, LUMO_REF_SEED,
-                               ref_path)
-            print(f"{model}: lumo reference {args.ref_spp} spp in {secs:.1f} s")
-        ref = common.read_exr(ref_path)
-        with tempfile.TemporaryDirectory() as tmp:
-            lumo_render(args.lumo, model_file, env, args.size, 1, 999_983, Path(tmp) / "w.exr")
-        for spp in ladder:
+                rows.append(rung_row(model, peer, spp, times, images, cycles_ref, args.size))
             images, times = [], []
             for k, seed in enumerate(seeds(spp)):
                 path = folder / (f"lumo_{spp}spp.exr" if k == 0 else f"lumo_{spp}spp_{k}.exr")
@@ -181,7 +183,7 @@ def main() -> int:
                 images.append(common.read_exr(path))
                 if k:
                     path.unlink()
-            rows.append(rung_row(model, "lumo", spp, times, images, ref, args.size))
+            rows.append(rung_row(model, "lumo", spp, times, images, lumo_ref, args.size))
 
     with open(OUT / "results.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))

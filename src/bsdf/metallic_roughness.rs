@@ -123,6 +123,13 @@ struct Shared {
     layer_norm: f32,
 }
 
+/// The widest specular lobe (GGX α; roughness 0.5) that counts as glossy for
+/// [`MetallicRoughness::is_glossy_dominated`]: beyond it light sampling finds the direct light
+/// well, and extra BSDF samples for it cost without helping (DamagedHelmet under `studio.exr`,
+/// 160², 64 spp, 16 seeds: MSE × spp 0.0191 with and without them on lobes of α ≥ 0.25, for
+/// 10 % less time; leaving out α ≥ 0.1 raised it to 0.0199, α ≥ 0.05 to 0.0237).
+pub const GLOSSY_MAX_ALPHA: f32 = 0.25;
+
 /// Refractive index standing in for ior 0 or ∞ in the transmissive part (see `eta`).
 const DEGENERATE_IOR: f32 = 1e4;
 
@@ -193,11 +200,15 @@ impl MetallicRoughness {
         !self.specular_is_delta() || d > 0.0 || (t > 0.0 && !self.transmission_is_delta())
     }
 
-    /// Whether nothing is transmitted and the specular lobe is smooth (not a mirror) and
-    /// chosen with probability ≥ ½ for the `wo` that `at` was made for.
+    /// Whether nothing is transmitted and the specular lobe is smooth (not a mirror), narrow
+    /// (α < [`GLOSSY_MAX_ALPHA`]) and chosen with probability ≥ ½ for the `wo` that `at` was
+    /// made for.
     pub fn is_glossy_dominated(&self, at: &Outgoing) -> bool {
         let (_, _, t) = self.weights();
-        !self.specular_is_delta() && t == 0.0 && at.probs[SPECULAR] >= 0.5
+        !self.specular_is_delta()
+            && self.alpha() < GLOSSY_MAX_ALPHA
+            && t == 0.0
+            && at.probs[SPECULAR] >= 0.5
     }
 
     fn transmission_is_delta(&self) -> bool {
