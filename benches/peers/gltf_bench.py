@@ -97,7 +97,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--models", default=",".join(MODELS))
     ap.add_argument("--size", type=int, default=160)
-    ap.add_argument("--ladder", default="4,16,64,256")
+    ap.add_argument("--ladder", default="4,8,16,32,64,128,256")
     ap.add_argument("--ref-spp", type=int, default=4096)
     ap.add_argument("--env", type=Path, default=common.REPO_ROOT.parent / "shared" / "hdri" / "studio.exr")
     ap.add_argument("--lumo", default=str(common.REPO_ROOT / "target" / "release" / "lumo"))

@@ -319,6 +319,12 @@ pub const MAX_REJECTED_HITS: u32 = 64;
 /// even when several instances share them (copying them costs less than a second BVH level).
 pub const FLATTEN_MAX_SHARED_TRIANGLES: usize = 256;
 
+/// Shared meshes are also copied into the world-space triangle set, smallest total first, as
+/// long as their copies (uses × triangles) add up to at most this many triangles (about 110 MB
+/// at the peak bytes per triangle of a build): a second BVH level costs every ray that meets
+/// one of its instances a transform and a second traversal.
+pub const FLATTEN_SHARED_BUDGET: usize = 1 << 20;
+
 /// All instances of a scene, in two parts:
 ///
 /// - a single BVH over world-space triangles ([`TriangleBvh`]) holding every mesh instance
@@ -346,12 +352,41 @@ pub struct Geometry {
 impl Geometry {
     /// Builds the acceleration structures.
     pub fn new(instances: Vec<Instance>) -> Geometry {
+        Geometry::with_flatten_budget(instances, FLATTEN_SHARED_BUDGET)
+    }
+
+    /// [`Geometry::new`] copying shared meshes into the world-space set only within `budget`
+    /// triangles (see [`FLATTEN_SHARED_BUDGET`]).
+    pub fn with_flatten_budget(instances: Vec<Instance>, budget: usize) -> Geometry {
         // How many instances use each mesh.
         let mut uses: std::collections::HashMap<*const Mesh, usize> =
             std::collections::HashMap::new();
         for inst in &instances {
             if let Shape::Mesh(m) = &inst.shape {
                 *uses.entry(Arc::as_ptr(m)).or_default() += 1;
+            }
+        }
+        // Shared meshes copied into the world-space set all the same, smallest copies first,
+        // while the copies stay within the budget.
+        let mut shared: Vec<(*const Mesh, usize)> = uses
+            .iter()
+            .filter(|&(_, &n)| n > 1)
+            .filter_map(|(&m, &n)| {
+                instances.iter().find_map(|inst| match &inst.shape {
+                    Shape::Mesh(mesh) if Arc::as_ptr(mesh) == m => {
+                        Some((m, n * mesh.data.triangles.len()))
+                    }
+                    _ => None,
+                })
+            })
+            .collect();
+        shared.sort_by_key(|&(m, copies)| (copies, m as usize));
+        let mut budget = budget;
+        let mut copied = std::collections::HashSet::new();
+        for (m, copies) in shared {
+            if copies <= budget {
+                budget -= copies;
+                copied.insert(m);
             }
         }
         // The flattened instances: (instance, its first triangle in the world-space set, mesh).
@@ -364,6 +399,7 @@ impl Geometry {
             if let Shape::Mesh(m) = &inst.shape {
                 if uses[&Arc::as_ptr(m)] == 1
                     || m.data.triangles.len() <= FLATTEN_MAX_SHARED_TRIANGLES
+                    || copied.contains(&Arc::as_ptr(m))
                 {
                     flat.push((k, flat_count, &**m));
                     flat_count += m.data.triangles.len();
@@ -762,17 +798,21 @@ mod tests {
             };
             instances.push(Instance::new(Shape::Mesh(mesh), m, 0));
         }
-        let geo = Geometry::new(instances.clone());
-        assert_eq!(geo.flat.len(), 4 * tris.len());
-        assert_eq!(geo.top_instances.len(), 8);
-        let hits = agree_with_brute_force(&geo, &instances, &mut s, 3000, 24.0, |a, b| {
-            assert!(
-                (a.t - b.t).abs() < 1e-4 * b.t.max(1.0)
-                    && (a.p - b.p).length() < 1e-4
-                    && (a.ng - b.ng).length() < 1e-4
-            );
-        });
-        assert!(hits > 50, "too few hits to test anything: {hits}");
+        // Without a budget for copies the shared mesh is instanced; with the default one it is
+        // copied as well (12 × 1,280 triangles).
+        for (budget, flat, top) in [(0, 4, 8), (FLATTEN_SHARED_BUDGET, 12, 0)] {
+            let geo = Geometry::with_flatten_budget(instances.clone(), budget);
+            assert_eq!(geo.flat.len(), flat * tris.len());
+            assert_eq!(geo.top_instances.len(), top);
+            let hits = agree_with_brute_force(&geo, &instances, &mut s, 3000, 24.0, |a, b| {
+                assert!(
+                    (a.t - b.t).abs() < 1e-4 * b.t.max(1.0)
+                        && (a.p - b.p).length() < 1e-4
+                        && (a.ng - b.ng).length() < 1e-4
+                );
+            });
+            assert!(hits > 50, "too few hits to test anything: {hits}");
+        }
     }
 
     #[test]
