@@ -477,6 +477,31 @@ mod tests {
     /// holds exactly two points; dimension 2's direction numbers are those of x² + x + 1), the
     /// 2D part is exactly what `get_2d` gives after a `get_1d`, and with independent numbers the
     /// three are those of `get_1d` and `get_2d`.
+    /// 1,024 points (choice, 2D point) stratified as a (1, 3)-net in base 2 is: every box
+    /// of 2ᵃ × 2ᵇ × 2ᶜ cells, a + b + c = 9, holds two.
+    fn assert_stratified_1024(pts: &[(f32, glam::Vec2)], what: &str) {
+        assert_eq!(pts.len(), 1024);
+        for a in 0..=9 {
+            for b in 0..=9 - a {
+                let c = 9 - a - b;
+                let (na, nb, nc) = (1usize << a, 1usize << b, 1usize << c);
+                let mut cells = vec![0u32; 512];
+                for (z, p) in pts {
+                    let (i, j, k) = (
+                        (p.x * na as f32) as usize,
+                        (p.y * nb as f32) as usize,
+                        (z * nc as f32) as usize,
+                    );
+                    cells[(k * nb + j) * na + i] += 1;
+                }
+                assert!(
+                    cells.iter().all(|&c| c == 2),
+                    "{what}: {na}×{nb}×{nc} boxes not stratified"
+                );
+            }
+        }
+    }
+
     #[test]
     fn choice_and_direction_are_one_3d_sobol_point() {
         let n = 1024u64;
@@ -484,25 +509,7 @@ mod tests {
             let pts: Vec<(f32, glam::Vec2)> = (0..n)
                 .map(|i| Sampler::with_kind(SamplerKind::Sobol, 3, pixel, i).get_choice_2d())
                 .collect();
-            for a in 0..=9 {
-                for b in 0..=9 - a {
-                    let c = 9 - a - b;
-                    let (na, nb, nc) = (1usize << a, 1usize << b, 1usize << c);
-                    let mut cells = vec![0u32; 512];
-                    for (z, p) in &pts {
-                        let (i, j, k) = (
-                            (p.x * na as f32) as usize,
-                            (p.y * nb as f32) as usize,
-                            (z * nc as f32) as usize,
-                        );
-                        cells[(k * nb + j) * na + i] += 1;
-                    }
-                    assert!(
-                        cells.iter().all(|&c| c == 2),
-                        "pixel {pixel}: {na}×{nb}×{nc} boxes not stratified"
-                    );
-                }
-            }
+            assert_stratified_1024(&pts, &format!("pixel {pixel}"));
             for i in 0..64 {
                 let mut old = Sampler::with_kind(SamplerKind::Sobol, 3, pixel, i);
                 old.get_1d();
@@ -531,26 +538,7 @@ mod tests {
                         .get_choice_2d_padded(&mut out);
                     pts.extend(out);
                 }
-                assert_eq!(pts.len(), 1024);
-                for a in 0..=9 {
-                    for b in 0..=9 - a {
-                        let c = 9 - a - b;
-                        let (na, nb, nc) = (1usize << a, 1usize << b, 1usize << c);
-                        let mut cells = vec![0u32; 512];
-                        for (z, p) in &pts {
-                            let (i, j, k) = (
-                                (p.x * na as f32) as usize,
-                                (p.y * nb as f32) as usize,
-                                (z * nc as f32) as usize,
-                            );
-                            cells[(k * nb + j) * na + i] += 1;
-                        }
-                        assert!(
-                            cells.iter().all(|&c| c == 2),
-                            "{count} per sample, pixel {pixel}: {na}×{nb}×{nc} boxes"
-                        );
-                    }
-                }
+                assert_stratified_1024(&pts, &format!("{count} per sample, pixel {pixel}"));
             }
             let (mut a, mut b) = (Sampler::independent(3, 9, 5), Sampler::independent(3, 9, 5));
             let mut out = vec![(0.0f32, glam::Vec2::ZERO); count];

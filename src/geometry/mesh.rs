@@ -6,6 +6,7 @@ use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 
 use crate::geometry::triangle_bvh::{TriRay, TriangleBvh};
+use crate::geometry::RawHit;
 use crate::math::{Aabb, Vec2, Vec3};
 
 /// A mesh's vertex and triangle arrays, as a loader reads them and as a [`Mesh`] keeps them. The
@@ -145,26 +146,20 @@ impl Mesh {
     }
 
     /// [`Mesh::intersect`] keeping only the hits `accept` takes (see
-    /// [`TriangleBvh::intersect_accepted`]).
+    /// [`TriangleBvh::intersect_accepted`]), as [`RawHit`]s.
     pub fn intersect_accepted(
         &self,
         o: Vec3,
         d: Vec3,
         t_min: f32,
         t_max: f32,
-        accept: &mut dyn FnMut(&MeshHit) -> bool,
-    ) -> Option<MeshHit> {
-        let hit = |id: [u32; 2], h: &crate::geometry::triangle::TriHit| MeshHit {
-            t: h.t,
-            prim: id[1],
-            b1: h.b1,
-            b2: h.b2,
-        };
+        accept: &mut dyn FnMut(&RawHit) -> bool,
+    ) -> Option<RawHit> {
         self.bvh()
             .intersect_accepted(&TriRay::new(o, d), t_min, t_max, &mut |id, h| {
-                accept(&hit(id, h))
+                accept(&RawHit::of_triangle(id, h))
             })
-            .map(|(id, h)| hit(id, &h))
+            .map(|(id, h)| RawHit::of_triangle(id, &h))
     }
 
     /// Whether a hit within (t_min, t_max) is one `accept` takes.
@@ -174,16 +169,11 @@ impl Mesh {
         d: Vec3,
         t_min: f32,
         t_max: f32,
-        accept: &mut dyn FnMut(&MeshHit) -> bool,
+        accept: &mut dyn FnMut(&RawHit) -> bool,
     ) -> bool {
         self.bvh()
             .occluded_accepted(&TriRay::new(o, d), t_min, t_max, &mut |id, h| {
-                accept(&MeshHit {
-                    t: h.t,
-                    prim: id[1],
-                    b1: h.b1,
-                    b2: h.b2,
-                })
+                accept(&RawHit::of_triangle(id, h))
             })
     }
 

@@ -15,6 +15,7 @@ use crate::bvh::{Bvh, TraversalRay};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
 pub use mesh::Mesh;
 pub use sphere::{Plane, Sphere};
+use triangle::TriHit;
 pub use triangle_bvh::{TriRay, TriangleBvh};
 
 /// A shape in its own object space.
@@ -153,14 +154,7 @@ impl Instance {
     ) -> Option<RawHit> {
         if let Shape::Mesh(m) = &self.shape {
             let r = self.local_ray(ray);
-            let raw = |h: &mesh::MeshHit| RawHit {
-                t: h.t,
-                prim: h.prim,
-                coords: [h.b1, h.b2],
-            };
-            return m
-                .intersect_accepted(r.o, r.d, t_min, t_max, &mut |h| accept(&raw(h)))
-                .map(|h| raw(&h));
+            return m.intersect_accepted(r.o, r.d, t_min, t_max, accept);
         }
         let mut from = t_min;
         for _ in 0..MAX_REJECTED_HITS {
@@ -184,13 +178,7 @@ impl Instance {
     ) -> bool {
         if let Shape::Mesh(m) = &self.shape {
             let r = self.local_ray(ray);
-            return m.occluded_accepted(r.o, r.d, t_min, t_max, &mut |h| {
-                accept(&RawHit {
-                    t: h.t,
-                    prim: h.prim,
-                    coords: [h.b1, h.b2],
-                })
-            });
+            return m.occluded_accepted(r.o, r.d, t_min, t_max, accept);
         }
         self.intersect_accepted(ray, t_min, t_max, accept).is_some()
     }
@@ -275,6 +263,18 @@ pub struct RawHit {
     /// (vertex 0's is 1 − both); for lathes (u, v) = (θ/2π, profile parameter); unused (0) for
     /// spheres and planes, whose surface is recomputed from the point.
     pub coords: [f32; 2],
+}
+
+impl RawHit {
+    /// The hit on triangle `id[1]` of a triangle BVH (`id[0]` names its instance or mesh).
+    #[inline]
+    pub fn of_triangle(id: [u32; 2], h: &TriHit) -> RawHit {
+        RawHit {
+            t: h.t,
+            prim: id[1],
+            coords: [h.b1, h.b2],
+        }
+    }
 }
 
 /// A ray's hit on a surface, in world space.
@@ -461,26 +461,39 @@ impl Geometry {
     }
 
     fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, RawHit)> {
+        self.closest_with(
+            ray,
+            t_min,
+            t_max,
+            &mut (),
+            |bvh, r, t_max, _| bvh.intersect(r, t_min, t_max),
+            |inst, _, t_max, _| inst.intersect(ray, t_min, t_max),
+        )
+    }
+
+    /// The nearest hit over both levels: `flat(bvh, ray, t_max, state)` queries the world-space
+    /// triangles, `shape(instance, k, t_max, state)` one instance (`state` is what both share,
+    /// such as an accept function).
+    #[inline(always)]
+    fn closest_with<S: ?Sized>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        state: &mut S,
+        flat: impl FnOnce(&TriangleBvh, &TriRay, f32, &mut S) -> Option<([u32; 2], TriHit)>,
+        shape: impl Fn(&Instance, u32, f32, &mut S) -> Option<RawHit>,
+    ) -> Option<(u32, RawHit)> {
         let mut best: Option<(u32, RawHit)> = None;
         let mut t_max = t_max;
         if !self.flat.is_empty() {
-            if let Some((id, h)) = self
-                .flat
-                .intersect(&TriRay::new(ray.o, ray.d), t_min, t_max)
-            {
+            if let Some((id, h)) = flat(&self.flat, &TriRay::new(ray.o, ray.d), t_max, state) {
                 t_max = h.t;
-                best = Some((
-                    id[0],
-                    RawHit {
-                        t: h.t,
-                        prim: id[1],
-                        coords: [h.b1, h.b2],
-                    },
-                ));
+                best = Some((id[0], RawHit::of_triangle(id, &h)));
             }
         }
         for &k in &self.unbounded {
-            if let Some(h) = self.instances[k as usize].intersect(ray, t_min, t_max) {
+            if let Some(h) = shape(&self.instances[k as usize], k, t_max, state) {
                 t_max = h.t;
                 best = Some((k, h));
             }
@@ -492,7 +505,7 @@ impl Geometry {
                 &mut t_max,
                 |slot, t_max| {
                     let k = self.top_instances[self.top.prims[slot as usize] as usize];
-                    if let Some(h) = self.instances[k as usize].intersect(ray, t_min, *t_max) {
+                    if let Some(h) = shape(&self.instances[k as usize], k, *t_max, state) {
                         *t_max = h.t;
                         best = Some((k, h));
                     }
@@ -501,6 +514,41 @@ impl Geometry {
             );
         }
         best
+    }
+
+    /// Whether anything lies within (t_min, t_max) over both levels, with `flat` and `shape`
+    /// as in [`closest_with`](Self::closest_with).
+    #[inline(always)]
+    fn occluded_with<S: ?Sized>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        state: &mut S,
+        flat: impl FnOnce(&TriangleBvh, &TriRay, f32, &mut S) -> bool,
+        shape: impl Fn(&Instance, u32, f32, &mut S) -> bool,
+    ) -> bool {
+        if !self.flat.is_empty() && flat(&self.flat, &TriRay::new(ray.o, ray.d), t_max, state) {
+            return true;
+        }
+        for &k in &self.unbounded {
+            if shape(&self.instances[k as usize], k, t_max, state) {
+                return true;
+            }
+        }
+        if self.top_instances.is_empty() {
+            return false;
+        }
+        let mut t_max = t_max;
+        self.top.traverse(
+            &TraversalRay::new(ray.o, ray.d),
+            t_min,
+            &mut t_max,
+            |slot, t_max| {
+                let k = self.top_instances[self.top.prims[slot as usize] as usize];
+                shape(&self.instances[k as usize], k, *t_max, state)
+            },
+        )
     }
 }
 
@@ -514,54 +562,20 @@ impl Geometry {
         t_max: f32,
         accept: &mut dyn FnMut(u32, &RawHit) -> bool,
     ) -> Option<(u32, RawHit)> {
-        let mut best: Option<(u32, RawHit)> = None;
-        let mut t_max = t_max;
-        if !self.flat.is_empty() {
-            let raw = |id: [u32; 2], h: &triangle::TriHit| RawHit {
-                t: h.t,
-                prim: id[1],
-                coords: [h.b1, h.b2],
-            };
-            if let Some((id, h)) = self.flat.intersect_accepted(
-                &TriRay::new(ray.o, ray.d),
-                t_min,
-                t_max,
-                &mut |id, h| accept(id[0], &raw(id, h)),
-            ) {
-                t_max = h.t;
-                best = Some((id[0], raw(id, &h)));
-            }
-        }
-        for &k in &self.unbounded {
-            if let Some(h) =
-                self.instances[k as usize]
-                    .intersect_accepted(ray, t_min, t_max, &mut |h| accept(k, h))
-            {
-                t_max = h.t;
-                best = Some((k, h));
-            }
-        }
-        if !self.top_instances.is_empty() {
-            self.top.traverse(
-                &TraversalRay::new(ray.o, ray.d),
-                t_min,
-                &mut t_max,
-                |slot, t_max| {
-                    let k = self.top_instances[self.top.prims[slot as usize] as usize];
-                    if let Some(h) = self.instances[k as usize].intersect_accepted(
-                        ray,
-                        t_min,
-                        *t_max,
-                        &mut |h| accept(k, h),
-                    ) {
-                        *t_max = h.t;
-                        best = Some((k, h));
-                    }
-                    false
-                },
-            );
-        }
-        best
+        self.closest_with(
+            ray,
+            t_min,
+            t_max,
+            accept,
+            |bvh, r, t_max, accept| {
+                bvh.intersect_accepted(r, t_min, t_max, &mut |id, h| {
+                    accept(id[0], &RawHit::of_triangle(id, h))
+                })
+            },
+            |inst, k, t_max, accept| {
+                inst.intersect_accepted(ray, t_min, t_max, &mut |h| accept(k, h))
+            },
+        )
     }
 
     /// Whether a hit within (t_min, t_max) is one `accept` takes.
@@ -572,42 +586,18 @@ impl Geometry {
         t_max: f32,
         accept: &mut dyn FnMut(u32, &RawHit) -> bool,
     ) -> bool {
-        if !self.flat.is_empty()
-            && self.flat.occluded_accepted(
-                &TriRay::new(ray.o, ray.d),
-                t_min,
-                t_max,
-                &mut |id, h| {
-                    accept(
-                        id[0],
-                        &RawHit {
-                            t: h.t,
-                            prim: id[1],
-                            coords: [h.b1, h.b2],
-                        },
-                    )
-                },
-            )
-        {
-            return true;
-        }
-        if self.unbounded.iter().any(|&k| {
-            self.instances[k as usize].occluded_accepted(ray, t_min, t_max, &mut |h| accept(k, h))
-        }) {
-            return true;
-        }
-        if self.top_instances.is_empty() {
-            return false;
-        }
-        let mut t_max = t_max;
-        self.top.traverse(
-            &TraversalRay::new(ray.o, ray.d),
+        self.occluded_with(
+            ray,
             t_min,
-            &mut t_max,
-            |slot, t_max| {
-                let k = self.top_instances[self.top.prims[slot as usize] as usize];
-                self.instances[k as usize]
-                    .occluded_accepted(ray, t_min, *t_max, &mut |h| accept(k, h))
+            t_max,
+            accept,
+            |bvh, r, t_max, accept| {
+                bvh.occluded_accepted(r, t_min, t_max, &mut |id, h| {
+                    accept(id[0], &RawHit::of_triangle(id, h))
+                })
+            },
+            |inst, k, t_max, accept| {
+                inst.occluded_accepted(ray, t_min, t_max, &mut |h| accept(k, h))
             },
         )
     }
@@ -620,28 +610,13 @@ impl Accel for Geometry {
     }
 
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        if !self.flat.is_empty() && self.flat.occluded(&TriRay::new(ray.o, ray.d), t_min, t_max) {
-            return true;
-        }
-        if self
-            .unbounded
-            .iter()
-            .any(|&k| self.instances[k as usize].occluded(ray, t_min, t_max))
-        {
-            return true;
-        }
-        if self.top_instances.is_empty() {
-            return false;
-        }
-        let mut t_max = t_max;
-        self.top.traverse(
-            &TraversalRay::new(ray.o, ray.d),
+        self.occluded_with(
+            ray,
             t_min,
-            &mut t_max,
-            |slot, t_max| {
-                let k = self.top_instances[self.top.prims[slot as usize] as usize];
-                self.instances[k as usize].occluded(ray, t_min, *t_max)
-            },
+            t_max,
+            &mut (),
+            |bvh, r, t_max, _| bvh.occluded(r, t_min, t_max),
+            |inst, _, t_max, _| inst.occluded(ray, t_min, t_max),
         )
     }
 }
