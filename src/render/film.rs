@@ -161,12 +161,22 @@ impl PixelSum {
 
     /// Variance of the mean, per channel (∞ with fewer than two samples).
     pub(super) fn var_of_mean(&self) -> DVec3 {
-        if self.good < 2 {
-            return DVec3::splat(f64::INFINITY);
+        self.var_of_mean_and_mean().0
+    }
+
+    /// [`var_of_mean`](Self::var_of_mean) and [`mean`](Self::mean) from one conversion of the
+    /// sums (an i128 → f64 conversion is a library call).
+    fn var_of_mean_and_mean(&self) -> (DVec3, DVec3) {
+        if self.good == 0 {
+            return (DVec3::splat(f64::INFINITY), DVec3::ZERO);
         }
         let n = f64::from(self.good);
         let m = self.sum_f64() / n;
-        ((self.sum_sq_f64() - m * m * n) / (n - 1.0)).max(DVec3::ZERO) / n
+        if self.good < 2 {
+            return (DVec3::splat(f64::INFINITY), m);
+        }
+        let var = ((self.sum_sq_f64() - m * m * n) / (n - 1.0)).max(DVec3::ZERO) / n;
+        (var, m)
     }
 
     /// Relative variance of one sample, Σ var / (m² + ε) over channels / 3 (∞ with fewer
@@ -177,8 +187,12 @@ impl PixelSum {
 
     /// Relative variance of the mean: Σ var / (m² + ε) over channels / 3.
     pub(super) fn rel_var(&self) -> f64 {
-        let m = self.mean();
-        (self.var_of_mean() / (m * m + DVec3::splat(REL_EPSILON))).element_sum() / 3.0
+        let (var, m) = self.var_of_mean_and_mean();
+        Self::relative(var, m)
+    }
+
+    fn relative(var: DVec3, m: DVec3) -> f64 {
+        (var / (m * m + DVec3::splat(REL_EPSILON))).element_sum() / 3.0
     }
 }
 
@@ -303,13 +317,14 @@ impl Film {
     /// The image's estimated error from its per-pixel variances.
     pub fn estimate(&self) -> ErrorEstimate {
         let n = self.pixels.len() as f64;
-        let mse = self
-            .pixels
-            .iter()
-            .map(|p| p.var_of_mean().element_sum() / 3.0)
-            .sum::<f64>()
-            / n;
-        let rel = self.pixels.iter().map(PixelSum::rel_var).sum::<f64>() / n;
+        // One pass, each pixel's sums converted once; the two sums add in pixel order.
+        let (mut mse, mut rel) = (0.0f64, 0.0f64);
+        for p in &self.pixels {
+            let (var, m) = p.var_of_mean_and_mean();
+            mse += var.element_sum() / 3.0;
+            rel += PixelSum::relative(var, m);
+        }
+        let (mse, rel) = (mse / n, rel / n);
         ErrorEstimate {
             rmse: mse.sqrt(),
             rel_error: rel.sqrt(),
