@@ -146,10 +146,7 @@ impl Sampler {
             SamplerKind::Sobol => {
                 self.dimension += 1;
                 let hash = self.next_dimension_hash();
-                let shuffled = shuffled_index(self.reversed_index, hash);
-                let choice = laine_karras(sobol_dim2_reversed(shuffled), scramble_seed_z(hash))
-                    .reverse_bits();
-                (to_unit(choice), owen_sobol_2d_shuffled(shuffled, hash))
+                owen_sobol_3d_shuffled(shuffled_index(self.reversed_index, hash), hash)
             }
         }
     }
@@ -177,10 +174,10 @@ impl Sampler {
                 let hash = self.next_dimension_hash();
                 let first = self.reversed_index.reverse_bits().wrapping_mul(n);
                 for (j, o) in (0u32..).zip(out.iter_mut()) {
-                    let shuffled = shuffled_index((first + j).reverse_bits(), hash);
-                    let choice = laine_karras(sobol_dim2_reversed(shuffled), scramble_seed_z(hash))
-                        .reverse_bits();
-                    *o = (to_unit(choice), owen_sobol_2d_shuffled(shuffled, hash));
+                    *o = owen_sobol_3d_shuffled(
+                        shuffled_index((first + j).reverse_bits(), hash),
+                        hash,
+                    );
                 }
             }
         }
@@ -224,6 +221,14 @@ fn owen_sobol_2d_shuffled(shuffled: u32, hash: u64) -> glam::Vec2 {
     let x = owen_sobol_x(shuffled, hash);
     let y = laine_karras(sobol_dim1_reversed(shuffled), scramble_seed_y(hash)).reverse_bits();
     glam::Vec2::new(to_unit(x), to_unit(y))
+}
+
+/// Dimensions 2, 0 and 1 of the shuffled index, each Owen-scrambled (the third seeded by
+/// [`scramble_seed_z`]): a lobe choice and a 2D point, [`Sampler::get_choice_2d`].
+#[inline(always)]
+fn owen_sobol_3d_shuffled(shuffled: u32, hash: u64) -> (f32, glam::Vec2) {
+    let choice = laine_karras(sobol_dim2_reversed(shuffled), scramble_seed_z(hash)).reverse_bits();
+    (to_unit(choice), owen_sobol_2d_shuffled(shuffled, hash))
 }
 
 /// The Owen-scrambled sample index (its nested uniform scramble, seeded by the low half of

@@ -134,19 +134,7 @@ fn compensated_environment_sampling_is_unbiased() {
 /// (in the mean: with light sampling each sample is no longer exactly L).
 #[test]
 fn constant_environment_white_furnace() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = r#"{"format_version": 2,
-        "image": {"width": 16, "height": 16},
-        "render": {"spp": 256, "max_depth": 64, "seed": 3},
-        "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y_deg": 20},
-        "background": {"color": [0.5, 0.5, 0.5]},
-        "materials": {"white": {"base_color": [1, 1, 1], "specular": 0}},
-        "objects": [{"sphere": {"material": "white", "radius": 1}}]}"#;
-    let path = dir.path().join("furnace.json");
-    std::fs::write(&path, text).unwrap();
-    let scene = common::build(&common::load_scene(&path), dir.path());
-    let image = common::render(&scene);
-    let mean = image.mean();
+    let mean = furnace_mean(r#"{"base_color": [1, 1, 1], "specular": 0}"#, 256, 3);
     // 16² pixels × 256 spp; the per-sample spread is below 0.5 (MIS weights in [0, 1]).
     let tol = 4.0 * 0.5 / (16.0f32 * 16.0 * 256.0).sqrt();
     for c in mean.to_array() {
@@ -163,21 +151,31 @@ fn constant_environment_white_furnace() {
 /// fail.
 #[test]
 fn glossy_white_furnace_with_split_bsdf_samples() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = r#"{"format_version": 2,
-        "image": {"width": 16, "height": 16},
-        "render": {"spp": 1024, "max_depth": 64, "seed": 5},
-        "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y_deg": 20},
-        "background": {"color": [0.5, 0.5, 0.5]},
-        "materials": {"metal": {"base_color": [1, 1, 1], "metallic": 1, "roughness": 0.4}},
-        "objects": [{"sphere": {"material": "metal", "radius": 1}}]}"#;
-    let path = dir.path().join("furnace.json");
-    std::fs::write(&path, text).unwrap();
-    let scene = common::build(&common::load_scene(&path), dir.path());
-    let mean = common::render(&scene).mean();
+    let metal = r#"{"base_color": [1, 1, 1], "metallic": 1, "roughness": 0.4}"#;
+    let mean = furnace_mean(metal, 1024, 5);
     for c in mean.to_array() {
         assert!((c - 0.5).abs() < 0.5 * 0.005, "mean {mean:?}");
     }
+}
+
+/// The mean of a 16² render (`spp` samples per pixel, depth 64, `seed`) of a unit sphere of
+/// `material` (JSON) that fills the view, in a uniform environment of radiance 0.5: a white
+/// furnace.
+fn furnace_mean(material: &str, spp: u32, seed: u64) -> lumo::math::Vec3 {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        r#"{{"format_version": 2,
+        "image": {{"width": 16, "height": 16}},
+        "render": {{"spp": {spp}, "max_depth": 64, "seed": {seed}}},
+        "camera": {{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y_deg": 20}},
+        "background": {{"color": [0.5, 0.5, 0.5]}},
+        "materials": {{"m": {material}}},
+        "objects": [{{"sphere": {{"material": "m", "radius": 1}}}}]}}"#
+    );
+    let path = dir.path().join("furnace.json");
+    std::fs::write(&path, text).unwrap();
+    let scene = common::build(&common::load_scene(&path), dir.path());
+    common::render(&scene).mean()
 }
 
 /// A smooth glass sphere, solid and thin-walled, in a uniform grey environment (a white
@@ -187,22 +185,11 @@ fn glossy_white_furnace_with_split_bsdf_samples() {
 /// Counting that light twice (+4.8 %) or not at all (−4.8 %) fails.
 #[test]
 fn glass_white_furnace_with_split_mirror_reflection() {
-    let dir = tempfile::tempdir().unwrap();
     for (name, volume) in [("solid", r#", "volume": {}"#), ("thin", "")] {
-        let text = format!(
-            r#"{{"format_version": 2,
-            "image": {{"width": 16, "height": 16}},
-            "render": {{"spp": 256, "max_depth": 64, "seed": 5}},
-            "camera": {{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y_deg": 20}},
-            "background": {{"color": [0.5, 0.5, 0.5]}},
-            "materials": {{"glass": {{"base_color": [1, 1, 1], "roughness": 0,
-                "transmission": 1, "ior": 1.5{volume}}}}},
-            "objects": [{{"sphere": {{"material": "glass", "radius": 1}}}}]}}"#
+        let glass = format!(
+            r#"{{"base_color": [1, 1, 1], "roughness": 0, "transmission": 1, "ior": 1.5{volume}}}"#
         );
-        let path = dir.path().join(format!("{name}.json"));
-        std::fs::write(&path, text).unwrap();
-        let scene = common::build(&common::load_scene(&path), dir.path());
-        let mean = common::render(&scene).mean();
+        let mean = furnace_mean(&glass, 256, 5);
         for c in mean.to_array() {
             assert!((c - 0.5).abs() < 0.5 * 0.005, "{name}: mean {mean:?}");
         }

@@ -141,9 +141,8 @@ impl Bsdf {
 
     /// Whether the BSDF is an opaque glossy reflector whose smooth, narrow specular lobe
     /// (roughness below 0.5) is sampled at least half of the time for the `wo` it was made for
-    /// (polished metals, shiny plastics): where BSDF
-    /// sampling finds most of the direct light, and where the path tracer draws more BSDF
-    /// samples for it at the first vertex.
+    /// (polished metals, shiny plastics): where BSDF sampling finds most of the direct light,
+    /// and where the path tracer draws more BSDF samples for it at the first vertex.
     pub fn is_glossy_dominated(&self) -> bool {
         match &self.lobes {
             Lobes::MetallicRoughness(m, at) => m.is_glossy_dominated(at),

@@ -105,7 +105,26 @@ struct PacketHits {
     inv_det: Vec4,
 }
 
+impl PacketHits {
+    /// The hit in `lane` (one of `mask`'s).
+    #[inline(always)]
+    fn hit(&self, lane: usize) -> TriHit {
+        let inv = self.inv_det[lane];
+        TriHit {
+            t: self.t[lane],
+            b1: self.v[lane] * inv,
+            b2: self.w[lane] * inv,
+        }
+    }
+}
+
 impl Packet {
+    /// The lanes holding triangles of their own (not repeating lane 0), as a mask.
+    #[inline(always)]
+    fn own_lanes(&self) -> u32 {
+        (1u32 << self.count) - 1
+    }
+
     /// The packet of slots `first..first + count` (at most four), `corners(slot)` giving each
     /// slot's triangle.
     fn new(corners: impl Fn(usize) -> [Vec3A; 3], first: usize, count: usize) -> Packet {
@@ -213,16 +232,8 @@ impl Leaf for Closest<'_> {
             let nearest = h.t.min_element();
             let lane =
                 (h.t.cmpeq(Vec4::splat(nearest)).bitmask() & h.mask).trailing_zeros() as usize;
-            let inv = h.inv_det[lane];
             *t_max = nearest;
-            self.best = Some((
-                p.first + lane as u32,
-                TriHit {
-                    t: nearest,
-                    b1: h.v[lane] * inv,
-                    b2: h.w[lane] * inv,
-                },
-            ));
+            self.best = Some((p.first + lane as u32, h.hit(lane)));
         }
         false
     }
@@ -244,7 +255,7 @@ impl Leaf for ClosestAccepted<'_> {
     #[inline(always)]
     fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
-        let mut mask = h.mask & ((1u32 << p.count) - 1);
+        let mut mask = h.mask & p.own_lanes();
         while mask != 0 {
             let mut lane = mask.trailing_zeros() as usize;
             let mut rest = mask & (mask - 1);
@@ -255,12 +266,7 @@ impl Leaf for ClosestAccepted<'_> {
                     lane = l;
                 }
             }
-            let inv = h.inv_det[lane];
-            let hit = TriHit {
-                t: h.t[lane],
-                b1: h.v[lane] * inv,
-                b2: h.w[lane] * inv,
-            };
+            let hit = h.hit(lane);
             let slot = p.first + lane as u32;
             // SAFETY: packets hold slots of the tree's triangles only.
             let id = unsafe { *self.ids.get_unchecked(slot as usize) };
@@ -287,16 +293,11 @@ impl Leaf for AnyAccepted<'_> {
     #[inline(always)]
     fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
-        let mut mask = h.mask & ((1u32 << p.count) - 1);
+        let mut mask = h.mask & p.own_lanes();
         while mask != 0 {
             let lane = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            let inv = h.inv_det[lane];
-            let hit = TriHit {
-                t: h.t[lane],
-                b1: h.v[lane] * inv,
-                b2: h.w[lane] * inv,
-            };
+            let hit = h.hit(lane);
             // SAFETY: packets hold slots of the tree's triangles only.
             let id = unsafe { *self.ids.get_unchecked((p.first + lane as u32) as usize) };
             if (self.accept)(id, &hit) {
