@@ -57,7 +57,9 @@ pub struct Environment {
     /// Multiplies the radiance.
     pub strength: f32,
     /// Rotation about +y in radians (counter-clockwise seen from above).
-    pub rotation: f32,
+    rotation: f32,
+    /// sin and cos of −`rotation`, which every lookup needs.
+    unrotate: (f32, f32),
     /// Whether camera rays see it.
     pub visible: bool,
 }
@@ -80,6 +82,7 @@ impl Environment {
             radiance: Radiance::Constant(color),
             strength,
             rotation: 0.0,
+            unrotate: (-0.0f32).sin_cos(),
             visible,
         }
     }
@@ -159,6 +162,7 @@ impl Environment {
             },
             strength,
             rotation,
+            unrotate: (-rotation).sin_cos(),
             visible,
         }
     }
@@ -175,11 +179,13 @@ impl Environment {
     /// Image coordinates (u, v from the bottom) of a world direction.
     fn uv(&self, d: Vec3) -> Vec2 {
         // Rotating the image by φ about +y = looking it up in the direction rotated by −φ.
-        let (s, c) = (-self.rotation).sin_cos();
+        let (s, c) = self.unrotate;
         let (x, z) = (c * d.x + s * d.z, -s * d.x + c * d.z);
         let u = 0.5 + z.atan2(x) / (2.0 * PI);
         let v = 0.5 + d.y.clamp(-1.0, 1.0).asin() / PI;
-        Vec2::new(u.rem_euclid(1.0), v)
+        // u ∈ [0, 1] (atan2 ∈ [−π, π]; NaN stays NaN): `rem_euclid(1.0)` without its library
+        // call, exact (u − 1 is exact for u ∈ [1, 2)).
+        Vec2::new(if u >= 1.0 { u - 1.0 } else { u }, v)
     }
 
     /// The world direction of image coordinates (inverse of [`Environment::uv`]).

@@ -134,15 +134,23 @@ impl Texture {
 
     /// The four texels around `uv` (row-major indices) and the bilinear weights of the
     /// right column and bottom row; `None` for non-finite coordinates.
+    #[inline(always)]
     fn footprint(&self, uv: Vec2) -> Option<([usize; 4], f32, f32)> {
-        if !uv.is_finite() {
-            return None;
-        }
         let x = uv.x * self.width as f32 - 0.5;
         let y = (1.0 - uv.y) * self.height as f32 - 0.5;
-        let (x0, y0) = (floor(x), floor(y));
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (x0, y0, fx, fy) = if x.abs() < 8_388_608.0 && y.abs() < 8_388_608.0 {
+            // The usual case: ⌊·⌋ (as `floor`) through 32-bit integers, without the saturating
+            // conversions of the general case. SAFETY: |x|, |y| < 2²³ (neither is NaN).
+            let (tx, ty) = unsafe { (x.to_int_unchecked::<i32>(), y.to_int_unchecked::<i32>()) };
+            let (x0, y0) = (tx - i32::from(tx as f32 > x), ty - i32::from(ty as f32 > y));
+            let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+            (i64::from(x0), i64::from(y0), fx, fy)
+        } else if uv.is_finite() {
+            let (x0, y0) = (floor(x), floor(y));
+            (x0 as i64, y0 as i64, x - x0, y - y0)
+        } else {
+            return None;
+        };
         let w = self.width as usize;
         let (ws, wt) = (self.wrap_s, self.wrap_t);
         let (xa, xb) = (
@@ -161,8 +169,15 @@ impl Texture {
         let Some(([a, b, c, d], fx, fy)) = self.footprint(uv) else {
             return Vec3::ZERO;
         };
-        let top = self.texel(a) * (1.0 - fx) + self.texel(b) * fx;
-        let bottom = self.texel(c) * (1.0 - fx) + self.texel(d) * fx;
+        let [ta, tb, tc, td] = match &self.texels {
+            Texels::Float { rgb, .. } => [rgb[a], rgb[b], rgb[c], rgb[d]],
+            Texels::Rgba8 { rgba, decode, .. } => [a, b, c, d].map(|i| {
+                let [r, g, b, _] = rgba[i];
+                Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
+            }),
+        };
+        let top = ta * (1.0 - fx) + tb * fx;
+        let bottom = tc * (1.0 - fx) + td * fx;
         top * (1.0 - fy) + bottom * fy
     }
 
@@ -222,6 +237,34 @@ mod tests {
         }
         assert_eq!(t.lookup_alpha(Vec2::new(0.25, 0.75)), 0.0);
         assert!((t.lookup_alpha(Vec2::new(0.5, 0.5)) - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn footprints_take_the_floor_of_the_texel_coordinates() {
+        // The integer fast path against `f32::floor`, at integers, just off them and far out,
+        // on both sides of zero, for each wrap mode.
+        for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
+            let t = Texture::from_rgb(5, 3, vec![Vec3::ONE; 15], wrap, wrap);
+            for k in -40_000i32..40_000 {
+                let x = k as f32 / 64.0 + [0.0, 1e-6, -1e-6][k.rem_euclid(3) as usize];
+                let uv = Vec2::new((x + 0.5) / 5.0, 1.0 - (0.37 * x + 0.5) / 3.0);
+                let Some(([a, b, c, d], fx, fy)) = t.footprint(uv) else {
+                    panic!("{uv}");
+                };
+                let (px, py) = (uv.x * 5.0 - 0.5, (1.0 - uv.y) * 3.0 - 0.5);
+                let (x0, y0) = (px.floor(), py.floor());
+                assert_eq!((fx, fy), (px - x0, py - y0), "{uv}");
+                let col = |i: f32| Texture::wrap_index(wrap, i as i64, 5);
+                let row = |i: f32| Texture::wrap_index(wrap, i as i64, 3);
+                let (xa, xb, ya, yb) = (col(x0), col(x0 + 1.0), row(y0), row(y0 + 1.0));
+                assert_eq!(
+                    [a, b, c, d],
+                    [ya * 5 + xa, ya * 5 + xb, yb * 5 + xa, yb * 5 + xb]
+                );
+            }
+            assert!(t.footprint(Vec2::new(f32::NAN, 0.5)).is_none());
+            assert!(t.footprint(Vec2::new(0.5, f32::INFINITY)).is_none());
+        }
     }
 
     #[test]

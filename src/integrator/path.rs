@@ -83,8 +83,10 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         // Next-event estimation: one light, chosen (by power or by the light tree, for this
         // point and normal) with the first coordinate of the light's 2D sample, which is then
         // remapped to sample a point on it.
-        let u_light = sampler.get_2d();
-        if bsdf.has_smooth_lobe() {
+        if !bsdf.has_smooth_lobe() {
+            sampler.skip_2d();
+        } else {
+            let u_light = sampler.get_2d();
             if let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x) {
                 let light = &scene.lights[index];
                 if let Some(ls) = light.sample_mis(hit.p, glam::Vec2::new(u_x, u_light.y)) {

@@ -27,7 +27,13 @@ pub(super) fn render_samples(
             (x as f32 + jitter.x) / s.width as f32,
             (y as f32 + jitter.y) / s.height as f32,
         );
-        let ray = scene.camera.ray(film, sampler.get_2d());
+        let u_lens = if scene.camera.lens_radius > 0.0 {
+            sampler.get_2d()
+        } else {
+            sampler.skip_2d();
+            Vec2::ZERO
+        };
+        let ray = scene.camera.ray(film, u_lens);
         sums.add_sample(radiance(scene, ray, &mut sampler, stats).as_dvec3());
     }
     sums
