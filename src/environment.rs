@@ -181,7 +181,7 @@ impl Environment {
         // Rotating the image by φ about +y = looking it up in the direction rotated by −φ.
         let (s, c) = self.unrotate;
         let (x, z) = (c * d.x + s * d.z, -s * d.x + c * d.z);
-        let u = 0.5 + z.atan2(x) / (2.0 * PI);
+        let u = 0.5 + crate::math::atan2(z, x) / (2.0 * PI);
         let v = 0.5 + d.y.clamp(-1.0, 1.0).asin() / PI;
         // u ∈ [0, 1] (atan2 ∈ [−π, π]; NaN stays NaN): `rem_euclid(1.0)` without its library
         // call, exact (u − 1 is exact for u ∈ [1, 2)).
