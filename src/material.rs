@@ -3,7 +3,7 @@
 
 use crate::bsdf::layered::{Clearcoat, Layered, Sheen};
 use crate::bsdf::{Bsdf, Lobes, MetallicRoughness};
-use crate::geometry::SurfaceHit;
+use crate::geometry::{OpacityInputs, SurfaceHit};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::texture::{Texture, TextureRef};
 
@@ -224,13 +224,13 @@ impl Material {
 
     /// The probability in [0, 1] that a ray meeting the surface at `hit` stops there (1 for
     /// opaque materials): alpha × texture alpha × vertex alpha, thresholded for `Mask`.
-    pub fn opacity(&self, textures: &[Texture], hit: &SurfaceHit) -> f32 {
+    pub fn opacity(&self, textures: &[Texture], at: &OpacityInputs) -> f32 {
         if self.alpha_mode == AlphaMode::Opaque {
             return 1.0;
         }
-        let mut alpha = self.alpha * hit.color.w;
+        let mut alpha = self.alpha * at.color_alpha;
         if let Some(r) = &self.base_color_texture {
-            alpha *= textures[r.texture as usize].lookup_alpha(r.coords(hit.uv, hit.uv1));
+            alpha *= textures[r.texture as usize].lookup_alpha(r.coords(at.uv, at.uv1));
         }
         match self.alpha_mode {
             AlphaMode::Mask(cutoff) => {

@@ -40,6 +40,17 @@ pub struct Mesh {
     bvh: OnceLock<TriangleBvh>,
 }
 
+/// What a material's opacity reads at a hit (see [`crate::material::Material::opacity`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OpacityInputs {
+    /// Texture coordinates (set 0).
+    pub uv: Vec2,
+    /// Texture coordinates (set 1).
+    pub uv1: Vec2,
+    /// The vertex colour's alpha (1 without vertex colours).
+    pub color_alpha: f32,
+}
+
 /// Where a ray meets a mesh.
 #[derive(Debug, Clone, Copy)]
 pub struct MeshHit {
@@ -224,13 +235,39 @@ impl Mesh {
             }
             None => ng,
         };
-        let uv = match &self.data.uvs {
+        (p, ng, ns, self.uv(tri, b0, h))
+    }
+
+    /// Interpolated texture coordinates of a hit on triangle `tri` (barycentric weights b0 and
+    /// those of `h`); the barycentric coordinates themselves without them.
+    #[inline(always)]
+    fn uv(&self, tri: [u32; 3], b0: f32, h: &MeshHit) -> Vec2 {
+        match &self.data.uvs {
             Some(t) => {
                 t[tri[0] as usize] * b0 + t[tri[1] as usize] * h.b1 + t[tri[2] as usize] * h.b2
             }
             None => Vec2::new(h.b1, h.b2),
-        };
-        (p, ng, ns, uv)
+        }
+    }
+
+    /// What alpha masks and blending read at a hit, as [`Mesh::surface`] and
+    /// [`Mesh::attributes`] compute it: both texture coordinate sets and the vertex colour's
+    /// alpha (1 without colours), and nothing else of the surface.
+    pub fn opacity_inputs(&self, h: &MeshHit) -> OpacityInputs {
+        let tri = self.data.triangles[h.prim as usize];
+        let b0 = 1.0 - h.b1 - h.b2;
+        let uv1 = self.data.uvs1.as_ref().map_or(Vec2::ZERO, |a| {
+            a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
+        });
+        // The w lane of the colour `attributes` interpolates: the same operations.
+        let color_alpha = self.data.colors.as_ref().map_or(1.0, |a| {
+            a[tri[0] as usize].w * b0 + a[tri[1] as usize].w * h.b1 + a[tri[2] as usize].w * h.b2
+        });
+        OpacityInputs {
+            uv: self.uv(tri, b0, h),
+            uv1,
+            color_alpha,
+        }
     }
 
     /// Angle-weighted vertex normals (Thürmer and Wüthrich 1998): each face contributes its
@@ -312,6 +349,67 @@ mod tests {
 
     use crate::geometry::triangle::{self, RayShear};
     use crate::sampler::test_lcg as lcg;
+
+    #[test]
+    fn opacity_inputs_are_those_of_the_full_surface() {
+        let mut state = 3u64;
+        let mut v3 = || Vec3::new(lcg(&mut state), lcg(&mut state), lcg(&mut state));
+        let positions: Vec<Vec3> = (0..30).map(|_| v3() * 4.0 - 2.0).collect();
+        let uvs: Vec<Vec2> = positions
+            .iter()
+            .map(|p| Vec2::new(p.x * 3.1, p.y - p.z))
+            .collect();
+        let uvs1: Vec<Vec2> = positions
+            .iter()
+            .map(|p| Vec2::new(p.z, 0.7 * p.x))
+            .collect();
+        let colors: Vec<Vec4> = positions
+            .iter()
+            .map(|p| (p.abs() / 2.0).extend(p.x.abs() / 2.0))
+            .collect();
+        let triangles: Vec<[u32; 3]> = (0..10).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        let full = MeshData {
+            positions: Arc::new(positions),
+            triangles: Arc::new(triangles),
+            normals: None,
+            uvs: Some(Arc::new(uvs)),
+            uvs1: Some(Arc::new(uvs1)),
+            tangents: None,
+            colors: Some(Arc::new(colors)),
+        };
+        let bare = MeshData {
+            uvs: None,
+            uvs1: None,
+            colors: None,
+            ..full.clone()
+        };
+        for data in [full, bare] {
+            let (mesh, _) = Mesh::new(data);
+            for k in 0..1000u32 {
+                let (b1, b2) = (lcg(&mut state), lcg(&mut state));
+                let (b1, b2) = if b1 + b2 > 1.0 {
+                    (1.0 - b1, 1.0 - b2)
+                } else {
+                    (b1, b2)
+                };
+                let h = MeshHit {
+                    t: 1.0,
+                    prim: k % 10,
+                    b1,
+                    b2,
+                };
+                let (_, _, _, uv) = mesh.surface(&h);
+                let (uv1, _, color) = mesh.attributes(&h);
+                let want = OpacityInputs {
+                    uv,
+                    uv1,
+                    color_alpha: color.w,
+                };
+                // Bit for bit: the alpha test decides like the shading of the same hit.
+                assert_eq!(mesh.opacity_inputs(&h), want);
+            }
+        }
+    }
 
     /// The BVH-accelerated mesh must agree with testing every triangle (the oracle).
     #[test]

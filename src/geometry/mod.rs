@@ -13,7 +13,7 @@ use glam::{Vec3A, Vec4};
 
 use crate::bvh::{Bvh, TraversalRay};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
-pub use mesh::Mesh;
+pub use mesh::{Mesh, OpacityInputs};
 pub use sphere::{Plane, Sphere};
 use triangle::TriHit;
 pub use triangle_bvh::{TriRay, TriangleBvh};
@@ -181,6 +181,27 @@ impl Instance {
             return m.occluded_accepted(r.o, r.d, t_min, t_max, accept);
         }
         self.intersect_accepted(ray, t_min, t_max, accept).is_some()
+    }
+
+    /// What alpha masks and blending read at a hit (see [`Mesh::opacity_inputs`]); for meshes
+    /// without the rest of the surface, which traversals need only for hits they keep.
+    pub fn opacity_inputs(&self, ray: &Ray, raw: &RawHit, instance: u32) -> OpacityInputs {
+        match &self.shape {
+            Shape::Mesh(m) => m.opacity_inputs(&mesh::MeshHit {
+                t: raw.t,
+                prim: raw.prim,
+                b1: raw.coords[0],
+                b2: raw.coords[1],
+            }),
+            _ => {
+                let hit = self.surface(ray, raw, instance);
+                OpacityInputs {
+                    uv: hit.uv,
+                    uv1: hit.uv1,
+                    color_alpha: hit.color.w,
+                }
+            }
+        }
     }
 
     /// The full surface description of a hit.

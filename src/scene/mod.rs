@@ -107,9 +107,8 @@ impl Scene {
         if !material.has_alpha() {
             return true;
         }
-        let hit = instance.surface(ray, raw, k);
-        let opacity = material.opacity(&self.textures, &hit);
-        opacity >= 1.0 || (opacity > 0.0 && alpha_hash(ray, &hit) < opacity)
+        let opacity = material.opacity(&self.textures, &instance.opacity_inputs(ray, raw, k));
+        opacity >= 1.0 || (opacity > 0.0 && alpha_hash(ray, raw, k) < opacity)
     }
 
     /// Radiance arriving along a ray that left the scene in direction `d` (unit), the MIS
@@ -178,7 +177,7 @@ impl Scene {
 }
 
 /// A uniform number in [0, 1) from a ray and a hit on it.
-fn alpha_hash(ray: &Ray, hit: &SurfaceHit) -> f32 {
+fn alpha_hash(ray: &Ray, hit: &RawHit, instance: u32) -> f32 {
     let bits = |v: Vec3| {
         (u64::from(v.x.to_bits()) << 32 | u64::from(v.y.to_bits()))
             ^ u64::from(v.z.to_bits()).rotate_left(17)
@@ -187,7 +186,7 @@ fn alpha_hash(ray: &Ray, hit: &SurfaceHit) -> f32 {
     h = crate::sampler::mix64(h ^ bits(ray.d));
     h = crate::sampler::mix64(
         h ^ (u64::from(hit.t.to_bits()) << 32 | u64::from(hit.prim))
-            ^ u64::from(hit.instance).rotate_left(40),
+            ^ u64::from(instance).rotate_left(40),
     );
     (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
