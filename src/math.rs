@@ -298,14 +298,11 @@ mod tests {
             worst = worst.max((f64::from(atan2(y, x)) - exact).abs());
         }
         assert!(worst < 3e-7, "worst error {worst:e}");
-        for (y, x, want) in [
-            (0.0, 1.0, 0.0),
-            (1.0, 0.0, 1.5707964),
-            (0.0, -1.0, 3.1415927),
-        ] {
+        use std::f32::consts::{FRAC_PI_2, PI};
+        for (y, x, want) in [(0.0, 1.0, 0.0), (1.0, 0.0, FRAC_PI_2), (0.0, -1.0, PI)] {
             assert_eq!(atan2(y, x), want);
         }
-        assert_eq!(atan2(-1.0, 0.0), -1.5707964);
+        assert_eq!(atan2(-1.0, 0.0), -FRAC_PI_2);
         assert_eq!(atan2(0.0, 0.0), 0.0);
         assert!(atan2(f32::NAN, 1.0).is_nan() && atan2(1.0, f32::NAN).is_nan());
     }
