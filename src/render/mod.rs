@@ -110,10 +110,12 @@ pub struct RenderOptions<'a> {
     /// tile they are on, the pass in flight is dropped, and the film of the passes finished so
     /// far is returned, marked interrupted: it holds whole passes only.
     pub cancel: Option<&'a AtomicBool>,
-    /// Called after every finished pass with the film so far (for checkpoints). Setting it, or
-    /// `cancel`, makes uniform renders progressive (passes of doubling size, each at most
-    /// [`MAX_PASS_SECONDS`] long once the throughput is known), so that there are whole passes
-    /// to keep; the image is the same bits either way (the film's sums are exact).
+    /// Called after every finished pass with the film so far (for checkpoints, previews).
+    /// Setting it, or `cancel`, makes uniform renders progressive, so that there are whole passes
+    /// to keep: with it, passes of doubling size (progress shows early); with `cancel` alone, a
+    /// first pass of two samples per pixel and then passes as large as fit; each at most
+    /// [`MAX_PASS_SECONDS`] long once the throughput is known. The image is the same bits either
+    /// way (the film's sums are exact).
     pub on_pass: Option<&'a (dyn Fn(&Film) + Sync)>,
 }
 

@@ -149,6 +149,56 @@ fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
     }
 }
 
+/// The pass sizes (spp) a schedule asks for when every sample takes `seconds_per_sample`.
+fn pass_sizes(options: &RenderOptions, seconds_per_sample: f64) -> Vec<u32> {
+    let plan = Plan {
+        width: 10,
+        height: 10,
+        spp: 64,
+        budget: None,
+        seed: 1,
+    };
+    let film = Film::new(10, 10);
+    let mut schedule = Schedule::new(&plan, options, 0);
+    let mut sizes = Vec::new();
+    while let Some(NextPass::Uniform(spp)) = schedule.next_pass() {
+        sizes.push(spp);
+        let samples = u64::from(spp) * 100;
+        let seconds = samples as f64 * seconds_per_sample;
+        schedule.record_pass(samples, Duration::from_secs_f64(seconds), &film);
+    }
+    sizes
+}
+
+/// A render that can only be interrupted measures its throughput on two samples per pixel, then
+/// takes the rest in passes as long as `MAX_PASS_SECONDS` allows (one pass when it fits); a
+/// render with a pass callback (checkpoints, the preview) doubles its passes.
+#[test]
+fn interruptible_renders_take_the_rest_in_passes_as_long_as_allowed() {
+    use std::sync::atomic::AtomicBool;
+    let cancel = AtomicBool::new(false);
+    let cancel_only = RenderOptions {
+        cancel: Some(&cancel),
+        ..Default::default()
+    };
+    assert_eq!(pass_sizes(&cancel_only, 1e-6), [2, 62]);
+    // 200 samples per second: 400 fit in a pass, 4 spp.
+    let slow = pass_sizes(&cancel_only, 1.0 / 200.0);
+    assert_eq!(slow.iter().sum::<u32>(), 64);
+    let middle = &slow[1..slow.len() - 1];
+    assert!(
+        middle.iter().all(|&spp| spp == 4) && slow[slow.len() - 1] <= 4,
+        "{slow:?}"
+    );
+    let callback = |_: &Film| {};
+    let with_callback = RenderOptions {
+        cancel: Some(&cancel),
+        on_pass: Some(&callback),
+        ..Default::default()
+    };
+    assert_eq!(pass_sizes(&with_callback, 1e-6), [2, 4, 8, 16, 32, 2]);
+}
+
 /// After a cancel, each thread finishes at most the tile it is on: at most one tile per thread is
 /// sampled after the cancel, and the pass in flight is dropped (the film keeps whole passes
 /// only). Counted, not timed.
