@@ -329,6 +329,28 @@ impl MetallicRoughness {
     /// albedo estimates of their lobes, and the μo factors of the reflection lobes.
     fn outgoing(&self, wo: Vec3) -> Outgoing {
         let mu = wo.z.abs();
+        if self.metallic <= 0.0 && self.transmission >= 1.0 && self.specular_is_delta() {
+            // Smooth glass that transmits everything (weights 0, 0, 1): the transmissive
+            // strategy is the only one (`probs` below would be [0, 0, 1] exactly), and no term
+            // of the reflection lobes is ever read (`reflection` reads them only for rough or
+            // diffuse parts). A third of the shading cost of GlassVaseFlowers' glass.
+            let nan = Vec3::splat(f32::NAN);
+            return Outgoing {
+                wo,
+                probs: [0.0, 0.0, 1.0],
+                diffuse_o: f32::NAN,
+                compensation_o: f32::NAN,
+                shared: Shared {
+                    tables: AtRoughness::unused(),
+                    f0: nan,
+                    f0_max: f32::NAN,
+                    f_ms_metal: nan,
+                    f_ms_dielectric: nan,
+                    f_ms_layer: f32::NAN,
+                    layer_norm: f32::NAN,
+                },
+            };
+        }
         let shared = self.shared();
         let (e, e5) = shared.tables.e_e5(mu);
         let diffuse_o = (1.0 - self.layer_albedo(&shared, (e, e5))).max(0.0);
@@ -966,6 +988,38 @@ mod tests {
     /// equal, bit for bit, the glTF reflection written with the per-pair functions of
     /// `multiple_scattering` (each finding α's place in the tables, F_ms and the layer's
     /// average albedo for itself), and so do the strategy probabilities and μo factors.
+    /// Smooth glass that transmits everything skips the reflection lobes' terms (`outgoing`
+    /// leaves them NaN): sampling and evaluation must never read them, whatever the side,
+    /// the index, the tint or the thin-walled flag.
+    #[test]
+    fn smooth_clear_glass_reads_none_of_the_reflection_terms() {
+        let mut rng = Pcg32::new(3, 9);
+        let frame = Frame::from_normal(Vec3::Z);
+        for k in 0..4_000 {
+            let mut m = mat(
+                Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
+                0.0,
+                0.0,
+                [1.0, 1.33, 1.5, 2.4][k % 4],
+                1.0,
+            );
+            m.thin_walled = k % 3 == 0;
+            m.energy_compensation = k % 5 != 0;
+            let (o, i) = (random_dir(&mut rng), random_dir(&mut rng));
+            let at = m.outgoing(o);
+            assert_eq!(at.probs, [0.0, 0.0, 1.0]);
+            let (f, pdf) = m.eval_with(o, i, &at);
+            assert!(f.is_finite() && pdf.is_finite(), "{m:?}: eval {f} {pdf}");
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            if let Some(s) = m.sample_world(&frame, Vec3::Z, o, rng.next_f32(), u) {
+                assert!(
+                    s.weight.is_finite() && s.wi.is_finite() && s.pdf.is_finite(),
+                    "{m:?}: sample {s:?}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn shared_table_terms_equal_the_per_pair_formulas() {
         use super::super::multiple_scattering::{

@@ -197,6 +197,16 @@ impl AtRoughness {
         }
     }
 
+    /// A stand-in for BSDFs that look up no table (smooth glass that transmits everything):
+    /// NaN, so that a lookup through it would show in the image instead of passing unseen.
+    pub fn unused() -> AtRoughness {
+        AtRoughness {
+            rough: (0, f32::NAN),
+            e_avg: f32::NAN,
+            e5_avg: f32::NAN,
+        }
+    }
+
     /// E(μ, α) and E5(μ, α): the albedo of the lobe with F = 1 ([`albedo`]) and with the
     /// (1 − μ)⁵ weight of Schlick's Fresnel.
     #[inline]
