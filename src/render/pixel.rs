@@ -34,7 +34,7 @@ pub(super) fn render_samples(
             Vec2::ZERO
         };
         let ray = scene.camera.ray(film, u_lens);
-        sums.add_sample(radiance(scene, ray, &mut sampler, stats).as_dvec3());
+        sums.add_sample(radiance(scene, ray, &mut sampler, stats));
     }
     sums
 }

@@ -1,7 +1,5 @@
 //! Tests of the pass loop on synthetic films with known means and variances.
 
-use glam::DVec3;
-
 use super::*;
 use crate::sampler::mix64;
 
@@ -33,7 +31,7 @@ fn synthetic(
             } else {
                 SMALL
             };
-            acc.add_sample(DVec3::splat(v));
+            acc.add_sample(crate::math::Vec3::splat(v as f32));
         }
         acc
     }
