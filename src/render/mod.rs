@@ -149,9 +149,10 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> (Image, Stats) {
 
 /// Renders the scene and estimates each pixel's error from its samples.
 ///
-/// Without a time budget, error target or adaptivity, all samples are taken in one pass.
-/// Otherwise passes of doubling size run until the budget is spent, the target reached or
-/// `spp` samples per pixel (on average) taken; with a time budget each pass is sized from the
+/// Without a time budget, error target or adaptivity, all samples are taken in one pass (or, for
+/// a render that can only be cancelled, in a first pass of two samples per pixel and then passes
+/// as long as [`MAX_PASS_SECONDS`] allows). Otherwise passes of doubling size run until the
+/// budget is spent, the target reached or `spp` samples per pixel (on average) taken; with a time budget each pass is sized from the
 /// previous pass's throughput so that the last one ends near the deadline instead of
 /// overshooting it by up to the length of all passes before it. Each sample index has its own
 /// random stream, so the image depends only on which samples were taken, not on passes or threads.
