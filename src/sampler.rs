@@ -419,9 +419,6 @@ mod tests {
         assert_ne!(a, c);
     }
 
-    /// Owen-scrambled Sobol points are stratified: any 2^k points of a power-of-two prefix put
-    /// exactly one point in each cell of every 2^a × 2^b grid with a + b = k (elementary
-    /// intervals), and integrate a smooth function far better than random points.
     #[test]
     fn a_skipped_point_leaves_the_later_numbers_as_they_were() {
         for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
@@ -441,6 +438,9 @@ mod tests {
         }
     }
 
+    /// Owen-scrambled Sobol points are stratified: any 2^k points of a power-of-two prefix put
+    /// exactly one point in each cell of every 2^a × 2^b grid with a + b = k (elementary
+    /// intervals), and integrate a smooth function far better than random points.
     #[test]
     fn sobol_points_are_stratified_and_integrate_well() {
         let n = 256u32;

@@ -984,10 +984,6 @@ mod tests {
         }
     }
 
-    /// The reflection lobes with their table terms found once per shading point (`Shared`)
-    /// equal, bit for bit, the glTF reflection written with the per-pair functions of
-    /// `multiple_scattering` (each finding α's place in the tables, F_ms and the layer's
-    /// average albedo for itself), and so do the strategy probabilities and μo factors.
     /// Smooth glass that transmits everything skips the reflection lobes' terms (`outgoing`
     /// leaves them NaN): sampling and evaluation must never read them, whatever the side,
     /// the index, the tint or the thin-walled flag.
@@ -1020,6 +1016,10 @@ mod tests {
         }
     }
 
+    /// The reflection lobes with their table terms found once per shading point (`Shared`)
+    /// equal, bit for bit, the glTF reflection written with the per-pair functions of
+    /// `multiple_scattering` (each finding α's place in the tables, F_ms and the layer's
+    /// average albedo for itself), and so do the strategy probabilities and μo factors.
     #[test]
     fn shared_table_terms_equal_the_per_pair_formulas() {
         use super::super::multiple_scattering::{
