@@ -56,10 +56,9 @@ pub struct Environment {
     pub radiance: Radiance,
     /// Multiplies the radiance.
     pub strength: f32,
-    /// Rotation about +y in radians (counter-clockwise seen from above).
-    rotation: f32,
-    /// sin and cos of −`rotation`, which every lookup needs.
-    unrotate: (f32, f32),
+    /// sin and cos of the rotation about +y (counter-clockwise seen from above), which every
+    /// lookup and every sampled direction needs.
+    rotation: (f32, f32),
     /// Whether camera rays see it.
     pub visible: bool,
 }
@@ -81,8 +80,7 @@ impl Environment {
         Environment {
             radiance: Radiance::Constant(color),
             strength,
-            rotation: 0.0,
-            unrotate: (-0.0f32).sin_cos(),
+            rotation: (0.0, 1.0),
             visible,
         }
     }
@@ -161,8 +159,7 @@ impl Environment {
                 mis,
             },
             strength,
-            rotation,
-            unrotate: (-rotation).sin_cos(),
+            rotation: rotation.sin_cos(),
             visible,
         }
     }
@@ -179,7 +176,8 @@ impl Environment {
     /// Image coordinates (u, v from the bottom) of a world direction.
     fn uv(&self, d: Vec3) -> Vec2 {
         // Rotating the image by φ about +y = looking it up in the direction rotated by −φ.
-        let (s, c) = self.unrotate;
+        // The rotation by −φ: sin(−φ) = −sin φ.
+        let (s, c) = (-self.rotation.0, self.rotation.1);
         let (x, z) = (c * d.x + s * d.z, -s * d.x + c * d.z);
         let u = 0.5 + crate::math::atan2(z, x) / (2.0 * PI);
         let v = 0.5 + d.y.clamp(-1.0, 1.0).asin() / PI;
@@ -194,7 +192,7 @@ impl Environment {
         let elevation = (uv.y - 0.5) * PI;
         let (x, z) = (elevation.cos() * phi.cos(), elevation.cos() * phi.sin());
         // The rotation by φ about +y (x → −z for φ = 90°): the inverse of `uv`'s.
-        let (s, c) = self.rotation.sin_cos();
+        let (s, c) = self.rotation;
         Vec3::new(c * x + s * z, elevation.sin(), -s * x + c * z)
     }
 

@@ -175,15 +175,7 @@ impl Sampler {
         let n = out.len() as u32;
         debug_assert!(n.is_power_of_two());
         match self.kind {
-            SamplerKind::Independent => {
-                for o in out.iter_mut() {
-                    let choice = self.rng.next_f32();
-                    *o = (
-                        choice,
-                        glam::Vec2::new(self.rng.next_f32(), self.rng.next_f32()),
-                    );
-                }
-            }
+            SamplerKind::Independent => out.fill_with(|| self.get_choice_2d()),
             SamplerKind::Sobol => {
                 self.dimension += 1;
                 let hash = self.next_dimension_hash();

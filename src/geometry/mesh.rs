@@ -51,6 +51,17 @@ pub struct OpacityInputs {
     pub color_alpha: f32,
 }
 
+/// Per-vertex `values` at a hit on triangle `tri`: b0·v₀ + b1·v₁ + b2·v₂ with b0 = 1 − b1 − b2
+/// and (b1, b2) those of `h`, in this order (so that every attribute, wherever it is read, has
+/// the same bits).
+#[inline(always)]
+fn interpolate<T>(values: &[T], tri: [u32; 3], b0: f32, h: &MeshHit) -> T
+where
+    T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    values[tri[0] as usize] * b0 + values[tri[1] as usize] * h.b1 + values[tri[2] as usize] * h.b2
+}
+
 /// Where a ray meets a mesh.
 #[derive(Debug, Clone, Copy)]
 pub struct MeshHit {
@@ -62,6 +73,19 @@ pub struct MeshHit {
     pub b1: f32,
     /// Barycentric weight of the triangle's third vertex.
     pub b2: f32,
+}
+
+impl MeshHit {
+    /// The mesh hit a [`RawHit`] on a mesh records.
+    #[inline]
+    pub fn of_raw(raw: &RawHit) -> MeshHit {
+        MeshHit {
+            t: raw.t,
+            prim: raw.prim,
+            b1: raw.coords[0],
+            b2: raw.coords[1],
+        }
+    }
 }
 
 impl Mesh {
@@ -200,18 +224,19 @@ impl Mesh {
     pub fn attributes(&self, h: &MeshHit) -> (Vec2, Vec4, Vec4) {
         let tri = self.data.triangles[h.prim as usize];
         let b0 = 1.0 - h.b1 - h.b2;
-        let lerp2 = |a: &Arc<Vec<Vec2>>| {
-            a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
-        };
-        let lerp4 = |a: &Arc<Vec<Vec4>>| {
-            a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
-        };
-        let uv1 = self.data.uvs1.as_ref().map_or(Vec2::ZERO, lerp2);
+        let lerp = |a: &Arc<Vec<_>>| interpolate(a, tri, b0, h);
+        let uv1 = self.data.uvs1.as_ref().map_or(Vec2::ZERO, lerp);
         let tangent = self.data.tangents.as_ref().map_or(Vec4::ZERO, |t| {
             // The handedness is per vertex; take the first corner's rather than a blend.
-            lerp4(t).truncate().extend(t[tri[0] as usize].w.signum())
+            interpolate(t, tri, b0, h)
+                .truncate()
+                .extend(t[tri[0] as usize].w.signum())
         });
-        let color = self.data.colors.as_ref().map_or(Vec4::ONE, lerp4);
+        let color = self
+            .data
+            .colors
+            .as_ref()
+            .map_or(Vec4::ONE, |c| interpolate(c, tri, b0, h));
         (uv1, tangent, color)
     }
 
@@ -224,9 +249,7 @@ impl Mesh {
         let ng = (b - a).cross(c - a).normalize();
         let ns = match &self.data.normals {
             Some(n) => {
-                let s =
-                    n[tri[0] as usize] * b0 + n[tri[1] as usize] * h.b1 + n[tri[2] as usize] * h.b2;
-                let s = s.normalize_or_zero();
+                let s = interpolate(n, tri, b0, h).normalize_or_zero();
                 if s == Vec3::ZERO {
                     ng
                 } else {
@@ -243,9 +266,7 @@ impl Mesh {
     #[inline(always)]
     fn uv(&self, tri: [u32; 3], b0: f32, h: &MeshHit) -> Vec2 {
         match &self.data.uvs {
-            Some(t) => {
-                t[tri[0] as usize] * b0 + t[tri[1] as usize] * h.b1 + t[tri[2] as usize] * h.b2
-            }
+            Some(t) => interpolate(t, tri, b0, h),
             None => Vec2::new(h.b1, h.b2),
         }
     }
@@ -256,13 +277,16 @@ impl Mesh {
     pub fn opacity_inputs(&self, h: &MeshHit) -> OpacityInputs {
         let tri = self.data.triangles[h.prim as usize];
         let b0 = 1.0 - h.b1 - h.b2;
-        let uv1 = self.data.uvs1.as_ref().map_or(Vec2::ZERO, |a| {
-            a[tri[0] as usize] * b0 + a[tri[1] as usize] * h.b1 + a[tri[2] as usize] * h.b2
-        });
-        // The w lane of the colour `attributes` interpolates: the same operations.
-        let color_alpha = self.data.colors.as_ref().map_or(1.0, |a| {
-            a[tri[0] as usize].w * b0 + a[tri[1] as usize].w * h.b1 + a[tri[2] as usize].w * h.b2
-        });
+        let uv1 = self
+            .data
+            .uvs1
+            .as_ref()
+            .map_or(Vec2::ZERO, |a| interpolate(a, tri, b0, h));
+        let color_alpha = self
+            .data
+            .colors
+            .as_ref()
+            .map_or(1.0, |c| interpolate(c, tri, b0, h).w);
         OpacityInputs {
             uv: self.uv(tri, b0, h),
             uv1,

@@ -187,12 +187,7 @@ impl Instance {
     /// without the rest of the surface, which traversals need only for hits they keep.
     pub fn opacity_inputs(&self, ray: &Ray, raw: &RawHit, instance: u32) -> OpacityInputs {
         match &self.shape {
-            Shape::Mesh(m) => m.opacity_inputs(&mesh::MeshHit {
-                t: raw.t,
-                prim: raw.prim,
-                b1: raw.coords[0],
-                b2: raw.coords[1],
-            }),
+            Shape::Mesh(m) => m.opacity_inputs(&mesh::MeshHit::of_raw(raw)),
             _ => {
                 let hit = self.surface(ray, raw, instance);
                 OpacityInputs {
@@ -218,12 +213,7 @@ impl Instance {
                 (p, pl.normal, pl.normal, pl.uv(p))
             }
             Shape::Mesh(m) => {
-                let h = mesh::MeshHit {
-                    t: raw.t,
-                    prim: raw.prim,
-                    b1: raw.coords[0],
-                    b2: raw.coords[1],
-                };
+                let h = mesh::MeshHit::of_raw(raw);
                 if m.has_attributes() {
                     (uv1, tangent, color) = m.attributes(&h);
                 }
