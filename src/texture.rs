@@ -169,15 +169,8 @@ impl Texture {
         let Some(([a, b, c, d], fx, fy)) = self.footprint(uv) else {
             return Vec3::ZERO;
         };
-        let [ta, tb, tc, td] = match &self.texels {
-            Texels::Float { rgb, .. } => [rgb[a], rgb[b], rgb[c], rgb[d]],
-            Texels::Rgba8 { rgba, decode, .. } => [a, b, c, d].map(|i| {
-                let [r, g, b, _] = rgba[i];
-                Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
-            }),
-        };
-        let top = ta * (1.0 - fx) + tb * fx;
-        let bottom = tc * (1.0 - fx) + td * fx;
+        let top = self.texel(a) * (1.0 - fx) + self.texel(b) * fx;
+        let bottom = self.texel(c) * (1.0 - fx) + self.texel(d) * fx;
         top * (1.0 - fy) + bottom * fy
     }
 
