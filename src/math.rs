@@ -167,15 +167,32 @@ impl Frame {
 /// a tiny absolute offset.
 #[inline]
 pub fn offset_origin(p: Vec3, n: Vec3, w: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
     let n = if n.dot(w) < 0.0 { -n } else { n };
+    #[cfg(target_arch = "x86_64")]
+    {
+        offset_towards_sse2(p, n)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        offset_towards(p, n)
+    }
+}
+
+/// Bound of [`offset_origin`]: below this magnitude a coordinate moves by an absolute amount.
+const OFFSET_ORIGIN: f32 = 1.0 / 32.0;
+/// [`offset_origin`]'s absolute offset near the origin, per unit of the normal.
+const OFFSET_FLOAT_SCALE: f32 = 1.0 / 65536.0;
+/// [`offset_origin`]'s offset in ulps elsewhere, per unit of the normal.
+const OFFSET_INT_SCALE: f32 = 256.0;
+
+/// [`offset_origin`] along `n` (already facing the side to move to), one coordinate at a time.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn offset_towards(p: Vec3, n: Vec3) -> Vec3 {
     let step = |p: f32, n: f32| -> f32 {
-        if p.abs() < ORIGIN {
-            return p + FLOAT_SCALE * n;
+        if p.abs() < OFFSET_ORIGIN {
+            return p + OFFSET_FLOAT_SCALE * n;
         }
-        let of = (INT_SCALE * n) as i32;
+        let of = (OFFSET_INT_SCALE * n) as i32;
         let bits = p.to_bits() as i32;
         // Moving the bit pattern up increases |p|; pick the direction that moves along n.
         let moved = if (p < 0.0) ^ (of < 0) {
@@ -186,6 +203,41 @@ pub fn offset_origin(p: Vec3, n: Vec3, w: Vec3) -> Vec3 {
         f32::from_bits(moved as u32)
     };
     Vec3::new(step(p.x, n.x), step(p.y, n.y), step(p.z, n.z))
+}
+
+/// [`offset_towards`] in the lanes of one SSE2 register: the same operations per coordinate
+/// (the branches become selects), so the same bits for every unit normal `n` (where
+/// `256·n` truncates to an integer as Rust's `as i32` does). A third of the scalar version's
+/// instructions, which the path tracer spends at every vertex and shadow ray.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn offset_towards_sse2(p: Vec3, n: Vec3) -> Vec3 {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE2 is part of the x86-64 baseline.
+    unsafe {
+        let pv = _mm_set_ps(0.0, p.z, p.y, p.x);
+        let nv = _mm_set_ps(0.0, n.z, n.y, n.x);
+        let of = _mm_cvttps_epi32(_mm_mul_ps(_mm_set1_ps(OFFSET_INT_SCALE), nv));
+        let of_negative = _mm_srai_epi32::<31>(of);
+        let of_abs = _mm_sub_epi32(_mm_xor_si128(of, of_negative), of_negative);
+        // All ones where the bit pattern moves down: p < 0 xor of < 0.
+        let down = _mm_xor_si128(
+            _mm_castps_si128(_mm_cmplt_ps(pv, _mm_setzero_ps())),
+            of_negative,
+        );
+        let step = _mm_sub_epi32(_mm_xor_si128(of_abs, down), down);
+        let moved = _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(pv), step));
+        let magnitude = _mm_andnot_ps(_mm_set1_ps(-0.0), pv);
+        let near_origin = _mm_cmplt_ps(magnitude, _mm_set1_ps(OFFSET_ORIGIN));
+        let nudged = _mm_add_ps(pv, _mm_mul_ps(_mm_set1_ps(OFFSET_FLOAT_SCALE), nv));
+        let out = _mm_or_ps(
+            _mm_and_ps(near_origin, nudged),
+            _mm_andnot_ps(near_origin, moved),
+        );
+        let mut lanes = [0.0f32; 4];
+        _mm_storeu_ps(lanes.as_mut_ptr(), out);
+        Vec3::new(lanes[0], lanes[1], lanes[2])
+    }
 }
 
 /// Relative luminance of linear sRGB/Rec.709 primaries.
@@ -305,6 +357,38 @@ mod tests {
         assert_eq!(atan2(-1.0, 0.0), -FRAC_PI_2);
         assert_eq!(atan2(0.0, 0.0), 0.0);
         assert!(atan2(f32::NAN, 1.0).is_nan() && atan2(1.0, f32::NAN).is_nan());
+    }
+
+    /// The SSE2 offset gives the scalar one's bits for unit normals and points at every scale
+    /// (both signs, exact zeros, the near-origin band and its edge).
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn sse2_offset_matches_the_scalar_one() {
+        let mut s = 0x5eed_u64;
+        let mut uniform = || crate::sampler::test_lcg(&mut s);
+        for i in 0..200_000 {
+            let n = Vec3::new(uniform(), uniform(), uniform()) * 2.0 - Vec3::ONE;
+            let n = if n.length_squared() > 1e-6 {
+                n.normalize()
+            } else {
+                Vec3::Z
+            };
+            let scale = 10f32.powf(uniform() * 16.0 - 8.0);
+            let mut p = Vec3::new(uniform(), uniform(), uniform()) * 2.0 - Vec3::ONE;
+            p *= scale;
+            match i % 5 {
+                0 => p.x = 0.0,
+                1 => p.y = -0.0,
+                2 => p.z = OFFSET_ORIGIN * if uniform() < 0.5 { 1.0 } else { -1.0 },
+                _ => {}
+            }
+            let (a, b) = (offset_towards(p, n), offset_towards_sse2(p, n));
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits),
+                "p {p:?} n {n:?}"
+            );
+        }
     }
 
     #[test]
