@@ -854,9 +854,6 @@ impl TriangleBvh {
                 let entry: (u32, f32) = $entry;
                 unsafe { *stack.get_unchecked_mut(sp) = MaybeUninit::new(entry) };
                 sp += 1;
-                if self.prefetch {
-                    self.prefetch(entry.0);
-                }
             }};
         }
         // Child `c` of a node (`$node`: its references) and its entry distance; `c` is a bit
@@ -890,6 +887,16 @@ impl TriangleBvh {
                         (near, mask, &n.child[..])
                     }
                 };
+                if self.prefetch {
+                    // Every child hit, the nearest included, is requested before they are
+                    // ordered: its lines arrive while the others are sorted and pushed.
+                    let mut m = mask;
+                    while m != 0 {
+                        let c = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        self.prefetch(kid!(node, near, c).0);
+                    }
+                }
                 if mask != 0 {
                     let a = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
