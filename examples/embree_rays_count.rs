@@ -7,14 +7,18 @@
 //!
 //! ```text
 //! LUMO_RAYS_DIR=benches/peers/rays cargo run --release --example embree_rays_count -- \
-//!     icosphere incoherent [RAYS=1000000] [REPEATS=5]
+//!     icosphere incoherent [RAYS=1000000] [REPEATS=5] [THREADS=1]
 //! ```
+//!
+//! With THREADS > 1 the timed passes split the rays into chunks of 4,096 traced on a rayon pool
+//! of that many threads (as the `bvh` bench's "all cores" runs).
 //!
 //! `LUMO_BVH_NO_AVX2=1` runs the SSE fallback instead of the AVX2 box test.
 #[path = "../benches/common/mod.rs"]
 mod common;
 use glam::Vec3A;
 use lumo::geometry::{TriRay, TriangleBvh};
+use rayon::prelude::*;
 use std::time::Instant;
 
 fn main() {
@@ -23,6 +27,7 @@ fn main() {
     let kind = args.get(2).map(String::as_str).unwrap_or("incoherent");
     let n: usize = args.get(3).map_or(1_000_000, |s| s.parse().unwrap());
     let reps: usize = args.get(4).map_or(5, |s| s.parse().unwrap());
+    let threads: usize = args.get(5).map_or(1, |s| s.parse().unwrap());
     let (soup, sets) = common::embree_rays(mesh).expect("rays");
     let corners: Vec<[Vec3A; 3]> = soup.tris.iter().map(|t| t.map(Vec3A::from)).collect();
     let ids = (0..soup.tris.len() as u32).map(|i| [0, i]).collect();
@@ -60,25 +65,44 @@ fn main() {
     if reps == 0 {
         return;
     }
-    let mut best = (f64::MAX, f64::MAX);
-    let mut all = Vec::new();
-    for _ in 0..reps {
-        let t0 = Instant::now();
-        let c = o
-            .iter()
+    let closest = |o: &[glam::Vec3], d: &[glam::Vec3]| {
+        o.iter()
             .zip(d)
             .filter(|(o, d)| {
                 bvh.intersect(&TriRay::new(**o, **d), 0.0, f32::INFINITY)
                     .is_some()
             })
-            .count();
-        let tc = t0.elapsed().as_secs_f64();
-        let t0 = Instant::now();
-        let a = o
-            .iter()
+            .count()
+    };
+    let any_hit = |o: &[glam::Vec3], d: &[glam::Vec3]| {
+        o.iter()
             .zip(d)
             .filter(|(o, d)| bvh.occluded(&TriRay::new(**o, **d), 0.0, f32::INFINITY))
-            .count();
+            .count()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
+    let traced = |f: &(dyn Fn(&[glam::Vec3], &[glam::Vec3]) -> usize + Sync)| -> usize {
+        if threads <= 1 {
+            return f(o, d);
+        }
+        pool.install(|| {
+            o.par_chunks(4096)
+                .zip(d.par_chunks(4096))
+                .map(|(o, d)| f(o, d))
+                .sum()
+        })
+    };
+    let mut best = (f64::MAX, f64::MAX);
+    let mut all = Vec::new();
+    for _ in 0..reps {
+        let t0 = Instant::now();
+        let c = traced(&closest);
+        let tc = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let a = traced(&any_hit);
         let ta = t0.elapsed().as_secs_f64();
         assert_eq!((c, a), (hits, any));
         all.push((o.len() as f64 / tc / 1e6, o.len() as f64 / ta / 1e6));
