@@ -55,6 +55,9 @@ pub enum Light {
         emission: Rgb,
         /// Emits from both faces.
         two_sided: bool,
+        /// Bounding sphere (centroid, squared distance of the farthest corner from it), for
+        /// the quick bound on the solid angle the triangle subtends.
+        sphere: (Vec3, f32),
     },
     /// The environment, infinitely far away in every direction.
     Environment {
@@ -99,6 +102,35 @@ pub struct LightSample {
 }
 
 impl Light {
+    /// The light of the emissive triangle `prim` of instance `instance`, world-space corners
+    /// `v` (front face counter-clockwise) with texture coordinates `uv`.
+    pub fn triangle(
+        instance: u32,
+        prim: u32,
+        v: [Vec3; 3],
+        uv: [Vec2; 3],
+        emission: Rgb,
+        two_sided: bool,
+    ) -> Light {
+        let c = (v[1] - v[0]).cross(v[2] - v[0]);
+        let centroid = (v[0] + v[1] + v[2]) / 3.0;
+        let r2 = v
+            .iter()
+            .map(|c| (*c - centroid).length_squared())
+            .fold(0.0f32, f32::max);
+        Light::Triangle {
+            instance,
+            prim,
+            v,
+            uv,
+            n: c.normalize(),
+            area: 0.5 * c.length(),
+            emission,
+            two_sided,
+            sphere: (centroid, r2),
+        }
+    }
+
     /// Emitted power estimate (W, luminance) used to choose lights.
     pub fn power(&self) -> f32 {
         match self {
@@ -195,12 +227,13 @@ impl Light {
                 n,
                 area,
                 two_sided,
+                sphere,
                 ..
             } => {
                 if !two_sided && n.dot(p - v[0]) <= 0.0 {
                     return None; // behind a one-sided emitter
                 }
-                if let Some(st) = SphericalTriangle::seen_from(p, v) {
+                if let Some(st) = SphericalTriangle::seen_from(p, v, sphere) {
                     return st
                         .sample(p, v, n, u)
                         .map(|(wi, q, d, (b1, b2))| LightSample {
@@ -264,8 +297,10 @@ impl Light {
     /// Solid-angle pdf of [`Light::sample`] producing the point `q` with normal `n` seen from `p`.
     pub fn pdf(&self, p: Vec3, q: Vec3, n: Vec3) -> f32 {
         match *self {
-            Light::Triangle { area, v, .. } => {
-                if let Some(st) = SphericalTriangle::seen_from(p, v) {
+            Light::Triangle {
+                area, v, sphere, ..
+            } => {
+                if let Some(st) = SphericalTriangle::seen_from(p, v, sphere) {
                     return 1.0 / st.solid_angle;
                 }
                 let w = q - p;
@@ -301,6 +336,10 @@ impl Light {
 /// time.
 pub const SPHERICAL_SAMPLING_MIN_SOLID_ANGLE: f32 = 0.2;
 
+/// A bounding sphere seen with sin² α below this subtends 2π sin²α / (1 + cos α) < 0.192 sr,
+/// under [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] with a margin far beyond rounding (tested).
+const SPHERICAL_SAMPLING_FAR_SIN2: f32 = 0.06;
+
 /// A triangle seen from a point as a spherical triangle (unit vectors to its corners), for
 /// uniform solid-angle sampling (Arvo 1995, "Stratified sampling of spherical triangles", in the
 /// form of pbrt-v4 §6.5.4). Computed in f64: the formulas subtract nearly equal angles.
@@ -318,16 +357,17 @@ impl SphericalTriangle {
     /// The triangle `v` seen from `p`, when it subtends at least
     /// [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] and is not degenerate; `None` means area sampling.
     /// Both [`Light::sample`] and [`Light::pdf`] decide with this, so they always agree.
-    fn seen_from(p: Vec3, v: [Vec3; 3]) -> Option<SphericalTriangle> {
+    fn seen_from(p: Vec3, v: [Vec3; 3], sphere: (Vec3, f32)) -> Option<SphericalTriangle> {
         // Most shading points see most lights small: bound the solid angle first by that of the
         // triangle's bounding sphere (centroid, farthest corner), 2π(1 − cos α) with
         // sin α = r / d, written r²/d² / (1 + cos α) to stay accurate when small.
-        let centroid = (v[0] + v[1] + v[2]) / 3.0;
-        let r2 = v
-            .iter()
-            .map(|c| (*c - centroid).length_squared())
-            .fold(0.0f32, f32::max);
+        let (centroid, r2) = sphere;
         let d2 = (p - centroid).length_squared();
+        // Far below the threshold (sin² α < 0.06: a bound under 0.192 sr, whatever the
+        // rounding) the bound needs no division or square root; it decides alike.
+        if r2 < SPHERICAL_SAMPLING_FAR_SIN2 * d2 {
+            return None;
+        }
         if d2 > r2 {
             let sin2 = r2 / d2;
             let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
@@ -734,17 +774,7 @@ pub(crate) mod tests {
     /// The triangle light of corners `v`, front face counter-clockwise (for the tests here and
     /// the light tree's).
     pub(crate) fn triangle_light(v: [Vec3; 3], emission: Vec3, two_sided: bool) -> Light {
-        let c = (v[1] - v[0]).cross(v[2] - v[0]);
-        Light::Triangle {
-            instance: 0,
-            prim: 0,
-            v,
-            uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
-            n: c.normalize(),
-            area: 0.5 * c.length(),
-            emission,
-            two_sided,
-        }
+        Light::triangle(0, 0, v, [Vec2::ZERO, Vec2::X, Vec2::Y], emission, two_sided)
     }
 
     /// The one-sided white triangle light of corners `v` (facing +z for counter-clockwise
@@ -803,7 +833,10 @@ pub(crate) mod tests {
             ("farther", Vec3::new(0.0, -9.0, 1.5), false),
         ];
         let light = triangle(v);
-        let Light::Triangle { n, area, .. } = light else {
+        let Light::Triangle {
+            n, area, sphere, ..
+        } = light
+        else {
             unreachable!()
         };
         let point = |s: f64, t: f64| {
@@ -812,7 +845,7 @@ pub(crate) mod tests {
         };
         let mut ps = Vec::new();
         for (name, p, spherical) in cases {
-            let omega = SphericalTriangle::seen_from(p, v).map(|s| s.solid_angle);
+            let omega = SphericalTriangle::seen_from(p, v, sphere).map(|s| s.solid_angle);
             assert_eq!(omega.is_some(), spherical, "{name}: solid angle {omega:?}");
             let mut observed = vec![0.0f64; BINS * BINS];
             let mut rng = crate::sampler::Pcg32::new(7, 3);
@@ -897,6 +930,49 @@ pub(crate) mod tests {
         chi2::assert_all_pass(&ps);
     }
 
+    /// The quick rejection by [`SPHERICAL_SAMPLING_FAR_SIN2`] only takes points whose bounding-
+    /// sphere bound is under the threshold: the bound at sin² α just above it, computed as
+    /// `seen_from` computes it, stays below [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`].
+    #[test]
+    fn far_rejection_agrees_with_the_bound() {
+        let sin2 = SPHERICAL_SAMPLING_FAR_SIN2 * (1.0 + 4.0 * f32::EPSILON);
+        let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
+        assert!(
+            bound < 0.97 * SPHERICAL_SAMPLING_MIN_SOLID_ANGLE,
+            "bound {bound} at sin² {sin2}"
+        );
+        // And on real triangles: whatever `seen_from` rejects quickly, the bound rejects too.
+        let mut rng = crate::sampler::Pcg32::new(11, 5);
+        let mut quick = 0;
+        for _ in 0..100_000 {
+            let mut r = || rng.next_f32() * 4.0 - 2.0;
+            let v = [
+                Vec3::new(r(), r(), r()),
+                Vec3::new(r(), r(), r()),
+                Vec3::new(r(), r(), r()),
+            ];
+            let p = Vec3::new(r(), r(), r()) * 3.0;
+            let Light::Triangle { sphere, .. } = triangle(v) else {
+                unreachable!()
+            };
+            let (centroid, r2) = sphere;
+            let d2 = (p - centroid).length_squared();
+            if r2 < SPHERICAL_SAMPLING_FAR_SIN2 * d2 {
+                quick += 1;
+                let sin2 = r2 / d2;
+                let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
+                assert!(
+                    bound < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE,
+                    "{v:?} from {p:?}"
+                );
+            }
+        }
+        assert!(
+            quick > 10_000,
+            "only {quick} quick rejections: the test tests little"
+        );
+    }
+
     /// Solid-angle sampling lands on the triangle, and its solid angle is the integral of the
     /// area pdf's inverse (a closed form check: Ω = ∫ cos/d² dA).
     #[test]
@@ -907,7 +983,10 @@ pub(crate) mod tests {
             Vec3::new(-0.4, 1.2, 0.0),
         ];
         let p = Vec3::new(0.2, 0.1, 0.5);
-        let st = SphericalTriangle::seen_from(p, v).expect("large");
+        let Light::Triangle { sphere, .. } = triangle(v) else {
+            unreachable!()
+        };
+        let st = SphericalTriangle::seen_from(p, v, sphere).expect("large");
         // ∫ cos θ / d² dA by the midpoint rule on a fine barycentric grid.
         let k = 600;
         let (mut sum, area) = (

@@ -277,23 +277,20 @@ pub fn build(
                         (false, None, _) => [Vec2::ZERO, Vec2::X, Vec2::Y],
                         (true, _, None) => [Vec2::ZERO; 3],
                     };
-                    let c = (v[1] - v[0]).cross(v[2] - v[0]);
                     let emission = match &m.emission_texture {
                         Some(r) => {
                             m.emission * mean_over_triangle(&textures[r.texture as usize], r, uv)
                         }
                         None => m.emission,
                     };
-                    lights.push(Light::Triangle {
-                        instance: k as u32,
+                    lights.push(Light::triangle(
+                        k as u32,
                         prim,
                         v,
                         uv,
-                        n: c.normalize(),
-                        area: 0.5 * c.length(),
                         emission,
-                        two_sided: m.two_sided_emission,
-                    });
+                        m.two_sided_emission,
+                    ));
                 }
             }
             Shape::Sphere(s) => match similarity_scale(&inst.to_world) {
