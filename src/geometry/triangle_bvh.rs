@@ -206,10 +206,21 @@ impl Packet {
         let negative = u.cmplt(Vec4::ZERO) | v.cmplt(Vec4::ZERO) | w.cmplt(Vec4::ZERO);
         let positive = u.cmpgt(Vec4::ZERO) | v.cmpgt(Vec4::ZERO) | w.cmpgt(Vec4::ZERO);
         let det = u + v + w;
+        let inside = !(negative & positive) & det.cmpne(Vec4::ZERO);
+        if !inside.any() {
+            // Most packets a ray reaches it passes by: no lane needs its distance (nor the
+            // division for it).
+            return PacketHits {
+                mask: 0,
+                t: Vec4::INFINITY,
+                v,
+                w,
+                inv_det: Vec4::ZERO,
+            };
+        }
         let t_scaled = u * az + v * bz + w * cz;
         let inv_det = Vec4::ONE / det;
         let t = t_scaled * inv_det;
-        let inside = !(negative & positive) & det.cmpne(Vec4::ZERO);
         let in_range: BVec4A = t.cmpgt(Vec4::splat(t_min)) & t.cmplt(Vec4::splat(t_max));
         let hit = inside & in_range;
         PacketHits {
