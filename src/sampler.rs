@@ -225,9 +225,12 @@ fn owen_sobol_2d_reversed(reversed_index: u32, hash: u64) -> glam::Vec2 {
 /// [`owen_sobol_2d_reversed`] given the shuffled index.
 #[inline(always)]
 fn owen_sobol_2d_shuffled(shuffled: u32, hash: u64) -> glam::Vec2 {
-    let x = owen_sobol_x(shuffled, hash);
-    let y = laine_karras(sobol_dim1_reversed(shuffled), scramble_seed_y(hash)).reverse_bits();
-    glam::Vec2::new(to_unit(x), to_unit(y))
+    let x = laine_karras(shuffled, (hash >> 32) as u32);
+    let y = laine_karras(sobol_dim1_reversed(shuffled), scramble_seed_y(hash));
+    // Both reversed by one 64-bit reversal (which costs what a 32-bit one does): reversing
+    // x·2³² + y gives rev(y)·2³² + rev(x).
+    let both = (u64::from(x) << 32 | u64::from(y)).reverse_bits();
+    glam::Vec2::new(to_unit(both as u32), to_unit((both >> 32) as u32))
 }
 
 /// Dimensions 2, 0 and 1 of the shuffled index, each Owen-scrambled (the third seeded by
