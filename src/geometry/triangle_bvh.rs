@@ -98,6 +98,9 @@ struct Packet {
     count: u32,
 }
 
+// Three whole cache lines, as the packet's documentation says (and the prefetch assumes).
+const _: () = assert!(std::mem::size_of::<Packet>() == 192 && std::mem::align_of::<Packet>() == 64);
+
 /// The lanes of a packet a ray hits within (t_min, t_max), with what is needed to finish a hit.
 struct PacketHits {
     mask: u32,
