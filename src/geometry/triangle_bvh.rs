@@ -2,8 +2,8 @@
 //! layout of Embree on AVX2 machines (Wald, Woop, Benthin, Johnson and Ernst, "Embree: A Kernel
 //! Framework for Efficient CPU Ray Tracing", ACM TOG 33(4), 2014).
 //!
-//! A binary SAH tree, priced for leaves tested four triangles at a time ([`LeafCost::PACKET4`]),
-//! is collapsed into nodes of up to eight children by repeatedly opening the child with the
+//! A binary SAH tree, priced for leaves tested four triangles at a time and for the cheap
+//! traversal steps of wide nodes ([`LeafCost::PACKET4`]), is collapsed into nodes of up to eight children by repeatedly opening the child with the
 //! largest surface area. A node (`Node8`) stores its children's boxes structure-of-arrays, so
 //! one ray meets all eight with a few SIMD instructions: one 8-wide AVX2 test when the CPU has
 //! AVX2 (detected at run time; the crate is built for baseline x86-64), else two 4-wide SSE
