@@ -233,7 +233,7 @@ impl Light {
                 if !two_sided && n.dot(p - v[0]) <= 0.0 {
                     return None; // behind a one-sided emitter
                 }
-                if let Some(st) = SphericalTriangle::seen_from(p, v, sphere) {
+                if let Some(st) = SphericalTriangle::seen_from(p, v, (n, area), sphere) {
                     return st
                         .sample(p, v, n, u)
                         .map(|(wi, q, d, (b1, b2))| LightSample {
@@ -298,9 +298,13 @@ impl Light {
     pub fn pdf(&self, p: Vec3, q: Vec3, n: Vec3) -> f32 {
         match *self {
             Light::Triangle {
-                area, v, sphere, ..
+                area,
+                v,
+                n: normal,
+                sphere,
+                ..
             } => {
-                if let Some(st) = SphericalTriangle::seen_from(p, v, sphere) {
+                if let Some(st) = SphericalTriangle::seen_from(p, v, (normal, area), sphere) {
                     return 1.0 / st.solid_angle;
                 }
                 let w = q - p;
@@ -336,6 +340,10 @@ impl Light {
 /// time.
 pub const SPHERICAL_SAMPLING_MIN_SOLID_ANGLE: f32 = 0.2;
 
+/// [`SphericalTriangle::seen_from`]'s bound for points near the triangle's plane rejects below
+/// this, under [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] by a margin far beyond rounding.
+const SPHERICAL_SAMPLING_PLANE_BOUND: f32 = 0.19;
+
 /// A bounding sphere seen with sin² α below this subtends 2π sin²α / (1 + cos α) < 0.192 sr,
 /// under [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] with a margin far beyond rounding (tested).
 const SPHERICAL_SAMPLING_FAR_SIN2: f32 = 0.06;
@@ -357,7 +365,12 @@ impl SphericalTriangle {
     /// The triangle `v` seen from `p`, when it subtends at least
     /// [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] and is not degenerate; `None` means area sampling.
     /// Both [`Light::sample`] and [`Light::pdf`] decide with this, so they always agree.
-    fn seen_from(p: Vec3, v: [Vec3; 3], sphere: (Vec3, f32)) -> Option<SphericalTriangle> {
+    fn seen_from(
+        p: Vec3,
+        v: [Vec3; 3],
+        (n, area): (Vec3, f32),
+        sphere: (Vec3, f32),
+    ) -> Option<SphericalTriangle> {
         // Most shading points see most lights small: bound the solid angle first by that of the
         // triangle's bounding sphere (centroid, farthest corner), 2π(1 − cos α) with
         // sin α = r / d, written r²/d² / (1 + cos α) to stay accurate when small.
@@ -372,6 +385,14 @@ impl SphericalTriangle {
             let sin2 = r2 / d2;
             let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
             if bound < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE {
+                return None;
+            }
+            // Near the triangle's plane (a ceiling seen beside its lamp) the sphere's bound is
+            // loose; there Ω = ∫ h / |q − p|³ dA ≤ A·h / (d − r)³, with h the distance to the
+            // plane and d − r at most the distance to any point q of the triangle.
+            let gap = d2.sqrt() - r2.sqrt();
+            let h = n.dot(p - v[0]).abs();
+            if gap > 0.0 && area * h < SPHERICAL_SAMPLING_PLANE_BOUND * (gap * gap * gap) {
                 return None;
             }
         }
@@ -845,7 +866,8 @@ pub(crate) mod tests {
         };
         let mut ps = Vec::new();
         for (name, p, spherical) in cases {
-            let omega = SphericalTriangle::seen_from(p, v, sphere).map(|s| s.solid_angle);
+            let omega =
+                SphericalTriangle::seen_from(p, v, (n, area), sphere).map(|s| s.solid_angle);
             assert_eq!(omega.is_some(), spherical, "{name}: solid angle {omega:?}");
             let mut observed = vec![0.0f64; BINS * BINS];
             let mut rng = crate::sampler::Pcg32::new(7, 3);
@@ -973,6 +995,58 @@ pub(crate) mod tests {
         );
     }
 
+    /// The bound for points near a triangle's plane, A·h / (d − r)³, is never below the solid
+    /// angle where it rejects: random triangles seen from points close to their planes (the
+    /// case it is for) and anywhere, the solid angle in f64 (Van Oosterom and Strackee) always
+    /// under [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] when the bound rejects.
+    #[test]
+    fn plane_bound_rejects_only_small_solid_angles() {
+        let mut rng = crate::sampler::Pcg32::new(12, 9);
+        let mut rejected = 0;
+        for k in 0..200_000 {
+            let mut r = || rng.next_f32() * 2.0 - 1.0;
+            let v = [
+                Vec3::new(r(), r(), 0.0),
+                Vec3::new(r(), r(), 0.0),
+                Vec3::new(r(), r(), 0.0),
+            ];
+            // Heights from 10⁻⁴ to 1 above or below the plane, or a point anywhere.
+            let p = if k % 4 == 3 {
+                Vec3::new(r(), r(), r()) * 3.0
+            } else {
+                let h = 10f32.powf(-4.0 * (r() * 0.5 + 0.5)) * r().signum();
+                Vec3::new(r() * 2.5, r() * 2.5, h)
+            };
+            let Light::Triangle {
+                n, area, sphere, ..
+            } = triangle_light(v, Vec3::ONE, true)
+            else {
+                unreachable!()
+            };
+            let (centroid, r2) = sphere;
+            let d2 = (p - centroid).length_squared();
+            let gap = d2.sqrt() - r2.sqrt();
+            let h = n.dot(p - v[0]).abs();
+            if gap > 0.0 && area * h < SPHERICAL_SAMPLING_PLANE_BOUND * (gap * gap * gap) {
+                rejected += 1;
+                let q = p.as_dvec3();
+                let [a, b, c] = v.map(|c| (c.as_dvec3() - q).normalize());
+                let omega = 2.0
+                    * a.dot(b.cross(c))
+                        .abs()
+                        .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+                assert!(
+                    omega < f64::from(SPHERICAL_SAMPLING_MIN_SOLID_ANGLE),
+                    "{v:?} from {p:?}: Ω {omega}"
+                );
+            }
+        }
+        assert!(
+            rejected > 20_000,
+            "only {rejected} rejections: the test tests little"
+        );
+    }
+
     /// Solid-angle sampling lands on the triangle, and its solid angle is the integral of the
     /// area pdf's inverse (a closed form check: Ω = ∫ cos/d² dA).
     #[test]
@@ -983,10 +1057,13 @@ pub(crate) mod tests {
             Vec3::new(-0.4, 1.2, 0.0),
         ];
         let p = Vec3::new(0.2, 0.1, 0.5);
-        let Light::Triangle { sphere, .. } = triangle(v) else {
+        let Light::Triangle {
+            n, area, sphere, ..
+        } = triangle(v)
+        else {
             unreachable!()
         };
-        let st = SphericalTriangle::seen_from(p, v, sphere).expect("large");
+        let st = SphericalTriangle::seen_from(p, v, (n, area), sphere).expect("large");
         // ∫ cos θ / d² dA by the midpoint rule on a fine barycentric grid.
         let k = 600;
         let (mut sum, area) = (
