@@ -348,6 +348,43 @@ const SPHERICAL_SAMPLING_PLANE_BOUND: f32 = 0.19;
 /// under [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] with a margin far beyond rounding (tested).
 const SPHERICAL_SAMPLING_FAR_SIN2: f32 = 0.06;
 
+/// Whether a bounding sphere of squared radius `r2` at squared distance `d2` is seen so small
+/// (sin² α < [`SPHERICAL_SAMPLING_FAR_SIN2`]: a bound under 0.192 sr, whatever the rounding) that
+/// [`sphere_solid_angle`]'s bound rejects it too; decided without a division or square root.
+#[inline]
+fn far_beyond_sphere(d2: f32, r2: f32) -> bool {
+    r2 < SPHERICAL_SAMPLING_FAR_SIN2 * d2
+}
+
+/// The solid angle 2π(1 − cos α) of a sphere seen with sin² α = `sin2`, written
+/// 2π sin² α / (1 + cos α) to stay accurate when small: a bound on that of anything inside it.
+#[inline]
+fn sphere_solid_angle(sin2: f32) -> f32 {
+    2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt())
+}
+
+/// Whether the bound for points near a triangle's plane (corner `v0`, unit normal `n`, area
+/// `area`; bounding sphere of squared radius `r2` at squared distance `d2`) is under
+/// [`SPHERICAL_SAMPLING_PLANE_BOUND`]. Near the plane (a ceiling seen beside its lamp) the
+/// sphere's bound is loose; there Ω = ∫ h / |q − p|³ dA ≤ A·h / (d − r)³, with h the distance to
+/// the plane and d − r at most the distance to any point q of the triangle.
+#[inline]
+fn near_plane_bound_rejects(p: Vec3, (v0, n, area): (Vec3, Vec3, f32), d2: f32, r2: f32) -> bool {
+    let gap = d2.sqrt() - r2.sqrt();
+    let h = n.dot(p - v0).abs();
+    gap > 0.0 && area * h < SPHERICAL_SAMPLING_PLANE_BOUND * (gap * gap * gap)
+}
+
+/// The solid angle of the spherical triangle of unit vectors `a`, `b`, `c` (Van Oosterom and
+/// Strackee 1983).
+#[inline]
+fn solid_angle_of(a: glam::DVec3, b: glam::DVec3, c: glam::DVec3) -> f64 {
+    2.0 * a
+        .dot(b.cross(c))
+        .abs()
+        .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a))
+}
+
 /// A triangle seen from a point as a spherical triangle (unit vectors to its corners), for
 /// uniform solid-angle sampling (Arvo 1995, "Stratified sampling of spherical triangles", in the
 /// form of pbrt-v4 §6.5.4). Computed in f64: the formulas subtract nearly equal angles.
@@ -376,23 +413,14 @@ impl SphericalTriangle {
         // sin α = r / d, written r²/d² / (1 + cos α) to stay accurate when small.
         let (centroid, r2) = sphere;
         let d2 = (p - centroid).length_squared();
-        // Far below the threshold (sin² α < 0.06: a bound under 0.192 sr, whatever the
-        // rounding) the bound needs no division or square root; it decides alike.
-        if r2 < SPHERICAL_SAMPLING_FAR_SIN2 * d2 {
+        if far_beyond_sphere(d2, r2) {
             return None;
         }
         if d2 > r2 {
-            let sin2 = r2 / d2;
-            let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
-            if bound < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE {
+            if sphere_solid_angle(r2 / d2) < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE {
                 return None;
             }
-            // Near the triangle's plane (a ceiling seen beside its lamp) the sphere's bound is
-            // loose; there Ω = ∫ h / |q − p|³ dA ≤ A·h / (d − r)³, with h the distance to the
-            // plane and d − r at most the distance to any point q of the triangle.
-            let gap = d2.sqrt() - r2.sqrt();
-            let h = n.dot(p - v[0]).abs();
-            if gap > 0.0 && area * h < SPHERICAL_SAMPLING_PLANE_BOUND * (gap * gap * gap) {
+            if near_plane_bound_rejects(p, (v[0], n, area), d2, r2) {
                 return None;
             }
         }
@@ -400,11 +428,8 @@ impl SphericalTriangle {
         let a = (v[0].as_dvec3() - p).normalize_or_zero();
         let b = (v[1].as_dvec3() - p).normalize_or_zero();
         let c = (v[2].as_dvec3() - p).normalize_or_zero();
-        // Van Oosterom and Strackee (1983): a cheap test first.
-        let omega = 2.0
-            * a.dot(b.cross(c))
-                .abs()
-                .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+        // A cheap test first.
+        let omega = solid_angle_of(a, b, c);
         // (A NaN solid angle fails this too.)
         if omega.is_nan() || omega < f64::from(SPHERICAL_SAMPLING_MIN_SOLID_ANGLE) {
             return None;
@@ -958,7 +983,7 @@ pub(crate) mod tests {
     #[test]
     fn far_rejection_agrees_with_the_bound() {
         let sin2 = SPHERICAL_SAMPLING_FAR_SIN2 * (1.0 + 4.0 * f32::EPSILON);
-        let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
+        let bound = sphere_solid_angle(sin2);
         assert!(
             bound < 0.97 * SPHERICAL_SAMPLING_MIN_SOLID_ANGLE,
             "bound {bound} at sin² {sin2}"
@@ -979,12 +1004,10 @@ pub(crate) mod tests {
             };
             let (centroid, r2) = sphere;
             let d2 = (p - centroid).length_squared();
-            if r2 < SPHERICAL_SAMPLING_FAR_SIN2 * d2 {
+            if far_beyond_sphere(d2, r2) {
                 quick += 1;
-                let sin2 = r2 / d2;
-                let bound = 2.0 * PI * sin2 / (1.0 + (1.0 - sin2).sqrt());
                 assert!(
-                    bound < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE,
+                    sphere_solid_angle(r2 / d2) < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE,
                     "{v:?} from {p:?}"
                 );
             }
@@ -1025,16 +1048,11 @@ pub(crate) mod tests {
             };
             let (centroid, r2) = sphere;
             let d2 = (p - centroid).length_squared();
-            let gap = d2.sqrt() - r2.sqrt();
-            let h = n.dot(p - v[0]).abs();
-            if gap > 0.0 && area * h < SPHERICAL_SAMPLING_PLANE_BOUND * (gap * gap * gap) {
+            if near_plane_bound_rejects(p, (v[0], n, area), d2, r2) {
                 rejected += 1;
                 let q = p.as_dvec3();
                 let [a, b, c] = v.map(|c| (c.as_dvec3() - q).normalize());
-                let omega = 2.0
-                    * a.dot(b.cross(c))
-                        .abs()
-                        .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+                let omega = solid_angle_of(a, b, c);
                 assert!(
                     omega < f64::from(SPHERICAL_SAMPLING_MIN_SOLID_ANGLE),
                     "{v:?} from {p:?}: Ω {omega}"

@@ -225,7 +225,7 @@ fn owen_sobol_2d_reversed(reversed_index: u32, hash: u64) -> glam::Vec2 {
 /// [`owen_sobol_2d_reversed`] given the shuffled index.
 #[inline(always)]
 fn owen_sobol_2d_shuffled(shuffled: u32, hash: u64) -> glam::Vec2 {
-    let x = laine_karras(shuffled, (hash >> 32) as u32);
+    let x = laine_karras(shuffled, scramble_seed_x(hash));
     let y = laine_karras(sobol_dim1_reversed(shuffled), scramble_seed_y(hash));
     // Both reversed by one 64-bit reversal (which costs what a 32-bit one does): reversing
     // x·2³² + y gives rev(y)·2³² + rev(x).
@@ -248,10 +248,17 @@ fn shuffled_index(reversed_index: u32, hash: u64) -> u32 {
     laine_karras(reversed_index, hash as u32).reverse_bits()
 }
 
-/// Scrambled dimension 0 of the shuffled index (seeded by the high half of `hash`).
+/// Scrambled dimension 0 of the shuffled index (seeded by [`scramble_seed_x`]).
 #[inline(always)]
 fn owen_sobol_x(shuffled: u32, hash: u64) -> u32 {
-    laine_karras(shuffled, (hash >> 32) as u32).reverse_bits()
+    laine_karras(shuffled, scramble_seed_x(hash)).reverse_bits()
+}
+
+/// The seed of dimension 0's scramble: the high half of the hash (the low half seeds the index
+/// scramble).
+#[inline(always)]
+fn scramble_seed_x(hash: u64) -> u32 {
+    (hash >> 32) as u32
 }
 
 /// The seed of dimension 1's scramble: a third 32-bit value from the 64-bit hash (a bijective

@@ -2,19 +2,19 @@
 //! layout of Embree on AVX2 machines (Wald, Woop, Benthin, Johnson and Ernst, "Embree: A Kernel
 //! Framework for Efficient CPU Ray Tracing", ACM TOG 33(4), 2014).
 //!
-//! A binary SAH tree, priced for leaves tested four triangles at a time and for the cheap
-//! traversal steps of wide nodes ([`LeafCost::PACKET4`]), is collapsed into nodes of up to eight children by repeatedly opening the child with the
-//! largest surface area. A node (`Node8`) stores its children's boxes structure-of-arrays, so
-//! one ray meets all eight with a few SIMD instructions: one 8-wide AVX2 test when the CPU has
-//! AVX2 (detected at run time; the crate is built for baseline x86-64), else two 4-wide SSE
-//! tests, with bit-identical results, so both visit the same nodes in the same order. In large
-//! sets (`COMPACT_TRIANGLES`) nodes of at most four children are stored as half-size
-//! `Node4`s, tested as lanes 0–3 of a `Node8` would be. A leaf is
-//! one packet of up to four triangles whose corners are stored structure-of-arrays and tested
-//! together by the watertight test of Woop, Benthin and Wald ("Watertight Ray/Triangle
-//! Intersection", JCGT 2(1), 2013) in SIMD lanes. Each lane computes exactly the products and
-//! sums of the scalar test in [`triangle::intersect`](super::triangle::intersect), including its
-//! double-precision fallback on edges, so the two agree bit for bit.
+//! A binary SAH tree, priced for leaves tested four triangles at a time and for the cheap traversal
+//! steps of wide nodes ([`LeafCost::PACKET4`]), is collapsed into nodes of up to eight children by
+//! repeatedly opening the child with the largest surface area. A node (`Node8`) stores its
+//! children's boxes structure-of-arrays, so one ray meets all eight with a few SIMD instructions:
+//! one 8-wide AVX2 test when the CPU has AVX2 (detected at run time; the crate is built for
+//! baseline x86-64), else two 4-wide SSE tests, with bit-identical results, so both visit the same
+//! nodes in the same order. In large sets (`COMPACT_TRIANGLES`) nodes of at most four children are
+//! stored as half-size `Node4`s, tested as lanes 0–3 of a `Node8` would be. A leaf is one packet of
+//! up to four triangles whose corners are stored structure-of-arrays and tested together by the
+//! watertight test of Woop, Benthin and Wald ("Watertight Ray/Triangle Intersection", JCGT 2(1),
+//! 2013) in SIMD lanes. Each lane computes exactly the products and sums of the scalar test in
+//! [`triangle::intersect`](super::triangle::intersect), including its double-precision fallback on
+//! edges, so the two agree bit for bit.
 
 use std::mem::MaybeUninit;
 
