@@ -13,6 +13,7 @@ mod keyword;
 mod load;
 pub mod locate;
 pub mod migrate;
+pub mod overrides;
 mod scene;
 mod validate;
 mod validated;
