@@ -1,10 +1,13 @@
 //! lumo: a physically based renderer.
 //!
-//! Data flows one way: any input (scene JSON, legacy text, glTF) is read and validated by
-//! [`load()`], with every mesh and image it references ([`load::Assets`]); [`Loaded::build`]
-//! turns it into a [`scene::Scene`] graph ([`scene::build()`], no I/O), which is rendered
-//! ([`render::render`]) and written ([`output::write_image`]). The renderer itself only ever
-//! sees the scene graph.
+//! Data flows one way, and so do the modules' imports: any input (scene JSON, legacy text,
+//! glTF) is read and validated by [`load()`], with every mesh and image it references
+//! ([`assets::Assets`], plain data); [`Loaded::build`] turns it into a [`scene::Scene`] graph
+//! ([`scene::build()`], no I/O), which is rendered ([`render::render`]) and written
+//! ([`output::write_image`]). The renderer itself only ever sees the scene graph. A
+//! [`job::RenderJob`] is one render of a loaded scene with its settings (samples, window,
+//! budgets, checkpoints), whose samples make a partial film ([`partial_film`]) that merges with
+//! the other parts of the same render; the CLI and the Python package render through it.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -19,13 +22,16 @@
 #![warn(missing_docs)]
 
 pub mod alloc;
+pub mod assets;
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
 pub mod environment;
 pub mod geometry;
+pub mod hash;
 pub mod image;
 pub mod integrator;
+pub mod job;
 pub mod lathe;
 pub mod load;
 

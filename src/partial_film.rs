@@ -26,6 +26,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::hash::{hex, sha256};
 use crate::render::{Film, PixelSum, Window};
 
 /// Sample indices `[start, end)`.
@@ -71,6 +72,11 @@ pub struct FilmHeader {
     /// Checkpoints of time-budgeted renders: seconds of the budget left.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_left_s: Option<f64>,
+    /// Checkpoints written by `lumo render`: the arguments after `lumo render` that render the
+    /// same scene (its absolute path and every flag that changes pixels), so that
+    /// `lumo render --resume CK.npz -o OUT` needs nothing else. Not part of what must agree.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub command: Option<Vec<String>>,
 }
 
 impl FilmHeader {
@@ -92,21 +98,15 @@ impl FilmHeader {
             .sum()
     }
 
-    /// The first mismatch between what two films are of (scene, build, size, seed, sampler),
-    /// as a sentence, or `None` when they can merge.
+    /// The first mismatch between what two films are of, as a sentence naming what differs,
+    /// or `None` when they can merge. What a user sets on the command line is compared first
+    /// (resolution, seed, sampler), then the build, then the rest of the scene, whose hash
+    /// also covers the resolution and seed: a film rendered at another `--width` is reported
+    /// as another resolution, not as another scene.
     pub fn mismatch(&self, other: &FilmHeader) -> Option<String> {
         let field = |what: &str, a: &dyn std::fmt::Display, b: &dyn std::fmt::Display| {
             Some(format!("{what} differs: {a} here, {b} in the other"))
         };
-        if self.scene_hash != other.scene_hash {
-            return field("the scene (hash)", &self.scene_hash, &other.scene_hash);
-        }
-        if self.lumo_version != other.lumo_version {
-            return field("lumo's version", &self.lumo_version, &other.lumo_version);
-        }
-        if self.build_id != other.build_id {
-            return field("lumo's build", &self.build_id, &other.build_id);
-        }
         if (self.width, self.height) != (other.width, other.height) {
             return field(
                 "the resolution",
@@ -119,6 +119,20 @@ impl FilmHeader {
         }
         if self.sampler != other.sampler {
             return field("the sampler", &self.sampler, &other.sampler);
+        }
+        if self.lumo_version != other.lumo_version {
+            return field("lumo's version", &self.lumo_version, &other.lumo_version);
+        }
+        if self.build_id != other.build_id {
+            return field("lumo's build", &self.build_id, &other.build_id);
+        }
+        if self.scene_hash != other.scene_hash {
+            return Some(format!(
+                "the scene differs: its description after overrides (such as --max-depth, \
+                 --integrator, --env) or a file it reads is not the same (content hash {} here, \
+                 {} in the other)",
+                self.scene_hash, other.scene_hash
+            ));
         }
         None
     }
@@ -145,28 +159,34 @@ pub struct FilmError {
     pub io: bool,
 }
 
+static BUILD_ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+
 /// The SHA-256 of the running lumo executable, computed once: two processes with the same build
-/// id run the same code, so their samples are the same bits.
+/// id run the same code, so their samples are the same bits. A host that embeds the library in
+/// another program (the Python extension) names its own build first, with [`set_build_id`].
 pub fn build_id() -> String {
-    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    ID.get_or_init(|| {
-        std::env::current_exe()
-            .and_then(std::fs::read)
-            .map(|bytes| format!("sha256:{}", hex(&sha256(&bytes))))
-            .unwrap_or_else(|e| format!("unknown ({e})"))
-    })
-    .clone()
+    BUILD_ID
+        .get_or_init(|| {
+            std::env::current_exe()
+                .map_err(|e| e.to_string())
+                .and_then(|exe| file_build_id(&exe))
+                .unwrap_or_else(|e| format!("unknown ({e})"))
+        })
+        .clone()
 }
 
-/// SHA-256 of some bytes.
-pub(crate) fn sha256(bytes: &[u8]) -> [u8; 32] {
-    use sha2::Digest;
-    sha2::Sha256::digest(bytes).into()
+/// The build id of a binary: `sha256:` and the SHA-256 of its bytes.
+pub fn file_build_id(binary: &Path) -> Result<String, String> {
+    crate::hash::sha256_file(binary)
+        .map(|h| format!("sha256:{}", hex(&h)))
+        .map_err(|e| e.to_string())
 }
 
-/// Lower-case hexadecimal.
-pub(crate) fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
+/// Sets the build id films carry ([`build_id`]), for a library embedded in a program that is
+/// not lumo's executable (the Python interpreter): the id of the module that holds lumo's code.
+/// Returns false, changing nothing, when the id was already set or used.
+pub fn set_build_id(id: String) -> bool {
+    BUILD_ID.set(id).is_ok()
 }
 
 const NPY_MAGIC: &[u8] = b"\x93NUMPY";
@@ -663,6 +683,7 @@ pub fn merge(films: &[PartialFilm]) -> Result<Merged, (usize, String)> {
         samples: if uniform { reference } else { Vec::new() },
         target_spp: None,
         time_left_s: None,
+        command: None,
         ..first.header.clone()
     };
     Ok(Merged {

@@ -381,3 +381,52 @@ fn an_interrupted_sample_range_resumes_into_the_same_film() {
         "the resumed range differs from the uninterrupted one"
     );
 }
+
+/// A checkpoint records its scene and the flags that change pixels: `lumo render --resume CK
+/// -o OUT` continues on its own to the bytes of an uninterrupted render, and resuming it into
+/// another scene is refused with the command that would continue it.
+#[test]
+fn a_checkpoint_resumes_on_its_own() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().expect("temp dir");
+    let reference = reference(dir.path());
+    let (out, ck) = (dir.path().join("out.exr"), dir.path().join("out.ck.npz"));
+    let mut moments = Moments(11);
+    let mut child = start(&out, &ck, "50ms");
+    wait_for_progress(&mut child, &ck, None, &mut moments, 100);
+    child.signal("INT");
+    let (status, err) = child.wait();
+    assert!(ck.exists(), "no checkpoint ({status:?}): {err}");
+    let header = PartialFilm::read(&ck).expect("checkpoint").header;
+    let command = header.command.expect("the checkpoint records its command");
+    assert!(command[0].ends_with("cornell.json"), "{command:?}");
+    assert!(
+        command.windows(2).any(|w| w == ["--width", "96"]),
+        "{command:?}"
+    );
+
+    let glass = common::root().join("scenes/cornell_glass.json");
+    let refused = lumo()
+        .args(["render", p(&glass), "-q", "-o", p(&out), "--resume", p(&ck)])
+        .args(SIZE)
+        .output()
+        .expect("lumo runs");
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("the scene differs") && err.contains("the checkpoint's render: lumo render"),
+        "{err}"
+    );
+
+    let resumed = dir.path().join("resumed.exr");
+    let done = lumo()
+        .args(["render", "--resume", p(&ck), "-q", "-o", p(&resumed)])
+        .output()
+        .expect("lumo runs");
+    assert!(
+        done.status.success(),
+        "{}",
+        String::from_utf8_lossy(&done.stderr)
+    );
+    assert_eq!(std::fs::read(&resumed).expect("image"), reference);
+}

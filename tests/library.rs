@@ -112,8 +112,12 @@ fn an_invalid_override_is_refused_and_changes_nothing() {
     let path = common::root().join("scenes/cornell.json");
     let mut loaded = lumo::load(&path, &LoadOptions::default()).unwrap();
     let err = loaded.edit(|s| s.camera.fov_y_deg = 200.0).unwrap_err();
-    assert!(matches!(err, LoadError::Invalid(_)));
-    assert_eq!(err.exit_code(), 2);
+    let LoadError::Invalid { diagnostics, .. } = &err else {
+        panic!("not a located report: {err:?}");
+    };
+    assert_eq!(diagnostics.len(), 1, "{err}");
+    assert_eq!(diagnostics[0].path.to_string(), "camera.fov_y_deg");
+    assert!(!err.is_io());
     let msg = err.to_string();
     assert!(
         msg.contains("cornell.json") && msg.contains("camera.fov_y_deg"),
@@ -122,12 +126,154 @@ fn an_invalid_override_is_refused_and_changes_nothing() {
     assert!((loaded.description.scene.camera.fov_y_deg - 200.0).abs() > 1.0);
 }
 
-/// A missing input is an I/O error (exit code 1), an unknown extension invalid input (2).
+/// A missing input is an I/O error, an unknown extension invalid input; both name the file.
 #[test]
-fn load_errors_map_to_exit_codes() {
+fn load_errors_say_whose_fault() {
     let missing = lumo::load("no/such/scene.json", &LoadOptions::default()).unwrap_err();
-    assert_eq!(missing.exit_code(), 1, "{missing}");
+    assert!(missing.is_io(), "{missing}");
+    assert_eq!(missing.file(), std::path::Path::new("no/such/scene.json"));
     let unknown = lumo::load("scene.yaml", &LoadOptions::default()).unwrap_err();
-    assert_eq!(unknown.exit_code(), 2, "{unknown}");
+    assert!(!unknown.is_io(), "{unknown}");
+    assert!(unknown.diagnostics().is_empty());
     assert!(unknown.to_string().contains(".json, .txt, .gltf or .glb"));
+}
+
+/// A job's films are the contract of split renders: two sample ranges rendered as separate
+/// jobs (threads differ too) merge into the bits of one job taking all the samples, and the
+/// merged film's header is that job's.
+#[test]
+fn two_sample_range_jobs_merge_into_one_job() {
+    use lumo::job::{Hooks, JobSettings, RenderJob};
+    let mut loaded = lumo::load(
+        common::root().join("scenes/cornell.json"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    loaded
+        .edit(|s| {
+            s.image.width = 24;
+            s.image.height = 18;
+        })
+        .unwrap();
+    let run = |settings: JobSettings| {
+        RenderJob::new(&loaded, settings)
+            .unwrap()
+            .run(&Hooks::default())
+            .unwrap()
+    };
+    let whole = run(JobSettings {
+        spp: Some(8),
+        ..Default::default()
+    });
+    let first = run(JobSettings {
+        samples: Some((0, 3)),
+        threads: Some(1),
+        ..Default::default()
+    });
+    let second = run(JobSettings {
+        samples: Some((3, 8)),
+        threads: Some(2),
+        ..Default::default()
+    });
+    let merged = lumo::partial_film::merge(&[second.film, first.film]).unwrap();
+    assert!(merged.gaps.is_empty(), "{:?}", merged.gaps);
+    assert_eq!(merged.film, whole.film.film);
+    assert_eq!(merged.header.samples, vec![[0, 8]]);
+    assert_eq!(merged.header.scene_hash, whole.film.header.scene_hash);
+    assert_eq!(merged.film.image().pixels, whole.image.pixels);
+}
+
+/// A job checks what it cannot render before it starts: a window outside the image, a sample
+/// range together with a time budget, and a checkpoint of another resolution (named as such,
+/// not as another scene).
+#[test]
+fn a_job_refuses_what_it_cannot_render() {
+    use lumo::job::{JobError, JobSettings, RenderJob};
+    use lumo::render::Window;
+    let loaded = lumo::load(
+        common::root().join("scenes/cornell.json"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let err = |settings: JobSettings| match RenderJob::new(&loaded, settings) {
+        Ok(_) => panic!("accepted"),
+        Err(e) => e,
+    };
+    let e = err(JobSettings {
+        crop: Some(Window {
+            x0: 0,
+            y0: 0,
+            x1: 300,
+            y1: 10,
+        }),
+        ..Default::default()
+    });
+    assert!(
+        e.to_string().contains("not inside the 256×256 image"),
+        "{e}"
+    );
+    let e = err(JobSettings {
+        samples: Some((0, 4)),
+        time_s: Some(1.0),
+        ..Default::default()
+    });
+    assert!(matches!(e, JobError::Invalid(_)), "{e}");
+    let mut small = loaded.clone();
+    small.edit(|s| s.image.width = 16).unwrap();
+    let ck = RenderJob::new(
+        &small,
+        JobSettings {
+            spp: Some(1),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .run(&Default::default())
+    .unwrap()
+    .checkpoint()
+    .expect("a uniform render has a checkpoint");
+    let e = err(JobSettings {
+        resume: Some(ck),
+        ..Default::default()
+    });
+    assert!(
+        matches!(&e, JobError::Resume(m) if m.contains("the resolution differs: 256×256 here, 16×256")),
+        "{e}"
+    );
+}
+
+/// A scene edited as data keeps the meshes and images it shares with the scene it came from,
+/// and is validated like a file.
+#[test]
+fn a_scene_with_another_description_shares_its_assets() {
+    let loaded = lumo::load(
+        common::root().join("scenes/glass_bunny.json"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let mut scene = (*loaded.description.scene).clone();
+    scene.render.seed += 1;
+    let edited = loaded.with_scene(scene.clone()).unwrap();
+    let mesh = |l: &lumo::Loaded| {
+        let source = l
+            .description
+            .scene
+            .objects
+            .iter()
+            .find_map(|o| match o {
+                lumo_schema::Object::Mesh(m)
+                    if matches!(m.source, lumo_schema::MeshSource::Obj(_)) =>
+                {
+                    Some(m.source.clone())
+                }
+                _ => None,
+            })
+            .expect("the bunny is an OBJ mesh");
+        l.assets.mesh(&source).expect("read").clone()
+    };
+    assert!(std::sync::Arc::ptr_eq(&mesh(&loaded), &mesh(&edited)));
+    scene.camera.fov_y_deg = 200.0;
+    let e = loaded.with_scene(scene).unwrap_err();
+    assert_eq!(e.diagnostics().len(), 1, "{e}");
+    assert_eq!(e.diagnostics()[0].path.to_string(), "camera.fov_y_deg");
 }

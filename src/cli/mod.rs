@@ -15,10 +15,9 @@ use lumo_converters::legacy::LightsPolicy;
 use lumo_schema as schema;
 use lumo_schema::Keyword;
 
+use lumo::job::{self, Hooks, JobError, JobSettings, LightChoice, RenderJob};
 use lumo::load::{LoadError, LoadOptions};
 use lumo::output::{write_image, ToneMap};
-use lumo::partial_film::PartialFilm;
-use lumo::render::{render_with_error, RenderOptions};
 
 /// Exit code for invalid input.
 pub const EXIT_INVALID: i32 = 2;
@@ -55,7 +54,24 @@ impl CliError {
 impl From<LoadError> for CliError {
     fn from(e: LoadError) -> Self {
         CliError {
-            code: e.exit_code(),
+            code: if e.is_io() {
+                EXIT_FAILURE
+            } else {
+                EXIT_INVALID
+            },
+            message: e.to_string(),
+        }
+    }
+}
+
+impl From<JobError> for CliError {
+    fn from(e: JobError) -> Self {
+        CliError {
+            code: if e.is_io() {
+                EXIT_FAILURE
+            } else {
+                EXIT_INVALID
+            },
             message: e.to_string(),
         }
     }
@@ -80,7 +96,10 @@ fn keyword<T: Keyword + Send + Sync>() -> impl clap::builder::TypedValueParser<V
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render a scene to an image (PNG, EXR, HDR or BMP, by extension).
-    #[command(after_help = "Example:\n  lumo render scenes/cornell.json -o cornell.png --spp 256")]
+    #[command(
+        after_help = "Example:\n  lumo render scenes/cornell.json -o cornell.png --spp 256\nContinue an interrupted render (its checkpoint knows the scene and flags):\n  lumo render --resume cornell.png.checkpoint.npz -o cornell.png",
+        args_override_self = true
+    )]
     Render(Box<RenderArgs>),
     /// Check scene files and report every problem found (exit code 0 valid, 2 invalid, 1 I/O error).
     #[command(after_help = "Example:\n  lumo validate scenes/*.json")]
@@ -214,8 +233,9 @@ pub struct BundleArgs {
 /// Arguments of `lumo render`.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
-    /// The scene to render.
-    pub scene: PathBuf,
+    /// The scene to render (with `--resume`, default: the one the checkpoint records).
+    #[arg(required_unless_present = "resume")]
+    pub scene: Option<PathBuf>,
     /// Output image; the format follows the extension (.png, .exr, .hdr, .bmp).
     #[arg(short, long, required_unless_present = "film")]
     pub output: Option<PathBuf>,
@@ -471,8 +491,9 @@ fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
             }
             Err(e) => {
                 // 2 (invalid) outranks 1 (I/O) when files fail in different ways.
-                worst = worst.max(e.exit_code());
-                report.push_str(e.message());
+                let e = CliError::from(e);
+                worst = worst.max(e.code);
+                report.push_str(&e.message);
                 report.push('\n');
             }
         }
@@ -551,191 +572,201 @@ pub fn load_warnings<'a>(
     })
 }
 
+/// `lumo render --resume CK` without a scene: the scene and flags the checkpoint records, then
+/// this command's own flags (which win).
+fn resume_recorded(ck: &Path) -> Result<(), CliError> {
+    let film = split::read_film(ck)?;
+    let Some(command) = film.header.command else {
+        return Err(CliError::invalid(format!(
+            "{}: this checkpoint does not record the scene it renders (it was written by \
+             `lumo merge` or another program): name the scene, as in \
+             lumo render SCENE --resume {} -o OUT",
+            ck.display(),
+            ck.display()
+        )));
+    };
+    let mut argv: Vec<std::ffi::OsString> = vec!["lumo".into(), "render".into()];
+    argv.extend(command.into_iter().map(Into::into));
+    argv.extend(std::env::args_os().skip(2));
+    let parsed = Cli::try_parse_from(argv).map_err(|e| {
+        CliError::invalid(format!(
+            "{}: the command it records does not parse with this lumo: {e}",
+            ck.display()
+        ))
+    })?;
+    match parsed.command {
+        Command::Render(args) if args.scene.is_some() => render_cmd(&args),
+        _ => Err(CliError::invalid(format!(
+            "{}: the command it records names no scene",
+            ck.display()
+        ))),
+    }
+}
+
+/// The arguments after `lumo render` that render the same scene as `args` (its absolute path
+/// and every flag that changes pixels): what checkpoints record for `--resume` alone.
+fn recorded_command(args: &RenderArgs, scene: &Path) -> Vec<String> {
+    let absolute = |p: &Path| {
+        std::path::absolute(p)
+            .unwrap_or_else(|_| p.to_path_buf())
+            .to_string_lossy()
+            .into_owned()
+    };
+    let mut c = vec![absolute(scene)];
+    let mut flag = |name: &str, value: Option<String>| {
+        if let Some(v) = value {
+            c.push(format!("--{name}"));
+            c.push(v);
+        }
+    };
+    let o = &args.overrides;
+    flag("width", o.width.map(|v| v.to_string()));
+    flag("height", o.height.map(|v| v.to_string()));
+    flag("seed", o.seed.map(|v| v.to_string()));
+    flag("max-depth", o.max_depth.map(|v| v.to_string()));
+    flag("integrator", o.integrator.map(|v| v.keyword().to_string()));
+    flag("sampler", o.sampler.map(|v| v.keyword().to_string()));
+    flag("lights", Some(o.lights.keyword().to_string()));
+    flag("camera", o.camera.clone());
+    flag("env", o.env.as_deref().map(absolute));
+    flag("env-strength", o.env_strength.map(|v| v.to_string()));
+    flag("env-rotation", o.env_rotation.map(|v| v.to_string()));
+    flag(
+        "light-sampler",
+        clap::ValueEnum::to_possible_value(&args.light_sampler).map(|v| v.get_name().to_string()),
+    );
+    flag(
+        "crop",
+        args.crop
+            .map(|w| format!("{},{},{},{}", w.x0, w.y0, w.x1, w.y1)),
+    );
+    flag("target-error", args.target_error.map(|v| v.to_string()));
+    c
+}
+
+/// A command line as a shell would take it back: arguments with spaces or quotes in single
+/// quotes.
+fn shell_words(words: &[String]) -> String {
+    words
+        .iter()
+        .map(|w| {
+            if !w.is_empty()
+                && w.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_./,:=+@%".contains(c))
+            {
+                w.clone()
+            } else {
+                format!("'{}'", w.replace('\'', "'\\''"))
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// `lumo render`: the arguments as a [`RenderJob`], a progress bar, and messages.
 fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
+    let Some(scene_path) = args.scene.as_deref() else {
+        return match &args.resume {
+            Some(ck) => resume_recorded(ck),
+            None => Err(CliError::invalid("give the scene to render")),
+        };
+    };
     // From here on, Ctrl-C stops the render and keeps what it has (nothing, while loading).
     let signals = split::Signals::install()?;
     // Everything that can be checked before rendering is.
     if let Some(o) = &args.output {
-        lumo::output::format_of(o).map_err(|e| CliError::invalid(e.to_string()))?;
-        split::check_writable(o, "output")?;
+        job::check_image_path(o, "output")?;
     }
     if let Some(p) = &args.error_image {
-        lumo::output::format_of(p).map_err(|e| CliError::invalid(e.to_string()))?;
-        split::check_writable(p, "error image")?;
+        job::check_image_path(p, "error image")?;
     }
     if let Some(f) = &args.film {
-        split::check_film_path(f, "film")?;
+        job::check_film_path(f, "film")?;
+    }
+    if let Some(c) = &args.checkpoint {
+        job::check_film_path(c, "checkpoint")?;
     }
     let checkpoint = match (&args.checkpoint, &args.output) {
         (Some(c), _) => Some(c.clone()),
-        (None, Some(o)) => Some(split::default_checkpoint(o)),
+        (None, Some(o)) => Some(job::default_checkpoint(o)),
         // A sample range rendered for `lumo merge`: beside the film.
-        (None, None) => args.film.as_deref().map(split::default_checkpoint),
+        (None, None) => args.film.as_deref().map(job::default_checkpoint),
     };
-    if let Some(c) = &args.checkpoint {
-        split::check_film_path(c, "checkpoint")?;
+    if args.film.is_some() && (args.adaptive || args.target_error.is_some() || args.time.is_some())
+    {
+        return Err(CliError::invalid(job::SPLIT_EXCLUDES_BUDGETS));
     }
-    let split_mode = args.samples.is_some() || args.crop.is_some() || args.film.is_some();
-    if split_mode && (args.adaptive || args.target_error.is_some() || args.time.is_some()) {
-        return Err(CliError::invalid(
-            "--samples, --crop and --film render fixed sample ranges; --adaptive, --target-error \
-             and --time decide samples from the whole image as it renders, so they cannot be \
-             split (render without them, or drive the passes yourself with lumo merge)",
-        ));
-    }
-    let resumed = match &args.resume {
+    let resume = match &args.resume {
         Some(p) => Some(split::read_film(p)?),
         None => None,
     };
-    if let Some(r) = &resumed {
-        if r.header.samples.len() != 1 {
-            return Err(CliError::invalid(format!(
-                "{}: a checkpoint holds one range of samples, this film holds {}",
-                args.resume
-                    .as_ref()
-                    .map_or(String::new(), |p| p.display().to_string()),
-                lumo::partial_film::ranges_text(&r.header.samples)
-            )));
-        }
-    }
-    let mut loaded = load_overridden(&args.scene, &args.overrides)?;
-    loaded.edit(|s| {
-        if let Some(v) = args.spp {
-            s.render.spp = v;
-        } else if let Some((a, b)) = args.samples {
-            s.render.spp = b - a;
-        } else if let Some(t) = resumed.as_ref().and_then(|r| r.header.target_spp) {
-            s.render.spp = t;
-        }
-        if let Some(t) = args.time {
-            s.render.time_budget_s = Some(t);
-        }
-        if (args.time.is_some() || args.target_error.is_some()) && args.spp.is_none() {
-            // Asked for a time or an error, not a sample count: let the budget decide.
-            s.render.spp = schema::MAX_SPP;
-        }
-        if let Some(left) = resumed.as_ref().and_then(|r| r.header.time_left_s) {
-            if args.time.is_none() {
-                s.render.time_budget_s = Some(left as f32);
-            }
-        }
-    })?;
-    let scene_hash = loaded
-        .content_hash()
-        .map_err(|e| CliError::failure(e.to_string()))?;
-    let s = &*loaded.description.scene;
+    let loaded = load_overridden(scene_path, &args.overrides)?;
     let reference = match &args.reference {
         Some(p) => Some(lumo::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
         None => None,
     };
+    for w in load_warnings(&loaded, &args.overrides) {
+        eprintln!("warning: {}: {w}", scene_path.display());
+    }
+    let recorded = resume
+        .as_ref()
+        .and_then(|r| r.header.command.clone())
+        .map(|c| shell_words(&c));
+    let settings = JobSettings {
+        spp: args.spp,
+        samples: args.samples,
+        crop: args.crop,
+        time_s: args.time,
+        target_error: args.target_error,
+        adaptive: args.adaptive,
+        light_sampler: match args.light_sampler {
+            LightSamplerArg::Auto => LightChoice::Auto,
+            LightSamplerArg::Power => LightChoice::Power,
+            LightSamplerArg::Tree => LightChoice::Tree,
+        },
+        threads: args.threads.map(|t| t as usize),
+        resume,
+        checkpoint: args.checkpoint.clone().map(|path| job::Checkpointing {
+            path,
+            every: args
+                .checkpoint_every
+                .map_or(Duration::from_secs(300), Duration::from_secs_f32),
+        }),
+        command: Some(recorded_command(args, scene_path)),
+    };
+    let render_job = RenderJob::new(&loaded, settings).map_err(|e| match (e, &args.resume) {
+        (JobError::Resume(m), Some(ck)) => {
+            let rerun = match &recorded {
+                Some(c) => format!(
+                    "\n  the checkpoint's render: lumo render {c} --resume {}",
+                    shell_words(&[ck.display().to_string()])
+                ),
+                None => String::new(),
+            };
+            CliError::invalid(format!("{}: {m}{rerun}", ck.display()))
+        }
+        (e, _) => e.into(),
+    })?;
     if let Some(r) = &reference {
-        if (r.width, r.height) != (s.image.width, s.image.height) {
+        let (w, h) = (render_job.width(), render_job.height());
+        if (r.width, r.height) != (w, h) {
             return Err(CliError::invalid(format!(
-                "{}: reference is {}×{} but the render is {}×{}",
+                "{}: reference is {}×{} but the render is {w}×{h}",
                 args.reference
                     .as_ref()
                     .map_or(String::new(), |p| p.display().to_string()),
                 r.width,
                 r.height,
-                s.image.width,
-                s.image.height
             )));
         }
     }
-    for w in load_warnings(&loaded, &args.overrides) {
-        eprintln!("warning: {}: {w}", args.scene.display());
+    for w in render_job.warnings() {
+        eprintln!("warning: {}: {w}", scene_path.display());
     }
-    let (mut scene, warnings) = loaded
-        .build()
-        .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
-    if args.light_sampler != LightSamplerArg::Auto {
-        use lumo::light::{LightSampler, LightSamplerKind};
-        let kind = match args.light_sampler {
-            LightSamplerArg::Power => LightSamplerKind::Power,
-            _ => LightSamplerKind::Tree,
-        };
-        scene.light_sampler = LightSampler::new(&scene.lights, kind);
-    }
-    let (width, height) = (scene.settings.width, scene.settings.height);
-    let window = args
-        .crop
-        .unwrap_or(lumo::render::Window::full(width, height));
-    if window.x1 > width || window.y1 > height {
-        return Err(CliError::invalid(format!(
-            "--crop {},{},{},{} is not inside the {width}×{height} image",
-            window.x0, window.y0, window.x1, window.y1
-        )));
-    }
-    let first_sample = match (&resumed, args.samples) {
-        (Some(r), _) => r.header.samples[0][0],
-        (None, Some((a, _))) => a,
-        (None, None) => 0,
-    };
-    let header_for =
-        |samples: Vec<[u32; 2]>, time_left_s: Option<f64>| lumo::partial_film::FilmHeader {
-            format: lumo::partial_film::FORMAT.to_string(),
-            format_version: lumo::partial_film::FORMAT_VERSION,
-            lumo_version: env!("CARGO_PKG_VERSION").to_string(),
-            build_id: lumo::partial_film::build_id(),
-            scene_hash: scene_hash.clone(),
-            width,
-            height,
-            crop: [window.x0, window.y0, window.x1, window.y1],
-            seed: scene.settings.seed,
-            // The light choice is part of how samples are drawn: films made with the light
-            // tree and by power must not be merged or resumed into each other.
-            sampler: format!(
-                "{}{}",
-                lumo_schema::Keyword::keyword(s.render.sampler),
-                if matches!(scene.light_sampler, lumo::light::LightSampler::Power(_)) {
-                    ""
-                } else {
-                    ", light tree"
-                }
-            ),
-            samples,
-            target_spp: Some(scene.settings.spp),
-            time_left_s,
-        };
-    if let Some(r) = &resumed {
-        let here = header_for(r.header.samples.clone(), None);
-        let ck = args
-            .resume
-            .as_ref()
-            .map_or(String::new(), |p| p.display().to_string());
-        if let Some(m) = r.header.mismatch(&here) {
-            return Err(CliError::invalid(format!(
-                "{ck}: cannot resume this render from it: {m} (\"here\" is this command's scene)"
-            )));
-        }
-        if r.header.crop != here.crop {
-            return Err(CliError::invalid(format!(
-                "{ck}: the checkpoint covers pixels {:?}, this render {:?} (give the same --crop)",
-                r.header.crop, here.crop
-            )));
-        }
-        if r.header.spp() >= u64::from(scene.settings.spp) && scene.settings.time_budget_s.is_none()
-        {
-            eprintln!(
-                "note: {ck} already holds {} samples per pixel; nothing left to render to {}",
-                r.header.spp(),
-                scene.settings.spp
-            );
-        }
-    }
-    for w in warnings {
-        eprintln!("warning: {}: {w}", args.scene.display());
-    }
-    let total = u64::from(scene.settings.width)
-        * u64::from(scene.settings.height)
-        * u64::from(scene.settings.spp);
-    let open_ended = scene.settings.time_budget_s.is_some() || args.target_error.is_some();
-    let bar = if args.quiet {
-        ProgressBar::hidden()
-    } else if open_ended {
-        ProgressBar::no_length()
-    } else {
-        ProgressBar::new(total)
+    let bar = match (args.quiet, render_job.total_samples()) {
+        (true, _) => ProgressBar::hidden(),
+        (false, Some(total)) => ProgressBar::new(total),
+        (false, None) => ProgressBar::no_length(),
     };
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% {human_pos}/{human_len} samples, {per_sec}, ETA {eta}")
@@ -743,110 +774,54 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     );
     bar.enable_steady_tick(Duration::from_millis(200));
     let progress = |n: u64| bar.set_position(n);
-    let uniform_film = !args.adaptive;
-    let render_start = std::time::Instant::now();
-    let budget = scene.settings.time_budget_s.map(f64::from);
-    let checkpoint_header = |film: &lumo::render::Film| {
-        let taken = film.pixel(0, 0).taken();
-        header_for(
-            vec![[first_sample, first_sample + taken]],
-            budget.map(|b| (b - render_start.elapsed().as_secs_f64()).max(0.0)),
-        )
-    };
-    let every = args
-        .checkpoint_every
-        .map_or(Duration::from_secs(300), Duration::from_secs_f32);
-    let last_checkpoint = std::sync::Mutex::new(std::time::Instant::now());
-    let periodic = |film: &lumo::render::Film| {
-        let Some(path) = &args.checkpoint else { return };
-        let Ok(mut last) = last_checkpoint.lock() else {
-            return;
-        };
-        if last.elapsed() < every || film.pixel(0, 0).taken() == 0 {
-            return;
-        }
-        let ck = PartialFilm {
-            header: checkpoint_header(film),
-            film: film.clone(),
-        };
-        match ck.write(path) {
-            Ok(()) => *last = std::time::Instant::now(),
-            Err(e) => bar.suspend(|| eprintln!("warning: checkpoint not written: {e}")),
-        }
-    };
-    let options = RenderOptions {
+    let warn = |w: &str| bar.suspend(|| eprintln!("warning: {w}"));
+    let finished = render_job.run(&Hooks {
         progress: Some(&progress),
-        target_rel_error: args.target_error,
-        adaptive: args.adaptive,
-        crop: args.crop,
-        first_sample,
-        resume: resumed.as_ref().map(|r| &r.film),
         cancel: Some(&signals.cancel),
-        on_pass: (args.checkpoint.is_some() && uniform_film).then_some(&periodic),
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0) as usize)
-        .build()
-        .map_err(|e| CliError::failure(format!("cannot start worker threads: {e}")))?;
-    let rendered = pool.install(|| render_with_error(&scene, &options));
-    let (image, stats) = (&rendered.image, rendered.stats);
+        warn: Some(&warn),
+        on_pass: None,
+    })?;
     bar.finish_and_clear();
-    let taken = rendered.film.pixel(0, 0).taken();
-    let uniform = uniform_film && rendered.film.counts().iter().all(|&c| c == taken);
-    let save_checkpoint = |path: &Path| -> Result<(), CliError> {
-        split::write_film(
-            &PartialFilm {
-                header: checkpoint_header(&rendered.film),
-                film: rendered.film.clone(),
-            },
-            path,
-        )
-    };
-    if rendered.interrupted {
-        let code = signals.exit_code();
+    let taken = finished.samples_per_pixel();
+    let stats = finished.stats;
+    if finished.interrupted {
         let mut said = format!(
             "interrupted after {taken} samples per pixel ({} in all)",
             stats.samples
         );
-        if let Some(o) = &args.output {
-            if taken > 0 {
-                let full = split::embed(image, &window, width, height);
-                write_image(&full, o, args.tonemap)
-                    .map_err(|e| CliError::failure(e.to_string()))?;
-                said += &format!("; wrote {}", o.display());
-            }
+        if let (Some(o), true) = (&args.output, taken > 0) {
+            write_image(&finished.full_image(), o, args.tonemap)
+                .map_err(|e| CliError::failure(e.to_string()))?;
+            said += &format!("; wrote {}", o.display());
         }
-        if let (Some(c), true) = (&checkpoint, uniform && taken > 0) {
-            save_checkpoint(c)?;
-            said += &format!(
-                "; checkpoint {} (resume with --resume {})",
-                c.display(),
-                c.display()
-            );
-        } else if !uniform {
-            said += "; adaptive renders keep no checkpoint";
+        match (&checkpoint, finished.checkpoint()) {
+            (Some(c), Some(ck)) => {
+                split::write_film(&ck, c)?;
+                said += &format!(
+                    "; checkpoint {} (resume with --resume {})",
+                    c.display(),
+                    c.display()
+                );
+            }
+            _ if !finished.uniform => said += "; adaptive renders keep no checkpoint",
+            _ => {}
         }
         return Err(CliError {
-            code,
+            code: signals.exit_code(),
             message: said,
         });
     }
     if let Some(f) = &args.film {
-        split::write_film(
-            &PartialFilm {
-                header: header_for(vec![[first_sample, first_sample + taken]], None),
-                film: rendered.film.clone(),
-            },
-            f,
-        )?;
+        split::write_film(&finished.film, f)?;
         if args.output.is_none() {
+            let (first, w) = (render_job.first_sample(), render_job.window());
             eprintln!(
-                "rendered samples {first_sample}..{} of pixels {}..{} × {}..{} in {:.2} s → {}",
-                first_sample + taken,
-                window.x0,
-                window.x1,
-                window.y0,
-                window.y1,
+                "rendered samples {first}..{} of pixels {}..{} × {}..{} in {:.2} s → {}",
+                first + taken,
+                w.x0,
+                w.x1,
+                w.y0,
+                w.y1,
                 stats.elapsed.as_secs_f64(),
                 f.display()
             );
@@ -856,34 +831,9 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     let Some(output) = &args.output else {
         return Ok(());
     };
-    let full = split::embed(image, &window, width, height);
-    if let Err(e) = write_image(&full, output, args.tonemap) {
-        // Keep the samples: a checkpoint beside the output, or in the temporary folder.
-        let mut kept = String::new();
-        if uniform {
-            for place in [
-                checkpoint.clone(),
-                Some(
-                    std::env::temp_dir()
-                        .join(format!("lumo-{}.checkpoint.npz", std::process::id())),
-                ),
-            ]
-            .into_iter()
-            .flatten()
-            {
-                if save_checkpoint(&place).is_ok() {
-                    kept = format!(
-                        " (the samples are kept in {}: lumo merge it, or --resume from it)",
-                        place.display()
-                    );
-                    break;
-                }
-            }
-        }
-        return Err(CliError::failure(format!("{e}{kept}")));
-    }
+    finished.write_image(output, args.tonemap, checkpoint.as_deref())?;
     if let Some(path) = &args.error_image {
-        write_image(&rendered.std_error, path, ToneMap::Clamp)
+        write_image(&finished.std_error, path, ToneMap::Clamp)
             .map_err(|e| CliError::failure(e.to_string()))?;
     }
     let secs = stats.elapsed.as_secs_f64();
@@ -895,26 +845,23 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     let vs_reference = match &reference {
         Some(r) => format!(
             ", RMSE {:.5}, relMSE {:.6} vs reference",
-            image.rmse(r),
-            image.rel_mse(r)
+            finished.image.rmse(r),
+            finished.image.rel_mse(r)
         ),
         None => String::new(),
     };
-    // Samples taken by this process (a resumed render's checkpoint brought the others).
-    let resumed_samples = resumed.as_ref().map_or(0, |r| r.film.samples_taken());
-    let new_samples = stats.samples - resumed_samples;
-    let resumed_note = match &resumed {
+    let resumed_note = match &render_job.settings().resume {
         Some(r) => format!(" (resumed from {} spp)", r.header.spp()),
         None => String::new(),
     };
     eprintln!(
         "rendered {}×{} at {} spp{resumed_note} in {:.3} s: {:.2} M rays/s, {:.2} M samples/s, estimated relative error {:.4}{vs_reference}{nan} → {}",
-        image.width,
-        image.height,
+        finished.image.width,
+        finished.image.height,
         stats.spp,
         secs,
         stats.rays as f64 / secs / 1e6,
-        new_samples as f64 / secs / 1e6,
+        finished.new_samples as f64 / secs / 1e6,
         stats.estimated_rel_error,
         output.display()
     );

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use lumo::image::Image;
+use lumo::job;
 use lumo::output::{write_image, ToneMap};
 use lumo::partial_film::{self, PartialFilm};
 use lumo::render::Window;
@@ -45,49 +45,9 @@ pub fn parse_crop(text: &str) -> Result<Window, String> {
     }
 }
 
-/// Checks before rendering that a file can be written at `path`: its folder exists and a
-/// temporary file can be created in it (the way every output is written).
+/// [`lumo::job::check_writable`] with the CLI's exit codes.
 pub fn check_writable(path: &Path, what: &str) -> Result<(), CliError> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(CliError::invalid(format!(
-            "{}: the {what}'s folder {} does not exist (create it, or write elsewhere)",
-            path.display(),
-            dir.display()
-        )));
-    }
-    lumo::output::temp_file_in(dir).map_err(|e| {
-        CliError::invalid(format!(
-            "{}: cannot write the {what} in {}: {e}",
-            path.display(),
-            dir.display()
-        ))
-    })?;
-    Ok(())
-}
-
-/// Checks that a partial-film path has the format's extension.
-pub fn check_film_path(path: &Path, what: &str) -> Result<(), CliError> {
-    let ext = lumo_schema::geometry::paths::lowercase_extension(path);
-    if ext != partial_film::EXTENSION {
-        return Err(CliError::invalid(format!(
-            "{}: a {what} is a partial film, written as .{} (NumPy archive); rename it to end in .{}",
-            path.display(),
-            partial_film::EXTENSION,
-            partial_film::EXTENSION
-        )));
-    }
-    check_writable(path, what)
-}
-
-/// The default checkpoint path of an output: `OUT.checkpoint.npz` beside it.
-pub fn default_checkpoint(output: &Path) -> PathBuf {
-    let mut name = output.file_name().unwrap_or_default().to_os_string();
-    name.push(format!(".checkpoint.{}", partial_film::EXTENSION));
-    output.with_file_name(name)
+    Ok(job::check_writable(path, what)?)
 }
 
 /// SIGINT and SIGTERM: the first sets `cancel` (the render stops taking work and saves what it
@@ -146,26 +106,6 @@ pub fn write_film(film: &PartialFilm, path: &Path) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(e.to_string()))
 }
 
-/// The image of a window placed in a black `width` × `height` image (the image itself when the
-/// window is all of it).
-pub fn embed(image: &Image, window: &Window, width: u32, height: u32) -> Image {
-    if (window.width(), window.height()) == (width, height) {
-        return image.clone();
-    }
-    let mut pixels = vec![glam::Vec3::ZERO; (width * height) as usize];
-    for y in 0..window.height() {
-        for x in 0..window.width() {
-            pixels[((window.y0 + y) * width + window.x0 + x) as usize] =
-                image.pixels[(y * window.width() + x) as usize];
-        }
-    }
-    Image {
-        width,
-        height,
-        pixels,
-    }
-}
-
 /// `lumo merge`.
 pub fn merge_cmd(
     parts: &[PathBuf],
@@ -175,11 +115,10 @@ pub fn merge_cmd(
     tonemap: ToneMap,
 ) -> Result<(), CliError> {
     if let Some(o) = output {
-        lumo::output::format_of(o).map_err(|e| CliError::invalid(e.to_string()))?;
-        check_writable(o, "output")?;
+        job::check_image_path(o, "output")?;
     }
     if let Some(f) = film_out {
-        check_film_path(f, "merged film")?;
+        job::check_film_path(f, "merged film")?;
     }
     let films = parts
         .iter()
@@ -216,7 +155,7 @@ pub fn merge_cmd(
         eprintln!("wrote {}", f.display());
     }
     if let Some(o) = output {
-        let image = embed(
+        let image = job::embed(
             &merged.film.image(),
             &merged.header.window(),
             merged.header.width,

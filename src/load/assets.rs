@@ -1,7 +1,6 @@
 //! Reading what a scene references (OBJ and glTF meshes, texture images) into plain arrays,
 //! so that building the scene graph does no I/O.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -11,24 +10,9 @@ use lumo_schema::Validated;
 use lumo_converters::gltf::GltfFile;
 
 use super::gltf::GltfCache;
-pub use super::obj::MeshData;
+use crate::assets::{Assets, MeshKey, TextureImage};
 use crate::math::{unorm8_table, Vec3};
 use crate::texture::Texels;
-
-/// A decoded texture image: texels as stored in the file (not yet linearised).
-#[derive(Debug, Clone)]
-pub struct TextureImage {
-    /// Width in texels.
-    pub width: u32,
-    /// Height in texels.
-    pub height: u32,
-    /// Texels, row-major, top row first, as the file stores them: 8-bit images keep their bytes
-    /// (decoded as k/255), others are floats (16-bit values as k/65535).
-    pub texels: Texels,
-    /// Whether the file holds linear floating-point values (EXR, HDR), which are never
-    /// sRGB-decoded.
-    pub is_float: bool,
-}
 
 /// A file the scene references could not be read or decoded.
 #[derive(Debug, Clone, thiserror::Error)]
@@ -40,32 +24,6 @@ pub struct AssetError {
     pub json_path: String,
     /// What went wrong.
     pub message: String,
-}
-
-/// Where a mesh comes from, as the scene writes it (inline meshes are not assets).
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-enum MeshKey {
-    Obj(String),
-    Gltf(String, u32, u32),
-}
-
-impl MeshKey {
-    fn of(source: &schema::MeshSource) -> Option<MeshKey> {
-        match source {
-            schema::MeshSource::Obj(f) => Some(MeshKey::Obj(f.clone())),
-            schema::MeshSource::Gltf(g) => Some(MeshKey::Gltf(g.file.clone(), g.mesh, g.primitive)),
-            schema::MeshSource::Inline(_) => None,
-        }
-    }
-}
-
-/// Every mesh and image a scene references, read once each, keyed by how the scene refers to
-/// them.
-#[derive(Debug, Clone, Default)]
-pub struct Assets {
-    meshes: HashMap<MeshKey, Arc<MeshData>>,
-    textures: HashMap<(String, Option<u32>), Arc<TextureImage>>,
-    files: Vec<PathBuf>,
 }
 
 impl Assets {
@@ -84,13 +42,26 @@ impl Assets {
         opened: Option<Arc<GltfFile>>,
     ) -> Result<Assets, AssetError> {
         let mut assets = Assets::default();
+        assets.read_missing(scene, base_dir, opened)?;
+        Ok(assets)
+    }
+
+    /// Reads what `scene` references and is not in memory yet (a scene derived from the one
+    /// these assets were read for shares every mesh and image the two have in common).
+    pub(super) fn read_missing(
+        &mut self,
+        scene: &Validated<schema::Scene>,
+        base_dir: &Path,
+        opened: Option<Arc<GltfFile>>,
+    ) -> Result<(), AssetError> {
+        let assets = self;
         let mut gltf = GltfCache::default();
         if let Some(file) = opened {
-            gltf.insert(file, &mut assets);
+            gltf.insert(file, assets);
         }
         for (name, t) in &scene.textures {
             let key = (t.file.clone(), t.gltf_image);
-            if assets.textures.contains_key(&key) {
+            if assets.has_image(&key) {
                 continue;
             }
             let path = base_dir.join(&t.file);
@@ -101,7 +72,7 @@ impl Assets {
             };
             let bytes = match t.gltf_image {
                 Some(i) => {
-                    let file = gltf.open(&path, &mut assets).map_err(fail)?;
+                    let file = gltf.open(&path, assets).map_err(fail)?;
                     let bytes = file.image(i).map_err(|e| fail(e.to_string()))?.0;
                     if let Some(image_file) = file.image_file(i) {
                         assets.note_file(image_file);
@@ -116,7 +87,7 @@ impl Assets {
                 }
             };
             let image = decode_image(&bytes).map_err(fail)?;
-            assets.textures.insert(key, Arc::new(image));
+            assets.insert_image(key, Arc::new(image));
         }
         assets.read_environment(&scene.background, base_dir)?;
         for (i, obj) in scene.objects.iter().enumerate() {
@@ -126,7 +97,7 @@ impl Assets {
             let Some(key) = MeshKey::of(&m.source) else {
                 continue;
             };
-            if assets.meshes.contains_key(&key) {
+            if assets.has_mesh(&key) {
                 continue;
             }
             let json_path = format!("objects[{i}].{}", obj.kind());
@@ -148,26 +119,14 @@ impl Assets {
                         json_path: format!("{json_path}.source.gltf"),
                         message,
                     };
-                    let file = gltf.open(&path, &mut assets).map_err(fail)?;
+                    let file = gltf.open(&path, assets).map_err(fail)?;
                     super::gltf::mesh_data(&file, g.mesh, g.primitive).map_err(fail)?
                 }
                 schema::MeshSource::Inline(_) => continue,
             };
-            assets.meshes.insert(key, Arc::new(data));
+            assets.insert_mesh(key, Arc::new(data));
         }
-        Ok(assets)
-    }
-
-    /// The mesh read for `source`, or `None` for inline meshes and sources that were not
-    /// read (the scene was changed after its assets were read).
-    pub fn mesh(&self, source: &schema::MeshSource) -> Option<&Arc<MeshData>> {
-        self.meshes.get(&MeshKey::of(source)?)
-    }
-
-    /// The image read for `texture`.
-    pub fn texture(&self, texture: &schema::Texture) -> Option<&Arc<TextureImage>> {
-        self.textures
-            .get(&(texture.file.clone(), texture.gltf_image))
+        Ok(())
     }
 
     /// Reads the environment image `background` names, unless it is already in memory.
@@ -180,7 +139,7 @@ impl Assets {
             return Ok(());
         };
         let key = (file.clone(), None);
-        if self.textures.contains_key(&key) {
+        if self.has_image(&key) {
             return Ok(());
         }
         let path = base_dir.join(file);
@@ -193,26 +152,8 @@ impl Assets {
             .map_err(|e| fail(format!("cannot read environment image: {e}")))?;
         self.note_file(path.clone());
         let image = decode_image(&bytes).map_err(fail)?;
-        self.textures.insert(key, Arc::new(image));
+        self.insert_image(key, Arc::new(image));
         Ok(())
-    }
-
-    /// The decoded environment image of the scene's `background.image`, if it has one.
-    pub fn environment(&self, background: &schema::Background) -> Option<&Arc<TextureImage>> {
-        let file = background.image.as_ref()?;
-        self.textures.get(&(file.clone(), None))
-    }
-
-    /// Every file read, each once, in the order first read.
-    pub fn files(&self) -> &[PathBuf] {
-        &self.files
-    }
-
-    /// Records a file as read (once, in the order first read).
-    pub(super) fn note_file(&mut self, file: PathBuf) {
-        if !self.files.contains(&file) {
-            self.files.push(file);
-        }
     }
 }
 

@@ -7,8 +7,7 @@ use std::sync::Arc;
 
 use lumo_converters::gltf::GltfFile;
 
-use super::assets::Assets;
-use super::obj::MeshData;
+use crate::assets::{Assets, MeshData};
 
 /// The glTF files opened so far, by path.
 #[derive(Default)]

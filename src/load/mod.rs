@@ -19,7 +19,6 @@ mod assets;
 mod gltf;
 mod obj;
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 use std::sync::Arc;
@@ -29,7 +28,8 @@ use lumo_converters::legacy;
 use lumo_schema as schema;
 use lumo_schema::Validated;
 
-pub use assets::{AssetError, Assets, MeshData, TextureImage};
+pub use crate::assets::{Assets, MeshData, TextureImage};
+pub use assets::AssetError;
 
 /// The kinds of input lumo reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,38 +55,81 @@ pub struct LoadOptions {
 }
 
 /// Why an input could not be loaded. Every message names the file.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     /// A file could not be read (missing, unreadable): not the input's fault.
-    Io(String),
-    /// The input is invalid: the message says where and how to fix it.
-    Invalid(String),
+    #[error("{message}")]
+    Io {
+        /// The file that could not be read.
+        file: PathBuf,
+        /// The message, naming the file.
+        message: String,
+    },
+    /// The scene is invalid: every problem, located by line, column and JSON path.
+    #[error("{}", report(file, diagnostics))]
+    Invalid {
+        /// The scene file (or a label such as `<dict>`).
+        file: PathBuf,
+        /// Every problem found, in document order.
+        diagnostics: Vec<schema::Diagnostic>,
+    },
+    /// The input is invalid in a way that has no JSON location (a legacy or glTF file that does
+    /// not parse, an asset that does not decode): the message says where and how to fix it.
+    #[error("{message}")]
+    Rejected {
+        /// The input file.
+        file: PathBuf,
+        /// The message, naming the file.
+        message: String,
+    },
+}
+
+/// The report of a scene's diagnostics, as `lumo validate` prints it (without the final newline).
+fn report(file: &Path, diagnostics: &[schema::Diagnostic]) -> String {
+    let report = schema::Report {
+        file: file.to_path_buf(),
+        diagnostics: diagnostics.to_vec(),
+    };
+    report.to_string().trim_end().to_string()
 }
 
 impl LoadError {
-    /// The process exit code this error maps to: 2 for invalid input, 1 for I/O.
-    pub fn exit_code(&self) -> i32 {
+    /// The input file the error is about.
+    pub fn file(&self) -> &Path {
         match self {
-            LoadError::Io(_) => 1,
-            LoadError::Invalid(_) => 2,
+            LoadError::Io { file, .. }
+            | LoadError::Invalid { file, .. }
+            | LoadError::Rejected { file, .. } => file,
         }
     }
 
-    /// The message for the user.
-    pub fn message(&self) -> &str {
+    /// Whether a file could not be read (rather than being invalid).
+    pub fn is_io(&self) -> bool {
+        matches!(self, LoadError::Io { .. })
+    }
+
+    /// The located problems of an invalid scene (empty for the other kinds).
+    pub fn diagnostics(&self) -> &[schema::Diagnostic] {
         match self {
-            LoadError::Io(m) | LoadError::Invalid(m) => m,
+            LoadError::Invalid { diagnostics, .. } => diagnostics,
+            _ => &[],
+        }
+    }
+
+    fn rejected(file: &Path, message: impl Into<String>) -> LoadError {
+        LoadError::Rejected {
+            file: file.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    fn io(file: &Path, message: impl Into<String>) -> LoadError {
+        LoadError::Io {
+            file: file.to_path_buf(),
+            message: message.into(),
         }
     }
 }
-
-impl fmt::Display for LoadError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.message())
-    }
-}
-
-impl std::error::Error for LoadError {}
 
 /// A scene description read from any supported input, validated, before its assets are read.
 #[derive(Debug, Clone)]
@@ -150,33 +193,13 @@ impl Loaded {
     /// time budget are left out (sample ranges of one render, or a checkpoint resumed with a new
     /// target, are the same scene).
     pub fn content_hash(&self) -> std::io::Result<String> {
-        use crate::partial_film::{hex, sha256};
+        use crate::hash::{hex, sha256, sha256_file};
         let d = &self.description;
-        // Streamed through a small buffer: a big mesh file is not held in memory a second time.
-        let read_hash = |path: &Path| -> std::io::Result<[u8; 32]> {
-            use sha2::Digest;
-            use std::io::Read;
-            let named = |e: std::io::Error| {
-                std::io::Error::new(e.kind(), format!("{}: {e}", path.display()))
-            };
-            let mut file = std::fs::File::open(path).map_err(named)?;
-            let mut hasher = sha2::Sha256::new();
-            let mut buf = vec![0u8; 1 << 20];
-            loop {
-                match file.read(&mut buf) {
-                    Ok(0) => break,
-                    Ok(n) => hasher.update(&buf[..n]),
-                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                    Err(e) => return Err(named(e)),
-                }
-            }
-            Ok(hasher.finalize().into())
-        };
         // Every file read, hashed once (the scene's references are among them, under the
         // paths the loader resolved: base_dir joined with the reference).
         let mut read: Vec<(&PathBuf, [u8; 32])> = Vec::new();
         for f in self.assets.files() {
-            read.push((f, read_hash(f)?));
+            read.push((f, sha256_file(f)?));
         }
         // The same file however it is spelt (`./a.glb` and `a.glb`): a file read is not read
         // and hashed again.
@@ -189,7 +212,7 @@ impl Loaded {
             });
             let hash = match found {
                 Some((_, h)) => *h,
-                None => read_hash(&path)?,
+                None => sha256_file(&path)?,
             };
             Ok(format!("sha256:{}", hex(&hash)))
         };
@@ -220,6 +243,24 @@ impl Loaded {
         Ok(format!("sha256:{}", hex(&sha256(&all))))
     }
 
+    /// The same input with another scene description (the scene edited as data, a Python
+    /// dict's overrides): validated against the input's folder, with every mesh and image the
+    /// two scenes share kept in memory, not read again, and those only the new one references
+    /// read. [`Loaded::files`] then lists the files of both.
+    pub fn with_scene(&self, scene: schema::Scene) -> Result<Loaded, LoadError> {
+        let d = &self.description;
+        let scene =
+            Validated::new(scene, Some(&d.base_dir)).map_err(|e| invalid_report(&d.file, e))?;
+        let mut assets = self.assets.clone();
+        assets
+            .read_missing(&scene, &d.base_dir, None)
+            .map_err(|e| LoadError::rejected(&d.file, format!("{}: {e}", d.file.display())))?;
+        Ok(Loaded {
+            description: SceneFile { scene, ..d.clone() },
+            assets,
+        })
+    }
+
     /// See [`SceneFile::edit`]. Overrides must not change what the scene references: the
     /// assets were read for the scene as loaded (a build then reports the missing asset).
     pub fn edit(&mut self, change: impl FnOnce(&mut schema::Scene)) -> Result<(), LoadError> {
@@ -228,7 +269,7 @@ impl Loaded {
         let d = &self.description;
         self.assets
             .read_environment(&d.scene.background, &d.base_dir)
-            .map_err(|e| LoadError::Invalid(format!("{}: {e}", d.file.display())))
+            .map_err(|e| LoadError::rejected(&d.file, format!("{}: {e}", d.file.display())))
     }
 }
 
@@ -239,7 +280,7 @@ pub fn kind_of(path: &Path) -> Result<InputKind, LoadError> {
         "json" => Ok(InputKind::Json),
         "txt" => Ok(InputKind::Legacy),
         "gltf" | "glb" => Ok(InputKind::Gltf),
-        _ => Err(LoadError::Invalid(format!(
+        _ => Err(LoadError::rejected(path, format!(
             "{}: cannot tell the input kind from the extension `{ext}` (expected .json, .txt, .gltf or .glb)",
             path.display()
         ))),
@@ -253,7 +294,7 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Loa
     let (description, opened) = read_scene_keeping_gltf(path, options)?;
     crate::phases::mark("load: scene read and validated");
     let assets = Assets::read_with(&description.scene, &description.base_dir, opened)
-        .map_err(|e| LoadError::Invalid(format!("{}: {e}", path.display())))?;
+        .map_err(|e| LoadError::rejected(path, format!("{}: {e}", path.display())))?;
     crate::phases::mark("load: assets read");
     Ok(Loaded {
         description,
@@ -283,8 +324,8 @@ fn read_scene_keeping_gltf(
                 scene_dir: options.scene_dir.clone(),
             };
             let gltf_error = |e: g::GltfError| match e {
-                g::GltfError::Io { .. } => LoadError::Io(e.to_string()),
-                _ => LoadError::Invalid(e.to_string()),
+                g::GltfError::Io { .. } => LoadError::io(path, e.to_string()),
+                _ => LoadError::rejected(path, e.to_string()),
             };
             let file = Arc::new(GltfFile::open(path).map_err(gltf_error)?);
             crate::phases::mark("load: glTF file read and parsed");
@@ -296,21 +337,19 @@ fn read_scene_keeping_gltf(
             };
             let scene = Validated::new(imported.scene, Some(&base_dir)).map_err(|d| {
                 let problems: Vec<String> = d.iter().map(ToString::to_string).collect();
-                LoadError::Invalid(format!(
-                    "{}: the imported scene is not valid: {}",
-                    path.display(),
-                    problems.join("; ")
-                ))
+                LoadError::rejected(
+                    path,
+                    format!(
+                        "{}: the imported scene is not valid: {}",
+                        path.display(),
+                        problems.join("; ")
+                    ),
+                )
             })?;
             (scene, base_dir, imported.warnings)
         }
         InputKind::Json => {
-            let (scene, notes) = schema::load_scene_file_noted(path).map_err(|e| match e {
-                schema::LoadError::Io { .. } => LoadError::Io(e.to_string()),
-                schema::LoadError::Invalid { .. } => {
-                    LoadError::Invalid(e.to_string().trim_end().to_string())
-                }
-            })?;
+            let (scene, notes) = schema::load_scene_file_noted(path).map_err(from_schema)?;
             (scene, schema::base_dir_of(path), notes)
         }
         InputKind::Legacy => {
@@ -320,8 +359,8 @@ fn read_scene_keeping_gltf(
                 output_dir: None,
             };
             let imported = legacy::import(path, &opts).map_err(|e| match e {
-                legacy::LegacyError::Io { .. } => LoadError::Io(e.to_string()),
-                legacy::LegacyError::Invalid { .. } => LoadError::Invalid(e.to_string()),
+                legacy::LegacyError::Io { .. } => LoadError::io(path, e.to_string()),
+                legacy::LegacyError::Invalid { .. } => LoadError::rejected(path, e.to_string()),
             })?;
             // The importer's warnings read `file:line:col: warning: …`; keep only
             // `line:col: …` (callers name the file themselves).
@@ -354,9 +393,36 @@ fn read_scene_keeping_gltf(
 }
 
 fn invalid_report(file: &Path, diagnostics: Vec<schema::Diagnostic>) -> LoadError {
-    let e = schema::LoadError::Invalid {
+    LoadError::Invalid {
         file: file.to_path_buf(),
         diagnostics,
-    };
-    LoadError::Invalid(e.to_string().trim_end().to_string())
+    }
+}
+
+/// The loader's error for the schema's.
+fn from_schema(e: schema::LoadError) -> LoadError {
+    match e {
+        schema::LoadError::Io { ref path, .. } => LoadError::io(path, e.to_string()),
+        schema::LoadError::Invalid { file, diagnostics } => invalid_report(&file, diagnostics),
+    }
+}
+
+/// Reads and validates a lumo scene given as JSON text (not a file: a scene built in memory, a
+/// Python dict), with every asset it references; `label` names it in messages (`<dict>`), and
+/// relative paths in it resolve against `base_dir`.
+pub fn load_json_str(text: &str, label: &Path, base_dir: &Path) -> Result<Loaded, LoadError> {
+    let (scene, warnings) =
+        schema::load_scene_str_noted(text, label, Some(base_dir)).map_err(from_schema)?;
+    let assets = Assets::read_with(&scene, base_dir, None)
+        .map_err(|e| LoadError::rejected(label, format!("{}: {e}", label.display())))?;
+    Ok(Loaded {
+        description: SceneFile {
+            scene,
+            base_dir: base_dir.to_path_buf(),
+            warnings,
+            file: label.to_path_buf(),
+            kind: InputKind::Json,
+        },
+        assets,
+    })
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use crate::math::{Vec2, Vec3};
 
-pub use crate::geometry::mesh::MeshData;
+use crate::geometry::mesh::MeshData;
 
 /// Reads an OBJ file through the one OBJ reader ([`lumo_converters::obj::load`]) into the
 /// renderer's arrays (normals normalised). Errors name the problem; the caller names the file.

@@ -9,11 +9,11 @@ use lumo_schema as schema;
 use lumo_schema::Validated;
 
 use super::{IntegratorKind, Scene, Settings};
+use crate::assets::{Assets, MeshData};
 use crate::camera::Camera;
 use crate::environment::Environment;
 use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
 use crate::light::{Light, LightSampler, LightSamplerKind};
-use crate::load::{Assets, MeshData};
 use crate::material::{AlphaMode, Material};
 use crate::math::{srgb8_table, srgb8_to_linear, unorm8_table, Affine3A, Vec2, Vec3};
 use crate::texture::{Texels, Texture, TextureRef, Wrap};

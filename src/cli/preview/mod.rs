@@ -21,9 +21,9 @@ use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
+use lumo::job::{Hooks, JobSettings, RenderJob};
 use lumo::output::ToneMap;
-use lumo::render::{render_with_error, Film, Image, RenderOptions};
-use lumo::scene::IntegratorKind;
+use lumo::render::{Film, Image};
 use serde::Serialize;
 
 use super::{keyword, load_overridden, load_warnings, CliError, SceneOverrides};
@@ -345,14 +345,12 @@ fn load_and_render(
         // A preview refines to a sample count: a time budget would stop it early for no one.
         s.render.time_budget_s = None;
     })?;
-    let (mut scene, build_warnings) = loaded
-        .build()
-        .map_err(|e| CliError::invalid(format!("{}: {e}", args.scene.display())))?;
+    let mut render_job = RenderJob::new(&loaded, JobSettings::default())?;
     let all_warnings: Vec<String> = load_warnings(&loaded, &args.overrides)
+        .chain(render_job.warnings())
         .cloned()
-        .chain(build_warnings)
         .collect();
-    let full = scene.settings;
+    let full = render_job.scene().settings;
     shared.update(|s| {
         s.state = "rendering";
         s.error = None;
@@ -365,19 +363,7 @@ fn load_and_render(
         s.samples_per_s = 0.0;
     });
     let cancelled = || shared.cancel.load(Ordering::SeqCst);
-    // Quick pass: primary rays and direct light at a quarter of the resolution, in a few ms.
-    scene.settings.width = full.width.div_ceil(4);
-    scene.settings.height = full.height.div_ceil(4);
-    scene.settings.integrator = IntegratorKind::Raycast;
-    scene.settings.spp = 1;
-    let quick = render_with_error(
-        &scene,
-        &RenderOptions {
-            cancel: Some(&shared.cancel),
-            ..RenderOptions::default()
-        },
-    );
-    scene.settings = full;
+    let quick = render_job.quick_look(Some(&shared.cancel));
     if quick.interrupted || cancelled() {
         return Ok(Outcome::Interrupted);
     }
@@ -410,15 +396,12 @@ fn load_and_render(
             },
         );
     };
-    let rendered = render_with_error(
-        &scene,
-        &RenderOptions {
-            cancel: Some(&shared.cancel),
-            on_pass: Some(&on_pass),
-            ..RenderOptions::default()
-        },
-    );
-    if rendered.interrupted {
+    let finished = render_job.run(&Hooks {
+        cancel: Some(&shared.cancel),
+        on_pass: Some(&on_pass),
+        ..Hooks::default()
+    })?;
+    if finished.interrupted {
         return Ok(Outcome::Interrupted);
     }
     Ok(Outcome::Done)
