@@ -15,6 +15,9 @@ use lumo::scene::Scene;
 /// The bundled font for plot labels (DejaVu Sans, Bitstream Vera licence: `assets/fonts/`).
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
+/// Seed of the reference rendered when none is given (the ladder's rungs use seed 1).
+const REFERENCE_SEED: u64 = 0x5_eed0_f2ef;
+
 /// One rung of the ladder.
 #[derive(Debug, Clone, Copy)]
 pub struct Rung {
@@ -37,13 +40,22 @@ pub struct Rung {
 pub struct ConvergeArgs {
     /// The scene.
     pub scene: PathBuf,
-    /// Reference image (linear EXR/HDR). Without one, a reference is rendered first at
-    /// `--reference-spp` and saved as `reference.exr` in the output folder.
+    /// Reference image (linear EXR/HDR) of the scene at the size rendered. Without one, lumo
+    /// first renders its own reference: the same scene and size (with `--width`/`--height` and
+    /// `--sampler`), `--reference-spp` samples in every pixel (never adaptive), seed 0x5eed0f2ef
+    /// (the ladder uses seed 1), saved as `reference.exr` in the output folder; its own noise
+    /// is part of every RMSE.
     #[arg(long)]
     pub reference: Option<PathBuf>,
-    /// Samples per pixel of the rendered reference.
+    /// Samples per pixel of the reference rendered when no `--reference` is given.
     #[arg(long, default_value_t = 4096)]
     pub reference_spp: u32,
+    /// Image width in pixels (overrides the scene, as in `lumo render`).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(lumo_schema::MAX_IMAGE_SIDE)))]
+    pub width: Option<u32>,
+    /// Image height in pixels (overrides the scene, as in `lumo render`).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(lumo_schema::MAX_IMAGE_SIDE)))]
+    pub height: Option<u32>,
     /// Comma-separated ladder of samples per pixel.
     #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
     pub spp: Vec<u32>,
@@ -153,9 +165,23 @@ pub fn run(args: &ConvergeArgs) -> Result<Vec<Rung>, CliError> {
         others.extend(read_series(path, &args.label)?);
     }
     let mut loaded = lumo::load(&args.scene, &LoadOptions::default())?;
-    if let Some(k) = args.sampler {
-        loaded.edit(|s| s.render.sampler = k)?;
+    if args.sampler.is_some() || args.width.is_some() || args.height.is_some() {
+        loaded.edit(|s| {
+            if let Some(k) = args.sampler {
+                s.render.sampler = k;
+            }
+            if let Some(w) = args.width {
+                s.image.width = w;
+            }
+            if let Some(h) = args.height {
+                s.image.height = h;
+            }
+        })?;
     }
+    let (width, height) = (
+        loaded.description.scene.image.width,
+        loaded.description.scene.image.height,
+    );
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|e| CliError::failure(format!("{}: {e}", args.out_dir.display())))?;
     let scene_at = |spp: u32, seed: u64| -> Result<Scene, CliError> {
@@ -172,9 +198,15 @@ pub fn run(args: &ConvergeArgs) -> Result<Vec<Rung>, CliError> {
     let reference = match &args.reference {
         Some(path) => read_image(path).map_err(|e| CliError::failure(e.to_string()))?,
         None => {
-            eprintln!("rendering a reference at {} spp…", args.reference_spp);
+            eprintln!(
+                "no --reference given: rendering one of this scene at {width}×{height}, {} spp, \
+                 seed {REFERENCE_SEED:#x} (the ladder uses seed 1), to {}; its own noise is part \
+                 of every RMSE below",
+                args.reference_spp,
+                args.out_dir.join("reference.exr").display()
+            );
             let r = render_with_error(
-                &scene_at(args.reference_spp, 0x5_eed0_f2ef)?,
+                &scene_at(args.reference_spp, REFERENCE_SEED)?,
                 &RenderOptions::default(),
             );
             write_image(
@@ -186,18 +218,11 @@ pub fn run(args: &ConvergeArgs) -> Result<Vec<Rung>, CliError> {
             r.image
         }
     };
-    if (reference.width, reference.height)
-        != (
-            loaded.description.scene.image.width,
-            loaded.description.scene.image.height,
-        )
-    {
+    if (reference.width, reference.height) != (width, height) {
         return Err(CliError::invalid(format!(
-            "reference is {}×{} but the scene renders {}×{}",
-            reference.width,
-            reference.height,
-            loaded.description.scene.image.width,
-            loaded.description.scene.image.height
+            "reference is {}×{} but the scene renders {width}×{height} (--width and --height \
+             set the size rendered)",
+            reference.width, reference.height,
         )));
     }
     let options = RenderOptions {
@@ -296,23 +321,24 @@ fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), 
             RGBColor(0, 150, 160),
         ];
         root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let (x_ticks, y_ticks) = (LogTicks::new(x.0, x.1), LogTicks::new(y.0, y.1));
         let mut chart = ChartBuilder::on(&root)
             .caption("Error against time", ("sans-serif", 22))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d((x.0..x.1).log_scale(), (y.0..y.1).log_scale())
+            .build_cartesian_2d(
+                (x.0..x.1)
+                    .log_scale()
+                    .with_key_points(x_ticks.labelled)
+                    .with_light_points(x_ticks.grid),
+                (y.0..y.1)
+                    .log_scale()
+                    .with_key_points(y_ticks.labelled)
+                    .with_light_points(y_ticks.grid),
+            )
             .map_err(|e| e.to_string())?;
-        // Ticks with at most three significant digits (log axes put them at 0.3, not 0.30…04).
-        let tick = |v: &f64| {
-            let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
-            let s = format!("{v:.digits$}");
-            if s.contains('.') {
-                s.trim_end_matches('0').trim_end_matches('.').to_string()
-            } else {
-                s
-            }
-        };
+        let tick = |v: &f64| tick_label(*v);
         chart
             .configure_mesh()
             .x_desc("wall time (s)")
@@ -320,6 +346,8 @@ fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), 
             .x_label_formatter(&tick)
             .y_label_formatter(&tick)
             .label_style(("sans-serif", 14))
+            .bold_line_style(RGBColor(0, 0, 0).mix(0.14))
+            .light_line_style(RGBColor(0, 0, 0).mix(0.05))
             .draw()
             .map_err(|e| e.to_string())?;
         let (t0, e0) = series[0].points[0];
@@ -380,4 +408,153 @@ fn plot(this: &Series, others: &[Series], svg: &Path, png: &Path) -> Result<(), 
         .and_then(|_| std::fs::rename(&tmp, png))
         .map_err(|e| fail(format!("{}: {e}", png.display())))?;
     Ok(())
+}
+
+/// The marks of a logarithmic axis: labelled values, each drawn with a grid line, and the
+/// unlabelled grid lines between them.
+#[derive(Debug, Clone, PartialEq)]
+struct LogTicks {
+    /// Labelled values, ascending: the decades; also 2 and 5 times each decade when the axis
+    /// spans under two decades; every integer multiple of the decades when that still leaves
+    /// fewer than two labels (a short axis inside one decade), and every half-integer one when
+    /// even that does.
+    labelled: Vec<f64>,
+    /// Unlabelled grid lines, ascending: the other integer multiples of each decade when the
+    /// axis spans at most three decades, else none (a longer axis would be striped with them).
+    grid: Vec<f64>,
+}
+
+impl LogTicks {
+    /// The most decades labelled; longer axes label every second (third, …) decade.
+    const MAX_DECADE_LABELS: usize = 8;
+
+    fn new(lo: f64, hi: f64) -> LogTicks {
+        let empty = LogTicks {
+            labelled: Vec::new(),
+            grid: Vec::new(),
+        };
+        if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+            return empty;
+        }
+        let span = (hi / lo).log10();
+        // n·10^(k−1) for n = 10…95 in steps of 5 (1, 1.5, 2, … 9.5 times the decade 10^k),
+        // parsed from its decimal form: the double nearest the decimal, so that the labels
+        // print exactly and no two marks round to the same text.
+        let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+        let marks: Vec<(u32, i32, f64)> = (k0..=k1)
+            .flat_map(|k| (10..100u32).step_by(5).map(move |n| (n, k)))
+            .filter_map(|(n, k)| {
+                let v = format!("{n}e{}", k - 1).parse::<f64>().ok()?;
+                (lo <= v && v <= hi).then_some((n, k, v))
+            })
+            .collect();
+        let pick = |keep: &dyn Fn(u32, i32) -> bool| -> Vec<f64> {
+            marks
+                .iter()
+                .filter(|&&(n, k, _)| keep(n, k))
+                .map(|&(_, _, v)| v)
+                .collect()
+        };
+        let decades = marks.iter().filter(|&&(n, _, _)| n == 10).count();
+        let every = decades.div_ceil(Self::MAX_DECADE_LABELS).max(1) as i32;
+        let mut labelled = pick(&|n, k| n == 10 && k.rem_euclid(every) == 0);
+        if span < 2.0 {
+            labelled = pick(&|n, _| matches!(n, 10 | 20 | 50));
+        }
+        if labelled.len() < 2 {
+            labelled = pick(&|n, _| n % 10 == 0);
+        }
+        if labelled.len() < 2 {
+            labelled = pick(&|_, _| true);
+        }
+        let grid = if span <= 3.0 {
+            pick(&|n, _| n % 10 == 0)
+        } else {
+            pick(&|n, _| n == 10)
+        }
+        .into_iter()
+        .filter(|v| !labelled.contains(v))
+        .collect();
+        LogTicks { labelled, grid }
+    }
+}
+
+/// The text of a tick at m·10^k (m = 1, 1.5, 2, …, 9.5): the digits it needs and no more
+/// (0.002, 0.5, 0.15, 20, 1.5).
+fn tick_label(v: f64) -> String {
+    let decimals = (1.0 - (v.abs().log10() + 1e-9).floor()).max(0.0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn labels(lo: f64, hi: f64) -> Vec<String> {
+        LogTicks::new(lo, hi)
+            .labelled
+            .iter()
+            .map(|&v| tick_label(v))
+            .collect()
+    }
+
+    #[test]
+    fn long_axes_label_decades_only() {
+        assert_eq!(labels(0.03, 25.0), ["0.1", "1", "10"]);
+        assert_eq!(labels(0.0031, 0.31), ["0.01", "0.1"]);
+        let t = LogTicks::new(0.03, 25.0);
+        assert!(t.grid.contains(&0.2) && t.grid.contains(&9.0) && !t.grid.contains(&1.0));
+        // Beyond three decades the grid keeps no lines between the decades.
+        let t = LogTicks::new(1e-4, 1.0);
+        assert_eq!(t.grid, Vec::<f64>::new());
+        assert_eq!(t.labelled, [1e-4, 1e-3, 1e-2, 1e-1, 1.0]);
+    }
+
+    #[test]
+    fn short_axes_add_two_and_five_then_every_multiple() {
+        assert_eq!(labels(0.035, 1.9), ["0.05", "0.1", "0.2", "0.5", "1"]);
+        assert_eq!(labels(0.21, 0.47), ["0.3", "0.4"]);
+        assert_eq!(labels(0.55, 1.24), ["0.6", "0.7", "0.8", "0.9", "1"]);
+        assert_eq!(labels(1.3e-4, 2.99e-4), ["0.00015", "0.0002", "0.00025"]);
+        assert_eq!(labels(13.0, 29.9), ["15", "20", "25"]);
+    }
+
+    #[test]
+    fn very_long_axes_thin_the_decade_labels() {
+        let t = LogTicks::new(1e-9, 1e9);
+        assert!(t.labelled.len() <= LogTicks::MAX_DECADE_LABELS);
+        assert!(t.labelled.len() >= 2);
+    }
+
+    #[test]
+    fn no_label_is_printed_twice_and_labels_are_short() {
+        let mut lo = 1.3e-4;
+        while lo < 50.0 {
+            for factor in [2.3, 4.0, 9.5, 30.0, 150.0, 1e3, 1e5] {
+                let l = labels(lo, lo * factor);
+                assert!(l.len() >= 2, "{lo} × {factor}: {l:?}");
+                let mut unique = l.clone();
+                unique.dedup();
+                assert_eq!(unique, l, "{lo} × {factor}");
+                assert!(l.iter().all(|s| s.len() <= 8), "{l:?}");
+                assert!(
+                    l.iter().all(|s| !s.ends_with('0') || !s.contains('.')),
+                    "{l:?}"
+                );
+                let t = LogTicks::new(lo, lo * factor);
+                assert!(t.grid.iter().all(|v| !t.labelled.contains(v)));
+                assert!(
+                    t.grid.len() <= 27,
+                    "{lo} × {factor}: {} lines",
+                    t.grid.len()
+                );
+            }
+            lo *= 1.37;
+        }
+    }
 }
