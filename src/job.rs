@@ -171,6 +171,8 @@ pub struct Finished {
     time_left_s: Option<f64>,
     /// [`JobSettings::command`].
     command: Option<Vec<String>>,
+    /// Samples per pixel of the checkpoint the job resumed.
+    resumed_spp: Option<u64>,
 }
 
 impl RenderJob {
@@ -483,6 +485,7 @@ impl RenderJob {
             new_samples: rendered.stats.samples - resumed_samples,
             time_left_s: time_left(),
             command: self.settings.command.clone(),
+            resumed_spp: self.settings.resume.as_ref().map(|r| r.header.spp()),
         })
     }
 }
@@ -491,6 +494,39 @@ impl Finished {
     /// Samples per pixel the film holds (the same in every pixel of uniform renders).
     pub fn samples_per_pixel(&self) -> u32 {
         self.film.film.pixel(0, 0).taken()
+    }
+
+    /// One line on what the job did: size, samples, time, throughput (of this run's samples),
+    /// the estimated error and, given a reference image, the measured one.
+    pub fn summary(&self, reference: Option<&Image>) -> String {
+        let stats = &self.stats;
+        let secs = stats.elapsed.as_secs_f64();
+        let resumed = match self.resumed_spp {
+            Some(spp) => format!(" (resumed from {spp} spp)"),
+            None => String::new(),
+        };
+        let vs_reference = match reference {
+            Some(r) => format!(
+                ", RMSE {:.5}, relMSE {:.6} vs reference",
+                self.image.rmse(r),
+                self.image.rel_mse(r)
+            ),
+            None => String::new(),
+        };
+        let dropped = match stats.nan_samples {
+            0 => String::new(),
+            n => format!(", {n} NaN/Inf samples dropped"),
+        };
+        format!(
+            "rendered {}×{} at {} spp{resumed} in {secs:.3} s: {:.2} M rays/s, {:.2} M samples/s, \
+             estimated relative error {:.4}{vs_reference}{dropped}",
+            self.image.width,
+            self.image.height,
+            stats.spp,
+            stats.rays as f64 / secs / 1e6,
+            self.new_samples as f64 / secs / 1e6,
+            stats.estimated_rel_error,
+        )
     }
 
     /// The image at the full size of the render, black outside the job's window.

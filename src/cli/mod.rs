@@ -15,9 +15,10 @@ use lumo_converters::legacy::LightsPolicy;
 use lumo_schema as schema;
 use lumo_schema::Keyword;
 
-use lumo::job::{self, Hooks, JobError, JobSettings, LightChoice, RenderJob};
+use lumo::job::{self, Finished, Hooks, JobError, JobSettings, LightChoice, RenderJob};
 use lumo::load::{LoadError, LoadOptions};
 use lumo::output::{write_image, ToneMap};
+use lumo::partial_film::PartialFilm;
 
 /// Exit code for invalid input.
 pub const EXIT_INVALID: i32 = 2;
@@ -663,17 +664,9 @@ fn shell_words(words: &[String]) -> String {
         .join(" ")
 }
 
-/// `lumo render`: the arguments as a [`RenderJob`], a progress bar, and messages.
-fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
-    let Some(scene_path) = args.scene.as_deref() else {
-        return match &args.resume {
-            Some(ck) => resume_recorded(ck),
-            None => Err(CliError::invalid("give the scene to render")),
-        };
-    };
-    // From here on, Ctrl-C stops the render and keeps what it has (nothing, while loading).
-    let signals = split::Signals::install()?;
-    // Everything that can be checked before rendering is.
+/// Checks every output path of `lumo render` before anything is rendered; returns where the
+/// checkpoint goes if the render is interrupted.
+fn check_render_outputs(args: &RenderArgs) -> Result<Option<PathBuf>, CliError> {
     if let Some(o) = &args.output {
         job::check_image_path(o, "output")?;
     }
@@ -686,33 +679,21 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     if let Some(c) = &args.checkpoint {
         job::check_film_path(c, "checkpoint")?;
     }
-    let checkpoint = match (&args.checkpoint, &args.output) {
-        (Some(c), _) => Some(c.clone()),
-        (None, Some(o)) => Some(job::default_checkpoint(o)),
-        // A sample range rendered for `lumo merge`: beside the film.
-        (None, None) => args.film.as_deref().map(job::default_checkpoint),
-    };
     if args.film.is_some() && (args.adaptive || args.target_error.is_some() || args.time.is_some())
     {
         return Err(CliError::invalid(job::SPLIT_EXCLUDES_BUDGETS));
     }
-    let resume = match &args.resume {
-        Some(p) => Some(split::read_film(p)?),
-        None => None,
-    };
-    let loaded = load_overridden(scene_path, &args.overrides)?;
-    let reference = match &args.reference {
-        Some(p) => Some(lumo::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
-        None => None,
-    };
-    for w in load_warnings(&loaded, &args.overrides) {
-        eprintln!("warning: {}: {w}", scene_path.display());
-    }
-    let recorded = resume
-        .as_ref()
-        .and_then(|r| r.header.command.clone())
-        .map(|c| shell_words(&c));
-    let settings = JobSettings {
+    Ok(match (&args.checkpoint, &args.output) {
+        (Some(c), _) => Some(c.clone()),
+        (None, Some(o)) => Some(job::default_checkpoint(o)),
+        // A sample range rendered for `lumo merge`: beside the film.
+        (None, None) => args.film.as_deref().map(job::default_checkpoint),
+    })
+}
+
+/// The job settings `lumo render`'s arguments ask for.
+fn job_settings(args: &RenderArgs, scene: &Path, resume: Option<PartialFilm>) -> JobSettings {
+    JobSettings {
         spp: args.spp,
         samples: args.samples,
         crop: args.crop,
@@ -732,38 +713,13 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
                 .checkpoint_every
                 .map_or(Duration::from_secs(300), Duration::from_secs_f32),
         }),
-        command: Some(recorded_command(args, scene_path)),
-    };
-    let render_job = RenderJob::new(&loaded, settings).map_err(|e| match (e, &args.resume) {
-        (JobError::Resume(m), Some(ck)) => {
-            let rerun = match &recorded {
-                Some(c) => format!(
-                    "\n  the checkpoint's render: lumo render {c} --resume {}",
-                    shell_words(&[ck.display().to_string()])
-                ),
-                None => String::new(),
-            };
-            CliError::invalid(format!("{}: {m}{rerun}", ck.display()))
-        }
-        (e, _) => e.into(),
-    })?;
-    if let Some(r) = &reference {
-        let (w, h) = (render_job.width(), render_job.height());
-        if (r.width, r.height) != (w, h) {
-            return Err(CliError::invalid(format!(
-                "{}: reference is {}×{} but the render is {w}×{h}",
-                args.reference
-                    .as_ref()
-                    .map_or(String::new(), |p| p.display().to_string()),
-                r.width,
-                r.height,
-            )));
-        }
+        command: Some(recorded_command(args, scene)),
     }
-    for w in render_job.warnings() {
-        eprintln!("warning: {}: {w}", scene_path.display());
-    }
-    let bar = match (args.quiet, render_job.total_samples()) {
+}
+
+/// A progress bar over `total` samples (spinning when open-ended), hidden with `--quiet`.
+fn progress_bar(quiet: bool, total: Option<u64>) -> ProgressBar {
+    let bar = match (quiet, total) {
         (true, _) => ProgressBar::hidden(),
         (false, Some(total)) => ProgressBar::new(total),
         (false, None) => ProgressBar::no_length(),
@@ -773,6 +729,102 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
+    bar
+}
+
+/// After an interruption: writes the image of the samples taken and the checkpoint, and says
+/// so in the error that carries the signal's exit code.
+fn keep_interrupted(
+    args: &RenderArgs,
+    finished: &Finished,
+    checkpoint: Option<&Path>,
+    code: i32,
+) -> CliError {
+    let taken = finished.samples_per_pixel();
+    let mut said = format!(
+        "interrupted after {taken} samples per pixel ({} in all)",
+        finished.stats.samples
+    );
+    if let (Some(o), true) = (&args.output, taken > 0) {
+        if let Err(e) = write_image(&finished.full_image(), o, args.tonemap) {
+            return CliError::failure(e.to_string());
+        }
+        said += &format!("; wrote {}", o.display());
+    }
+    match (checkpoint, finished.checkpoint()) {
+        (Some(c), Some(ck)) => {
+            if let Err(e) = split::write_film(&ck, c) {
+                return e;
+            }
+            said += &format!(
+                "; checkpoint {} (resume with --resume {})",
+                c.display(),
+                c.display()
+            );
+        }
+        _ if !finished.uniform => said += "; adaptive renders keep no checkpoint",
+        _ => {}
+    }
+    CliError {
+        code,
+        message: said,
+    }
+}
+
+/// `lumo render`: the arguments as a [`RenderJob`], a progress bar, and messages.
+fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
+    let Some(scene_path) = args.scene.as_deref() else {
+        return match &args.resume {
+            Some(ck) => resume_recorded(ck),
+            None => Err(CliError::invalid("give the scene to render")),
+        };
+    };
+    // From here on, Ctrl-C stops the render and keeps what it has (nothing, while loading).
+    let signals = split::Signals::install()?;
+    let checkpoint = check_render_outputs(args)?;
+    let resume = match &args.resume {
+        Some(p) => Some(split::read_film(p)?),
+        None => None,
+    };
+    let loaded = load_overridden(scene_path, &args.overrides)?;
+    let reference = match &args.reference {
+        Some(p) => Some(lumo::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
+        None => None,
+    };
+    for w in load_warnings(&loaded, &args.overrides) {
+        eprintln!("warning: {}: {w}", scene_path.display());
+    }
+    let recorded = resume.as_ref().and_then(|r| r.header.command.clone());
+    let settings = job_settings(args, scene_path, resume);
+    let render_job = RenderJob::new(&loaded, settings).map_err(|e| match (e, &args.resume) {
+        (JobError::Resume(m), Some(ck)) => {
+            let rerun = match &recorded {
+                Some(c) => format!(
+                    "\n  the checkpoint's render: lumo render {} --resume {}",
+                    shell_words(c),
+                    shell_words(&[ck.display().to_string()])
+                ),
+                None => String::new(),
+            };
+            CliError::invalid(format!("{}: {m}{rerun}", ck.display()))
+        }
+        (e, _) => e.into(),
+    })?;
+    if let (Some(r), Some(path)) = (&reference, &args.reference) {
+        let (w, h) = (render_job.width(), render_job.height());
+        if (r.width, r.height) != (w, h) {
+            return Err(CliError::invalid(format!(
+                "{}: reference is {}×{} but the render is {w}×{h}",
+                path.display(),
+                r.width,
+                r.height,
+            )));
+        }
+    }
+    for w in render_job.warnings() {
+        eprintln!("warning: {}: {w}", scene_path.display());
+    }
+    let bar = progress_bar(args.quiet, render_job.total_samples());
     let progress = |n: u64| bar.set_position(n);
     let warn = |w: &str| bar.suspend(|| eprintln!("warning: {w}"));
     let finished = render_job.run(&Hooks {
@@ -782,34 +834,14 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         on_pass: None,
     })?;
     bar.finish_and_clear();
-    let taken = finished.samples_per_pixel();
-    let stats = finished.stats;
     if finished.interrupted {
-        let mut said = format!(
-            "interrupted after {taken} samples per pixel ({} in all)",
-            stats.samples
-        );
-        if let (Some(o), true) = (&args.output, taken > 0) {
-            write_image(&finished.full_image(), o, args.tonemap)
-                .map_err(|e| CliError::failure(e.to_string()))?;
-            said += &format!("; wrote {}", o.display());
-        }
-        match (&checkpoint, finished.checkpoint()) {
-            (Some(c), Some(ck)) => {
-                split::write_film(&ck, c)?;
-                said += &format!(
-                    "; checkpoint {} (resume with --resume {})",
-                    c.display(),
-                    c.display()
-                );
-            }
-            _ if !finished.uniform => said += "; adaptive renders keep no checkpoint",
-            _ => {}
-        }
-        return Err(CliError {
-            code: signals.exit_code(),
-            message: said,
-        });
+        let code = signals.exit_code();
+        return Err(keep_interrupted(
+            args,
+            &finished,
+            checkpoint.as_deref(),
+            code,
+        ));
     }
     if let Some(f) = &args.film {
         split::write_film(&finished.film, f)?;
@@ -817,12 +849,12 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
             let (first, w) = (render_job.first_sample(), render_job.window());
             eprintln!(
                 "rendered samples {first}..{} of pixels {}..{} × {}..{} in {:.2} s → {}",
-                first + taken,
+                first + finished.samples_per_pixel(),
                 w.x0,
                 w.x1,
                 w.y0,
                 w.y1,
-                stats.elapsed.as_secs_f64(),
+                finished.stats.elapsed.as_secs_f64(),
                 f.display()
             );
             return Ok(());
@@ -836,33 +868,9 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         write_image(&finished.std_error, path, ToneMap::Clamp)
             .map_err(|e| CliError::failure(e.to_string()))?;
     }
-    let secs = stats.elapsed.as_secs_f64();
-    let nan = if stats.nan_samples > 0 {
-        format!(", {} NaN/Inf samples dropped", stats.nan_samples)
-    } else {
-        String::new()
-    };
-    let vs_reference = match &reference {
-        Some(r) => format!(
-            ", RMSE {:.5}, relMSE {:.6} vs reference",
-            finished.image.rmse(r),
-            finished.image.rel_mse(r)
-        ),
-        None => String::new(),
-    };
-    let resumed_note = match &render_job.settings().resume {
-        Some(r) => format!(" (resumed from {} spp)", r.header.spp()),
-        None => String::new(),
-    };
     eprintln!(
-        "rendered {}×{} at {} spp{resumed_note} in {:.3} s: {:.2} M rays/s, {:.2} M samples/s, estimated relative error {:.4}{vs_reference}{nan} → {}",
-        finished.image.width,
-        finished.image.height,
-        stats.spp,
-        secs,
-        stats.rays as f64 / secs / 1e6,
-        finished.new_samples as f64 / secs / 1e6,
-        stats.estimated_rel_error,
+        "{} → {}",
+        finished.summary(reference.as_ref()),
         output.display()
     );
     Ok(())
