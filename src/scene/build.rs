@@ -9,7 +9,7 @@ use lumo_schema as schema;
 use lumo_schema::Validated;
 
 use super::{IntegratorKind, Scene, Settings};
-use crate::assets::{Assets, MeshData};
+use crate::assets::{Assets, MeshData, TextureImage};
 use crate::camera::Camera;
 use crate::environment::Environment;
 use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
@@ -71,123 +71,249 @@ pub fn build(
     assets: &Assets,
 ) -> Result<(Scene, Vec<String>), BuildError> {
     let mut warnings = Vec::new();
+    let textures = textures(desc, assets)?;
+    let materials = materials(desc, &textures);
+    let mut instances = instances(desc, assets, &materials, &mut warnings)?;
+    crate::phases::mark("build: meshes");
+    let mut lights = area_lights(
+        &mut instances,
+        &materials.items,
+        &textures.items,
+        &mut warnings,
+    );
+    crate::phases::mark("build: area lights");
+    let geometry = Geometry::new(instances);
+    crate::phases::mark("build: geometry (BVHs)");
 
-    // Textures, by name → index.
-    let mut texture_index = HashMap::new();
-    let mut textures = Vec::new();
-    for (name, t) in &desc.textures {
-        let image = assets.texture(t).ok_or_else(|| BuildError::MissingAsset {
-            json_path: format!("textures.{name}"),
-            file: t.file.clone(),
-        })?;
-        let srgb = t.color_space == schema::ColorSpace::Srgb && !image.is_float;
-        let texels = match &image.texels {
-            // The bytes are shared; only the decoding differs with the colour space.
-            Texels::Rgba8 {
-                rgba, has_alpha, ..
-            } => Texels::Rgba8 {
-                rgba: rgba.clone(),
-                has_alpha: *has_alpha,
-                decode: if srgb { srgb8_table() } else { unorm8_table() },
-            },
-            Texels::Float { rgb, alpha } => Texels::Float {
-                rgb: if srgb {
-                    let table = srgb8_table();
-                    rgb.par_iter()
-                        .map(|c| c.map(|v| srgb8_to_linear(v, table)))
-                        .collect()
-                } else {
-                    rgb.to_vec()
-                },
-                alpha: alpha.clone(),
-            },
-        };
-        let wrap = |w: schema::Wrap| match w {
-            schema::Wrap::Repeat => Wrap::Repeat,
-            schema::Wrap::Mirror => Wrap::Mirror,
-            schema::Wrap::Clamp => Wrap::Clamp,
-        };
-        texture_index.insert(name.as_str(), textures.len() as u32);
-        textures.push(Texture {
-            width: image.width,
-            height: image.height,
-            texels,
-            wrap_s: wrap(t.wrap_s),
-            wrap_t: wrap(t.wrap_t),
+    // The lights' order is their index: emissive shapes, the scene's lights, the environment.
+    let scene_radius = scene_radius(&geometry);
+    lights.extend(desc.lights.iter().map(|l| punctual_light(l, scene_radius)));
+    let environment = environment(&desc.background, assets)?;
+    let environment_light = environment.as_ref().map(|env| {
+        lights.push(Light::Environment {
+            env: env.clone(),
+            scene_radius,
         });
-    }
-    let tex_ref = |r: &Option<schema::TextureRef>| {
-        r.as_ref().and_then(|r| {
-            texture_index
-                .get(r.texture.as_str())
-                .map(|&texture| TextureRef {
-                    texture,
-                    transform: Affine2::from_translation(Vec2::from(r.offset))
-                        * Affine2::from_angle(r.rotation_deg.to_radians())
-                        * Affine2::from_scale(Vec2::from(r.scale)),
-                    tex_coord: r.tex_coord.min(1) as u8,
-                })
-        })
+        lights.len() - 1
+    });
+    let light_sampler = LightSampler::new(&lights, LightSamplerKind::Auto);
+
+    let camera = camera(desc);
+    let settings = settings(desc);
+    let has_alpha = materials.items.iter().any(Material::has_alpha);
+    let scene = Scene {
+        camera,
+        environment,
+        environment_light,
+        geometry,
+        materials: materials.items,
+        textures: textures.items,
+        lights,
+        light_sampler,
+        settings,
+        has_alpha,
     };
+    Ok((scene, warnings))
+}
 
-    let mut material_index = HashMap::new();
-    let mut materials = Vec::new();
-    for (name, m) in &desc.materials {
-        material_index.insert(name.as_str(), materials.len() as u32);
-        materials.push(Material {
-            base_color: Vec3::from(m.base_color),
-            base_color_texture: tex_ref(&m.base_color_texture),
-            alpha: m.alpha,
-            alpha_mode: match m.alpha_mode {
-                schema::AlphaMode::Opaque => AlphaMode::Opaque,
-                schema::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff),
-                schema::AlphaMode::Blend => AlphaMode::Blend,
-            },
-            normal_texture: tex_ref(&m.normal_texture),
-            normal_scale: m.normal_scale,
-            metallic: m.metallic,
-            roughness: m.roughness,
-            metallic_roughness_texture: tex_ref(&m.metallic_roughness_texture),
-            ior: m.ior,
-            specular: m.specular,
-            specular_texture: tex_ref(&m.specular_texture),
-            specular_color: Vec3::from(m.specular_color),
-            specular_color_texture: tex_ref(&m.specular_color_texture),
-            transmission: m.transmission,
-            transmission_texture: tex_ref(&m.transmission_texture),
-            absorption: m.volume.as_ref().map(|v| Vec3::from(v.absorption())),
-            clearcoat: m.clearcoat,
-            clearcoat_texture: tex_ref(&m.clearcoat_texture),
-            clearcoat_roughness: m.clearcoat_roughness,
-            clearcoat_roughness_texture: tex_ref(&m.clearcoat_roughness_texture),
-            clearcoat_normal_texture: tex_ref(&m.clearcoat_normal_texture),
-            clearcoat_normal_scale: m.clearcoat_normal_scale,
-            sheen_color: Vec3::from(m.sheen_color),
-            sheen_color_texture: tex_ref(&m.sheen_color_texture),
-            sheen_roughness: m.sheen_roughness,
-            sheen_roughness_texture: tex_ref(&m.sheen_roughness_texture),
-            unlit: m.unlit,
-            emission: Vec3::from(m.emission),
-            emission_texture: tex_ref(&m.emission_texture),
-            two_sided_emission: m.two_sided_emission,
-        });
+/// Items made from one of the scene's name-keyed tables (textures, materials), in the table's
+/// order, with the index each name resolves to.
+struct Named<'a, T> {
+    items: Vec<T>,
+    index: HashMap<&'a str, u32>,
+}
+
+impl<'a, T> FromIterator<(&'a str, T)> for Named<'a, T> {
+    fn from_iter<I: IntoIterator<Item = (&'a str, T)>>(named_items: I) -> Self {
+        let mut named = Named {
+            items: Vec::new(),
+            index: HashMap::new(),
+        };
+        for (name, item) in named_items {
+            named.index.insert(name, named.items.len() as u32);
+            named.items.push(item);
+        }
+        named
     }
+}
 
-    // Objects → instances; meshes are shared between objects with the same source.
-    let mut mesh_cache: HashMap<String, Arc<Mesh>> = HashMap::new();
+/// Texture descriptions and their images → the renderer's textures, by name.
+fn textures<'a>(
+    desc: &'a schema::Scene,
+    assets: &Assets,
+) -> Result<Named<'a, Texture>, BuildError> {
+    desc.textures
+        .iter()
+        .map(|(name, t)| {
+            let image = assets.texture(t).ok_or_else(|| BuildError::MissingAsset {
+                json_path: format!("textures.{name}"),
+                file: t.file.clone(),
+            })?;
+            Ok((name.as_str(), texture(t, image)))
+        })
+        .collect()
+}
+
+/// A texture description and its image → a texture whose lookups return linear values.
+fn texture(t: &schema::Texture, image: &TextureImage) -> Texture {
+    let srgb = t.color_space == schema::ColorSpace::Srgb && !image.is_float;
+    let texels = match &image.texels {
+        // The bytes are shared; only the decoding differs with the colour space.
+        Texels::Rgba8 {
+            rgba, has_alpha, ..
+        } => Texels::Rgba8 {
+            rgba: rgba.clone(),
+            has_alpha: *has_alpha,
+            decode: if srgb { srgb8_table() } else { unorm8_table() },
+        },
+        // Other images (16-bit) arrive as floats still encoded; sRGB ones are decoded once, here.
+        Texels::Float { rgb, alpha } => Texels::Float {
+            rgb: if srgb {
+                let table = srgb8_table();
+                rgb.par_iter()
+                    .map(|c| c.map(|v| srgb8_to_linear(v, table)))
+                    .collect()
+            } else {
+                rgb.to_vec()
+            },
+            alpha: alpha.clone(),
+        },
+    };
+    Texture {
+        width: image.width,
+        height: image.height,
+        texels,
+        wrap_s: wrap(t.wrap_s),
+        wrap_t: wrap(t.wrap_t),
+    }
+}
+
+fn wrap(w: schema::Wrap) -> Wrap {
+    match w {
+        schema::Wrap::Repeat => Wrap::Repeat,
+        schema::Wrap::Mirror => Wrap::Mirror,
+        schema::Wrap::Clamp => Wrap::Clamp,
+    }
+}
+
+/// Material descriptions → materials, by name, their texture names resolved to indices.
+fn materials<'a>(desc: &'a schema::Scene, textures: &Named<Texture>) -> Named<'a, Material> {
+    desc.materials
+        .iter()
+        .map(|(name, m)| (name.as_str(), material(m, textures)))
+        .collect()
+}
+
+fn material(m: &schema::Material, textures: &Named<Texture>) -> Material {
+    let tex_ref = |r: &Option<schema::TextureRef>| texture_ref(r, textures);
+    Material {
+        base_color: Vec3::from(m.base_color),
+        base_color_texture: tex_ref(&m.base_color_texture),
+        alpha: m.alpha,
+        alpha_mode: match m.alpha_mode {
+            schema::AlphaMode::Opaque => AlphaMode::Opaque,
+            schema::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff),
+            schema::AlphaMode::Blend => AlphaMode::Blend,
+        },
+        normal_texture: tex_ref(&m.normal_texture),
+        normal_scale: m.normal_scale,
+        metallic: m.metallic,
+        roughness: m.roughness,
+        metallic_roughness_texture: tex_ref(&m.metallic_roughness_texture),
+        ior: m.ior,
+        specular: m.specular,
+        specular_texture: tex_ref(&m.specular_texture),
+        specular_color: Vec3::from(m.specular_color),
+        specular_color_texture: tex_ref(&m.specular_color_texture),
+        transmission: m.transmission,
+        transmission_texture: tex_ref(&m.transmission_texture),
+        absorption: m.volume.as_ref().map(|v| Vec3::from(v.absorption())),
+        clearcoat: m.clearcoat,
+        clearcoat_texture: tex_ref(&m.clearcoat_texture),
+        clearcoat_roughness: m.clearcoat_roughness,
+        clearcoat_roughness_texture: tex_ref(&m.clearcoat_roughness_texture),
+        clearcoat_normal_texture: tex_ref(&m.clearcoat_normal_texture),
+        clearcoat_normal_scale: m.clearcoat_normal_scale,
+        sheen_color: Vec3::from(m.sheen_color),
+        sheen_color_texture: tex_ref(&m.sheen_color_texture),
+        sheen_roughness: m.sheen_roughness,
+        sheen_roughness_texture: tex_ref(&m.sheen_roughness_texture),
+        unlit: m.unlit,
+        emission: Vec3::from(m.emission),
+        emission_texture: tex_ref(&m.emission_texture),
+        two_sided_emission: m.two_sided_emission,
+    }
+}
+
+/// A material's texture slot → the texture's index and the map from the coordinate set it
+/// names to the texture's coordinates: translation · rotation · scale, so the scale acts first.
+fn texture_ref(r: &Option<schema::TextureRef>, textures: &Named<Texture>) -> Option<TextureRef> {
+    r.as_ref().and_then(|r| {
+        textures
+            .index
+            .get(r.texture.as_str())
+            .map(|&texture| TextureRef {
+                texture,
+                transform: Affine2::from_translation(Vec2::from(r.offset))
+                    * Affine2::from_angle(r.rotation_deg.to_radians())
+                    * Affine2::from_scale(Vec2::from(r.scale)),
+                tex_coord: r.tex_coord.min(1) as u8,
+            })
+    })
+}
+
+/// Objects → instances (shape, object → world map, material index), one per object in order.
+/// Warns about the degenerate triangles dropped.
+fn instances(
+    desc: &schema::Scene,
+    assets: &Assets,
+    materials: &Named<Material>,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Instance>, BuildError> {
+    let mut meshes = Meshes::default();
     let mut instances = Vec::new();
-    let mut total_triangles = 0usize;
-    let mut degenerate = 0usize;
     for (i, obj) in desc.objects.iter().enumerate() {
         let json_path = format!("objects[{i}].{}", obj.kind());
-        let Some(&material) = material_index.get(obj.material()) else {
+        let Some(&material) = materials.index.get(obj.material()) else {
             return Err(BuildError::UnknownMaterial {
                 json_path,
                 name: obj.material().to_string(),
             });
         };
         let to_world = compose_transform(obj.transform());
-        let shape = match obj {
+        let shape = meshes.shape(obj, assets, &json_path)?;
+        instances.push(Instance::new(shape, to_world, material));
+    }
+    let degenerate = meshes.degenerate;
+    if degenerate > 0 {
+        warnings.push(format!(
+            "dropped {degenerate} degenerate (zero-area) triangles"
+        ));
+    }
+    Ok(instances)
+}
+
+/// The meshes made so far, shared between objects with the same source and smoothing, and the
+/// triangles counted against [`MAX_TRIANGLES`].
+#[derive(Default)]
+struct Meshes {
+    /// By source and smoothing.
+    shared: HashMap<String, Arc<Mesh>>,
+    /// Triangles made (a shared mesh counts once).
+    triangles: usize,
+    /// Zero-area triangles dropped.
+    degenerate: usize,
+}
+
+impl Meshes {
+    /// An object → its shape in object space (`json_path` names the object in errors).
+    fn shape(
+        &mut self,
+        obj: &schema::Object,
+        assets: &Assets,
+        json_path: &str,
+    ) -> Result<Shape, BuildError> {
+        Ok(match obj {
             schema::Object::Sphere(s) => Shape::Sphere(Sphere {
                 center: Vec3::from(s.center),
                 radius: s.radius,
@@ -205,53 +331,61 @@ pub fn build(
                     t.vertices.iter().map(|v| Vec3::from(*v)).collect(),
                     vec![[0, 1, 2]],
                 );
-                degenerate += dropped;
-                total_triangles += 1;
+                self.degenerate += dropped;
+                self.triangles += 1;
                 Shape::Mesh(Arc::new(mesh))
             }
-            schema::Object::Mesh(m) => {
-                let key = format!("{:?}|{}", m.source, m.smooth);
-                let mesh = match mesh_cache.get(&key) {
-                    Some(mesh) => mesh.clone(),
-                    None => {
-                        let mut data = mesh_data(&m.source, assets, &json_path)?;
-                        total_triangles += data.triangles.len();
-                        if total_triangles > MAX_TRIANGLES {
-                            return Err(BuildError::TooManyTriangles { json_path });
-                        }
-                        data.normals = if m.smooth {
-                            Some(data.normals.clone().unwrap_or_else(|| {
-                                Arc::new(Mesh::angle_weighted_normals(
-                                    &data.positions,
-                                    &data.triangles,
-                                ))
-                            }))
-                        } else {
-                            None
-                        };
-                        let (mesh, dropped) = Mesh::new(data);
-                        degenerate += dropped;
-                        let mesh = Arc::new(mesh);
-                        mesh_cache.insert(key, mesh.clone());
-                        mesh
-                    }
-                };
-                Shape::Mesh(mesh)
-            }
-            schema::Object::Lathe(l) => {
-                Shape::Lathe(Arc::new(build_lathe(&l.profile, &json_path)?))
-            }
-        };
-        instances.push(Instance::new(shape, to_world, material));
-    }
-    crate::phases::mark("build: meshes");
-    if degenerate > 0 {
-        warnings.push(format!(
-            "dropped {degenerate} degenerate (zero-area) triangles"
-        ));
+            schema::Object::Mesh(m) => Shape::Mesh(self.mesh(m, assets, json_path)?),
+            schema::Object::Lathe(l) => Shape::Lathe(Arc::new(build_lathe(&l.profile, json_path)?)),
+        })
     }
 
-    // Area lights from emissive instances.
+    /// A mesh object → its mesh, made at its source's first use and shared after; smooth meshes
+    /// keep their normals or get angle-weighted ones, flat meshes drop them.
+    fn mesh(
+        &mut self,
+        m: &schema::Mesh,
+        assets: &Assets,
+        json_path: &str,
+    ) -> Result<Arc<Mesh>, BuildError> {
+        let key = format!("{:?}|{}", m.source, m.smooth);
+        if let Some(mesh) = self.shared.get(&key) {
+            return Ok(mesh.clone());
+        }
+        let mut data = mesh_data(&m.source, assets, json_path)?;
+        self.triangles += data.triangles.len();
+        if self.triangles > MAX_TRIANGLES {
+            return Err(BuildError::TooManyTriangles {
+                json_path: json_path.to_string(),
+            });
+        }
+        data.normals = if m.smooth {
+            Some(data.normals.clone().unwrap_or_else(|| {
+                Arc::new(Mesh::angle_weighted_normals(
+                    &data.positions,
+                    &data.triangles,
+                ))
+            }))
+        } else {
+            None
+        };
+        let (mesh, dropped) = Mesh::new(data);
+        self.degenerate += dropped;
+        let mesh = Arc::new(mesh);
+        self.shared.insert(key, mesh.clone());
+        Ok(mesh)
+    }
+}
+
+/// Emissive instances → area lights, in instance order: one per triangle of a mesh, one per
+/// sphere; each such instance records its first light's index (`light_base`). Warns about the
+/// emitters no light can sample.
+fn area_lights(
+    instances: &mut [Instance],
+    materials: &[Material],
+    textures: &[Texture],
+    warnings: &mut Vec<String>,
+) -> Vec<Light> {
     let mut lights = Vec::new();
     let mut unsampled = 0;
     for (k, inst) in instances.iter_mut().enumerate() {
@@ -262,36 +396,7 @@ pub fn build(
         match &inst.shape {
             Shape::Mesh(mesh) => {
                 inst.light_base = Some(lights.len() as u32);
-                for prim in 0..mesh.data.triangles.len() as u32 {
-                    let v = mesh
-                        .corners(prim)
-                        .map(|p| inst.to_world.transform_point3(p));
-                    let tri = mesh.data.triangles[prim as usize];
-                    // The corners' coordinates in the set the emission texture samples (hits
-                    // without coordinates use the barycentrics, or zero for set 1).
-                    let set1 = m.emission_texture.is_some_and(|t| t.tex_coord == 1);
-                    let uv = match (set1, &mesh.data.uvs, &mesh.data.uvs1) {
-                        (false, Some(uvs), _) | (true, _, Some(uvs)) => {
-                            tri.map(|i| uvs[i as usize])
-                        }
-                        (false, None, _) => [Vec2::ZERO, Vec2::X, Vec2::Y],
-                        (true, _, None) => [Vec2::ZERO; 3],
-                    };
-                    let emission = match &m.emission_texture {
-                        Some(r) => {
-                            m.emission * mean_over_triangle(&textures[r.texture as usize], r, uv)
-                        }
-                        None => m.emission,
-                    };
-                    lights.push(Light::triangle(
-                        k as u32,
-                        prim,
-                        v,
-                        uv,
-                        emission,
-                        m.two_sided_emission,
-                    ));
-                }
+                lights.extend(triangle_lights(k as u32, inst, mesh, m, textures));
             }
             Shape::Sphere(s) => match similarity_scale(&inst.to_world) {
                 Some(scale) => {
@@ -313,37 +418,79 @@ pub fn build(
             "{unsampled} emissive object(s) (planes, lathes or non-uniformly scaled spheres) are lit only by rays that hit them, which converges slowly"
         ));
     }
-    crate::phases::mark("build: area lights");
-    let geometry = Geometry::new(instances);
-    crate::phases::mark("build: geometry (BVHs)");
+    lights
+}
+
+/// An emissive mesh instance → one light per triangle, in world space, each with the
+/// material's emission times its emission texture's mean over the triangle.
+fn triangle_lights<'a>(
+    instance_index: u32,
+    inst: &'a Instance,
+    mesh: &'a Mesh,
+    m: &'a Material,
+    textures: &'a [Texture],
+) -> impl Iterator<Item = Light> + 'a {
+    // The corners' coordinates in the set the emission texture samples (hits without
+    // coordinates use the barycentrics, or zero for set 1).
+    let set1 = m.emission_texture.is_some_and(|t| t.tex_coord == 1);
+    (0..mesh.data.triangles.len() as u32).map(move |prim| {
+        let v = mesh
+            .corners(prim)
+            .map(|p| inst.to_world.transform_point3(p));
+        let tri = mesh.data.triangles[prim as usize];
+        let uv = match (set1, &mesh.data.uvs, &mesh.data.uvs1) {
+            (false, Some(uvs), _) | (true, _, Some(uvs)) => tri.map(|i| uvs[i as usize]),
+            (false, None, _) => [Vec2::ZERO, Vec2::X, Vec2::Y],
+            (true, _, None) => [Vec2::ZERO; 3],
+        };
+        let emission = match &m.emission_texture {
+            Some(r) => m.emission * mean_over_triangle(&textures[r.texture as usize], r, uv),
+            None => m.emission,
+        };
+        Light::triangle(instance_index, prim, v, uv, emission, m.two_sided_emission)
+    })
+}
+
+/// The geometry's bounds → half their diagonal (1 when nothing is bounded): the size against
+/// which the power of directional and environment lights is weighed when choosing lights.
+fn scene_radius(geometry: &Geometry) -> f32 {
     let bounds = geometry.bounds();
-    let scene_radius = if bounds.is_empty() {
+    if bounds.is_empty() {
         1.0
     } else {
         (bounds.max - bounds.min).length() * 0.5
-    };
-    for l in &desc.lights {
-        lights.push(match l {
-            schema::Light::Point(p) => Light::Point {
-                position: Vec3::from(p.position),
-                intensity: Vec3::from(p.intensity),
-            },
-            schema::Light::Directional(d) => Light::Directional {
-                to_light: -Vec3::from(d.direction).normalize(),
-                irradiance: Vec3::from(d.irradiance),
-                scene_radius,
-            },
-            schema::Light::Spot(s) => Light::Spot {
-                position: Vec3::from(s.position),
-                axis: Vec3::from(s.direction).normalize(),
-                intensity: Vec3::from(s.intensity),
-                cos_inner: s.inner_angle_deg.to_radians().cos(),
-                cos_outer: s.outer_angle_deg.to_radians().cos(),
-            },
-        });
     }
-    // The environment: a light too, unless it is black.
-    let bg = &desc.background;
+}
+
+/// A point, directional or spot light description → a light, directions normalised and cone
+/// angles as cosines.
+fn punctual_light(l: &schema::Light, scene_radius: f32) -> Light {
+    match l {
+        schema::Light::Point(p) => Light::Point {
+            position: Vec3::from(p.position),
+            intensity: Vec3::from(p.intensity),
+        },
+        schema::Light::Directional(d) => Light::Directional {
+            to_light: -Vec3::from(d.direction).normalize(),
+            irradiance: Vec3::from(d.irradiance),
+            scene_radius,
+        },
+        schema::Light::Spot(s) => Light::Spot {
+            position: Vec3::from(s.position),
+            axis: Vec3::from(s.direction).normalize(),
+            intensity: Vec3::from(s.intensity),
+            cos_inner: s.inner_angle_deg.to_radians().cos(),
+            cos_outer: s.outer_angle_deg.to_radians().cos(),
+        },
+    }
+}
+
+/// The background → the environment: an image (repeating in longitude, clamped at the poles) or
+/// a constant colour; `None` when it is black, so that it is neither looked up nor sampled.
+fn environment(
+    bg: &schema::Background,
+    assets: &Assets,
+) -> Result<Option<Arc<Environment>>, BuildError> {
     let environment = match &bg.image {
         Some(file) => {
             let image = assets
@@ -359,33 +506,23 @@ pub fn build(
                 wrap_s: Wrap::Repeat,
                 wrap_t: Wrap::Clamp,
             };
-            Some(Environment::image(
+            Environment::image(
                 texture,
                 bg.strength,
                 bg.rotation_deg.to_radians(),
                 bg.visible,
-            ))
+            )
         }
-        None => Some(Environment::constant(
-            Vec3::from(bg.color),
-            bg.strength,
-            bg.visible,
-        )),
-    }
-    .filter(|e| !e.is_black())
-    .map(Arc::new);
-    let environment_light = environment.as_ref().map(|env| {
-        lights.push(Light::Environment {
-            env: env.clone(),
-            scene_radius,
-        });
-        lights.len() - 1
-    });
-    let light_sampler = LightSampler::new(&lights, LightSamplerKind::Auto);
+        None => Environment::constant(Vec3::from(bg.color), bg.strength, bg.visible),
+    };
+    Ok(Some(environment).filter(|e| !e.is_black()).map(Arc::new))
+}
 
+/// The camera description → the camera, its aspect ratio the image's.
+fn camera(desc: &schema::Scene) -> Camera {
     let c = &desc.camera;
     let aspect = desc.image.width as f32 / desc.image.height as f32;
-    let camera = Camera::look_at(
+    Camera::look_at(
         Vec3::from(c.position),
         Vec3::from(c.look_at),
         Vec3::from(c.up),
@@ -393,9 +530,13 @@ pub fn build(
         aspect,
         c.aperture_radius,
         c.focus_distance,
-    );
+    )
+}
+
+/// The image size and render settings → the renderer's settings.
+fn settings(desc: &schema::Scene) -> Settings {
     let r = &desc.render;
-    let settings = Settings {
+    Settings {
         width: desc.image.width,
         height: desc.image.height,
         spp: r.spp,
@@ -410,21 +551,7 @@ pub fn build(
             schema::SamplerKind::Independent => crate::sampler::SamplerKind::Independent,
         },
         time_budget_s: r.time_budget_s,
-    };
-    let has_alpha = materials.iter().any(Material::has_alpha);
-    let scene = Scene {
-        camera,
-        environment,
-        environment_light,
-        geometry,
-        materials,
-        textures,
-        lights,
-        light_sampler,
-        settings,
-        has_alpha,
-    };
-    Ok((scene, warnings))
+    }
 }
 
 /// The scale factor of a similarity transform (rotation × uniform scale + translation), or
