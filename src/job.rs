@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 use lumo_schema as schema;
 
 use crate::image::Image;
-use crate::light::{LightSampler, LightSamplerKind};
+use crate::light_sampler::{LightSampler, LightSamplerKind};
 use crate::load::{LoadError, Loaded};
 use crate::output::{write_image, ToneMap};
 use crate::partial_film::{self, FilmHeader, PartialFilm};

@@ -37,6 +37,7 @@ pub mod load;
 
 pub use load::{load, LoadOptions, Loaded};
 pub mod light;
+pub mod light_sampler;
 pub mod light_tree;
 pub mod material;
 pub mod math;

@@ -22,7 +22,7 @@
 //!
 //! Infinite lights (directional, environment) have no position to bound: they stay outside the
 //! tree and are chosen first, with their share of the scene's total power (see
-//! [`crate::light::LightSampler`]).
+//! [`crate::light_sampler::LightSampler`]).
 //!
 //! Unbiasedness needs the importance of a node to be zero only where none of its lights can
 //! contribute: every bound below errs towards larger importance.
@@ -727,7 +727,7 @@ mod tests {
     use super::*;
     use crate::bsdf::chi2;
     use crate::light::tests::triangle_light as triangle;
-    use crate::light::{LightSampler, LightSamplerKind};
+    use crate::light_sampler::{LightSampler, LightSamplerKind};
     use crate::math::Vec2;
     use crate::sampler::Pcg32;
 
@@ -827,7 +827,7 @@ mod tests {
         let lights = lights();
         let sampler = LightSampler::new(&lights, LightSamplerKind::Tree);
         assert!(sampler.is_tree());
-        let power = crate::light::PowerSampler::new(&lights);
+        let power = crate::light_sampler::PowerSampler::new(&lights);
         let mut ps = Vec::new();
         for (name, p, n) in points() {
             let mut rng = Pcg32::new(9, 2);

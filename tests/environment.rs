@@ -28,8 +28,10 @@ fn scene(dir: &std::path::Path, background: &str, spp: u32, seed: u64) -> lumo::
 fn without_environment_sampling(mut scene: lumo::scene::Scene) -> lumo::scene::Scene {
     let i = scene.environment_light.take().unwrap();
     scene.lights.remove(i);
-    scene.light_sampler =
-        lumo::light::LightSampler::new(&scene.lights, lumo::light::LightSamplerKind::Auto);
+    scene.light_sampler = lumo::light_sampler::LightSampler::new(
+        &scene.lights,
+        lumo::light_sampler::LightSamplerKind::Auto,
+    );
     scene
 }
 

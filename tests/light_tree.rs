@@ -4,7 +4,8 @@
 
 mod common;
 
-use lumo::light::{Light, LightSampler, LightSamplerKind};
+use lumo::light::Light;
+use lumo::light_sampler::{LightSampler, LightSamplerKind};
 use lumo::math::Vec3;
 
 /// The many-lights scene at 48×36 with the independent sampler (so that pixels' errors are

@@ -304,7 +304,7 @@ pub struct RenderArgs {
 /// `--light-sampler`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum LightSamplerArg {
-    /// The tree from [`lumo::light::LightSampler::TREE_MIN_LIGHTS`] finite lights on.
+    /// The tree from [`lumo::light_sampler::LightSampler::TREE_MIN_LIGHTS`] finite lights on.
     Auto,
     /// By power alone.
     Power,
