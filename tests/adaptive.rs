@@ -68,7 +68,7 @@ fn paired_difference(adaptive: &Rendered, uniform: &Rendered) -> [(f64, f64); 3]
     })
 }
 
-/// Own-sample decisions biased the image mean downwards by about 1% (README, last session):
+/// Own-sample decisions biased the image mean downwards by about 1% (`docs/performance.md`):
 /// pixels that by chance missed the bright paths had a low variance estimate and stopped early.
 /// Over eight seeds, the adaptive image must match the uniform image of the same budget and seed
 /// within the noise of their difference (independent sampler, so the per-pixel variance estimate

@@ -1,7 +1,7 @@
 //! `lumo preview`: a live, progressive render in the browser that follows the scene file.
 //!
 //! Three parts, one thread each (plus the render's worker pool):
-//! - the **session** (this file) loads the scene with the render command's overrides, renders a
+//! - the **reload loop** (this file) loads the scene with the render command's overrides, renders a
 //!   quick ray-cast pass at a quarter of the resolution, then path traces pass by pass, publishing
 //!   every pass into [`Shared`]; it waits for the watcher's next trigger when done, and shows a
 //!   load error (or a caught panic) instead of an image when the scene does not load;
@@ -109,7 +109,7 @@ pub(crate) struct Frame {
     pub quick: bool,
 }
 
-/// State shared by the session, the watcher and the server.
+/// State shared by the reload loop, the watcher and the server.
 pub(crate) struct Shared {
     status: Mutex<Status>,
     frame: Mutex<Option<Arc<Frame>>>,
@@ -117,7 +117,7 @@ pub(crate) struct Shared {
     changed: tokio::sync::watch::Sender<u64>,
     /// Set when a watched file changes: the render stops taking tiles.
     cancel: AtomicBool,
-    /// Changes seen so far (the session compares it before and after resetting `cancel`).
+    /// Changes seen so far (the reload loop compares it before and after resetting `cancel`).
     changes: AtomicU64,
     /// Where the save button writes.
     output: PathBuf,
@@ -229,25 +229,25 @@ pub fn preview_cmd(args: &PreviewArgs) -> Result<(), CliError> {
         "lumo preview: serving {} on http://{bound}/ (Ctrl-C to stop)",
         args.scene.display()
     );
-    let session_shared = Arc::clone(&shared);
+    let loop_shared = Arc::clone(&shared);
     let triggers = watcher.triggers;
     let files = watcher.files;
-    let session_args = SessionArgs {
+    let loop_args = ReloadArgs {
         scene: args.scene.clone(),
         spp: args.spp,
         overrides: args.overrides.clone(),
     };
     std::thread::Builder::new()
-        .name("lumo-preview-session".into())
-        .spawn(move || session(session_args, &pool, &session_shared, &triggers, &files))
+        .name("lumo-preview-reload".into())
+        .spawn(move || reload_loop(loop_args, &pool, &loop_shared, &triggers, &files))
         .map_err(|e| CliError::failure(format!("cannot start the render thread: {e}")))?;
     runtime
         .block_on(server::serve(listener, shared))
         .map_err(|e| CliError::failure(format!("the server stopped: {e}")))
 }
 
-/// What the session thread needs of the arguments (the thread outlives the borrow).
-struct SessionArgs {
+/// What the reload thread needs of the arguments (the thread outlives the borrow).
+struct ReloadArgs {
     scene: PathBuf,
     spp: Option<u32>,
     overrides: SceneOverrides,
@@ -264,8 +264,8 @@ enum Outcome {
 }
 
 /// Loads and renders, then waits for the watcher's trigger, forever.
-fn session(
-    args: SessionArgs,
+fn reload_loop(
+    args: ReloadArgs,
     pool: &rayon::ThreadPool,
     shared: &Shared,
     triggers: &Receiver<()>,
@@ -321,7 +321,7 @@ fn session(
 
 /// Loads the scene, renders the quick pass, then path traces pass by pass.
 fn load_and_render(
-    args: &SessionArgs,
+    args: &ReloadArgs,
     shared: &Shared,
     files: &Mutex<watch::Files>,
 ) -> Result<Outcome, CliError> {

@@ -111,16 +111,16 @@ impl Files {
     }
 }
 
-/// The running watcher: reloads are triggered through `triggers`; the session updates `files`.
+/// The running watcher: reloads are triggered through `triggers`; the reload loop updates `files`.
 pub(crate) struct Watcher {
     /// One message per reload to do.
     pub triggers: Receiver<()>,
-    /// What to watch, updated by the session after each load.
+    /// What to watch, updated by the reload loop after each load.
     pub files: Arc<Mutex<Files>>,
 }
 
 impl Watcher {
-    /// Starts watching the scene file (the session adds what the scene reads once loaded).
+    /// Starts watching the scene file (the reload loop adds what the scene reads once loaded).
     pub(crate) fn start(shared: Arc<Shared>, scene: &Path) -> notify::Result<Watcher> {
         let (events_tx, events) = channel();
         let watcher = notify::recommended_watcher(move |event| {
