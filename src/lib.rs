@@ -32,6 +32,7 @@ pub mod hash;
 pub mod image;
 pub mod integrator;
 pub mod job;
+pub mod lanes;
 pub mod lathe;
 pub mod load;
 

@@ -1,0 +1,582 @@
+//! Values in SIMD lanes: width-generic types whose every operation is lane-wise IEEE-754.
+//!
+//! A sample must be a function of (seed, pixel, sample index) alone, whatever the lane width W
+//! a thread runs (1, 4, 8 or 16, chosen at run time), the CPU's features or the thread count:
+//! images, checkpoints and the exact merges of partial films depend on it. So every value a
+//! path computes in lanes is computed lane by lane with operations whose result IEEE-754 fixes
+//! bit for bit, and W = 16 gives in each lane the bits W = 1 gives. The rules:
+//!
+//! * **Exactly rounded operations only**: + − × ÷ and √ (correctly rounded, round to nearest
+//!   even), comparisons, conversions, bit operations. No fused multiply-add: Rust never
+//!   contracts `a * b + c` by itself, and nothing here calls `mul_add`, so a product is rounded
+//!   before the sum on every CPU, with or without FMA units. No approximate reciprocal or
+//!   reciprocal square root instructions (`rcpps`, `rsqrtps`, whose bits differ between CPUs).
+//! * **One NaN rule for min and max**: `min(a, b) = if a < b { a } else { b }` and
+//!   `max(a, b) = if a > b { a } else { b }`, so a NaN in either argument gives `b` (the rule
+//!   of x86's `minps`/`maxps`). The scalar [`min`] and [`max`] follow it too; `f32::min`, which
+//!   ignores a NaN, does not, and code that must give the lanes' bits uses these.
+//! * **No libm**: the transcendental functions are lumo's own ([`math`]), written once for
+//!   every W, with no branch that depends on other lanes' values.
+//! * **NaN payloads are not part of the result**: when two NaNs meet, which payload survives
+//!   may depend on the operand order the compiler picks. The functions of [`math`] return the
+//!   canonical quiet NaN (`0x7fc0_0000`) for every NaN result, so their bits are fixed too.
+//!
+//! Each type wraps a plain array (`#[repr(C)]`, `Copy`); each operation is an
+//! `#[inline(always)]` loop over it, which LLVM turns into vector instructions when the caller
+//! is compiled for a vector ISA (for instance inside `#[target_feature(enable = "avx512f")]`)
+//! and into scalar ones at W = 1. The mask type [`Mask`] holds 0 or !0 per lane, the same
+//! size as the data lanes, so that comparisons and selects stay in vector registers.
+
+pub mod math;
+#[cfg(test)]
+mod tests;
+
+use std::ops::{
+    Add, AddAssign, BitAnd, BitOr, BitXor, Div, DivAssign, Index, IndexMut, Mul, MulAssign, Neg,
+    Not, Shl, Shr, Sub, SubAssign,
+};
+
+/// W lanes of `f32`.
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub struct F32s<const W: usize>(pub [f32; W]);
+
+/// W lanes of `f64` (for the steps of [`math`] that need more precision than `f32`).
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub struct F64s<const W: usize>(pub [f64; W]);
+
+/// W lanes of `i32` (wrapping arithmetic).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
+pub struct I32s<const W: usize>(pub [i32; W]);
+
+/// W lanes of `u32` (wrapping arithmetic).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
+pub struct U32s<const W: usize>(pub [u32; W]);
+
+/// W lanes of `u64` (wrapping arithmetic).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
+pub struct U64s<const W: usize>(pub [u64; W]);
+
+/// W lanes of truth values, each 0 (false) or !0 (true).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
+pub struct Mask<const W: usize>([u32; W]);
+
+/// `if a < b { a } else { b }`: the lanes' minimum (a NaN in either argument gives `b`).
+#[inline(always)]
+pub fn min(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `if a > b { a } else { b }`: the lanes' maximum (a NaN in either argument gives `b`).
+#[inline(always)]
+pub fn max(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// What every lane type has: construction, lane access and `select`.
+macro_rules! lanes_common {
+    ($ty:ident, $elem:ty) => {
+        impl<const W: usize> $ty<W> {
+            /// Every lane `v`.
+            #[inline(always)]
+            pub fn splat(v: $elem) -> Self {
+                Self([v; W])
+            }
+
+            /// Lane `i` is `f(i)`.
+            #[inline(always)]
+            pub fn from_fn(f: impl FnMut(usize) -> $elem) -> Self {
+                Self(std::array::from_fn(f))
+            }
+
+            /// The lanes as an array.
+            #[inline(always)]
+            pub fn to_array(self) -> [$elem; W] {
+                self.0
+            }
+
+            /// `if_true` in the lanes where `mask` holds, `if_false` in the others.
+            #[inline(always)]
+            pub fn select(mask: Mask<W>, if_true: Self, if_false: Self) -> Self {
+                let mut out = if_false;
+                for i in 0..W {
+                    if mask.0[i] != 0 {
+                        out.0[i] = if_true.0[i];
+                    }
+                }
+                out
+            }
+        }
+
+        impl<const W: usize> Default for $ty<W> {
+            #[inline(always)]
+            fn default() -> Self {
+                Self([<$elem>::default(); W])
+            }
+        }
+
+        impl<const W: usize> From<[$elem; W]> for $ty<W> {
+            #[inline(always)]
+            fn from(a: [$elem; W]) -> Self {
+                Self(a)
+            }
+        }
+
+        impl<const W: usize> Index<usize> for $ty<W> {
+            type Output = $elem;
+            #[inline(always)]
+            fn index(&self, i: usize) -> &$elem {
+                &self.0[i]
+            }
+        }
+
+        impl<const W: usize> IndexMut<usize> for $ty<W> {
+            #[inline(always)]
+            fn index_mut(&mut self, i: usize) -> &mut $elem {
+                &mut self.0[i]
+            }
+        }
+    };
+}
+
+/// A lane-wise binary operator `$ty op $ty`, `$ty op $elem` and `$elem op $ty` (the scalar
+/// stands for every lane), with its assigning forms when `$assign` is given.
+macro_rules! lanes_binop {
+    ($ty:ident, $elem:ty, $trait:ident, $method:ident, |$a:ident, $b:ident| $body:expr
+        $(, $assign:ident, $assign_method:ident)?) => {
+        impl<const W: usize> $trait for $ty<W> {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, rhs: Self) -> Self {
+                let mut out = self;
+                for i in 0..W {
+                    let ($a, $b): ($elem, $elem) = (self.0[i], rhs.0[i]);
+                    out.0[i] = $body;
+                }
+                out
+            }
+        }
+
+        impl<const W: usize> $trait<$elem> for $ty<W> {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, rhs: $elem) -> Self {
+                self.$method(Self::splat(rhs))
+            }
+        }
+
+        impl<const W: usize> $trait<$ty<W>> for $elem {
+            type Output = $ty<W>;
+            #[inline(always)]
+            fn $method(self, rhs: $ty<W>) -> $ty<W> {
+                $ty::splat(self).$method(rhs)
+            }
+        }
+
+        $(
+            impl<const W: usize> $assign for $ty<W> {
+                #[inline(always)]
+                fn $assign_method(&mut self, rhs: Self) {
+                    *self = self.$method(rhs);
+                }
+            }
+
+            impl<const W: usize> $assign<$elem> for $ty<W> {
+                #[inline(always)]
+                fn $assign_method(&mut self, rhs: $elem) {
+                    *self = self.$method(rhs);
+                }
+            }
+        )?
+    };
+}
+
+/// Comparisons of one lane type, each giving a [`Mask`].
+macro_rules! lanes_compare {
+    ($ty:ident) => {
+        impl<const W: usize> $ty<W> {
+            #[inline(always)]
+            fn compare(self, rhs: Self, f: impl Fn(bool, bool, bool) -> bool) -> Mask<W> {
+                Mask::from_fn(|i| {
+                    let (a, b) = (self.0[i], rhs.0[i]);
+                    f(a < b, a == b, a > b)
+                })
+            }
+
+            /// Lanes where `self < rhs` (false where either is NaN).
+            #[inline(always)]
+            pub fn lt(self, rhs: Self) -> Mask<W> {
+                self.compare(rhs, |lt, _, _| lt)
+            }
+
+            /// Lanes where `self <= rhs` (false where either is NaN).
+            #[inline(always)]
+            pub fn le(self, rhs: Self) -> Mask<W> {
+                self.compare(rhs, |lt, eq, _| lt || eq)
+            }
+
+            /// Lanes where `self > rhs` (false where either is NaN).
+            #[inline(always)]
+            pub fn gt(self, rhs: Self) -> Mask<W> {
+                self.compare(rhs, |_, _, gt| gt)
+            }
+
+            /// Lanes where `self >= rhs` (false where either is NaN).
+            #[inline(always)]
+            pub fn ge(self, rhs: Self) -> Mask<W> {
+                self.compare(rhs, |_, eq, gt| gt || eq)
+            }
+
+            /// Lanes where `self == rhs` (false where either is NaN; −0 equals +0).
+            #[inline(always)]
+            pub fn eq(self, rhs: Self) -> Mask<W> {
+                self.compare(rhs, |_, eq, _| eq)
+            }
+
+            /// Lanes where `self != rhs` (true where either is NaN).
+            #[inline(always)]
+            pub fn ne(self, rhs: Self) -> Mask<W> {
+                !self.eq(rhs)
+            }
+        }
+    };
+}
+
+/// Floating-point lanes: arithmetic, min/max, and the IEEE-exact functions.
+macro_rules! lanes_float {
+    ($ty:ident, $elem:ident, $bits_ty:ident) => {
+        lanes_common!($ty, $elem);
+        lanes_compare!($ty);
+        lanes_binop!($ty, $elem, Add, add, |a, b| a + b, AddAssign, add_assign);
+        lanes_binop!($ty, $elem, Sub, sub, |a, b| a - b, SubAssign, sub_assign);
+        lanes_binop!($ty, $elem, Mul, mul, |a, b| a * b, MulAssign, mul_assign);
+        lanes_binop!($ty, $elem, Div, div, |a, b| a / b, DivAssign, div_assign);
+
+        impl<const W: usize> Neg for $ty<W> {
+            type Output = Self;
+            #[inline(always)]
+            fn neg(self) -> Self {
+                Self(self.0.map(|a| -a))
+            }
+        }
+
+        impl<const W: usize> $ty<W> {
+            /// |x| (the sign bit cleared, NaN included).
+            #[inline(always)]
+            pub fn abs(self) -> Self {
+                Self(self.0.map(|a| a.abs()))
+            }
+
+            /// √x, correctly rounded (NaN below −0; √−0 = −0).
+            #[inline(always)]
+            pub fn sqrt(self) -> Self {
+                Self(self.0.map(|a| a.sqrt()))
+            }
+
+            /// `if self < rhs { self } else { rhs }` per lane: a NaN in either gives `rhs`.
+            #[inline(always)]
+            pub fn min(self, rhs: Self) -> Self {
+                Self::select(self.lt(rhs), self, rhs)
+            }
+
+            /// `if self > rhs { self } else { rhs }` per lane: a NaN in either gives `rhs`.
+            #[inline(always)]
+            pub fn max(self, rhs: Self) -> Self {
+                Self::select(self.gt(rhs), self, rhs)
+            }
+
+            /// Lanes holding a NaN.
+            #[inline(always)]
+            pub fn is_nan(self) -> Mask<W> {
+                self.ne(self)
+            }
+
+            /// Lanes that are neither infinite nor NaN.
+            #[inline(always)]
+            pub fn is_finite(self) -> Mask<W> {
+                self.abs().lt(Self::splat($elem::INFINITY))
+            }
+
+            /// Lanes whose sign bit is set (−0 and negative NaNs included).
+            #[inline(always)]
+            pub fn sign_bit(self) -> Mask<W> {
+                Mask::from_fn(|i| self.0[i].is_sign_negative())
+            }
+
+            /// |self| with the sign bit of `sign`.
+            #[inline(always)]
+            pub fn copysign(self, sign: Self) -> Self {
+                Self::from_fn(|i| self.0[i].copysign(sign.0[i]))
+            }
+
+            /// The lanes' bit patterns.
+            #[inline(always)]
+            pub fn to_bits(self) -> $bits_ty<W> {
+                $bits_ty(self.0.map($elem::to_bits))
+            }
+
+            /// The floats with bit patterns `bits`.
+            #[inline(always)]
+            pub fn from_bits(bits: $bits_ty<W>) -> Self {
+                Self(bits.0.map($elem::from_bits))
+            }
+        }
+    };
+}
+
+lanes_float!(F32s, f32, U32s);
+lanes_float!(F64s, f64, U64s);
+
+impl<const W: usize> F32s<W> {
+    /// The nearest integer, ties to even (exact; ±0, ±∞ and NaN unchanged, as every float of
+    /// magnitude ≥ 2²³, already an integer). Adding and subtracting 2²³ rounds |x| < 2²³ to an
+    /// integer in the current (nearest-even) mode: no library call, no SSE4.1.
+    #[inline(always)]
+    pub fn round_ties_even(self) -> Self {
+        const TWO_23: f32 = 8_388_608.0;
+        let a = self.abs();
+        let rounded = ((a + TWO_23) - TWO_23).copysign(self);
+        Self::select(a.lt(Self::splat(TWO_23)), rounded, self)
+    }
+
+    /// The largest integer ≤ x (exact; ±0, ±∞ and NaN unchanged).
+    #[inline(always)]
+    pub fn floor(self) -> Self {
+        let r = self.round_ties_even();
+        Self::select(r.gt(self), r - 1.0, r)
+    }
+
+    /// Lane-wise `x as i32`: toward zero, saturating at the `i32` range, NaN → 0.
+    #[inline(always)]
+    pub fn to_i32(self) -> I32s<W> {
+        I32s(self.0.map(|a| a as i32))
+    }
+
+    /// Each lane widened to `f64` (exact).
+    #[inline(always)]
+    pub fn to_f64(self) -> F64s<W> {
+        F64s(self.0.map(f64::from))
+    }
+}
+
+impl<const W: usize> F64s<W> {
+    /// The nearest integer, ties to even (exact; ±0, ±∞ and NaN unchanged, as every float of
+    /// magnitude ≥ 2⁵², already an integer), by adding and subtracting 2⁵².
+    #[inline(always)]
+    pub fn round_ties_even(self) -> Self {
+        const TWO_52: f64 = 4_503_599_627_370_496.0;
+        let a = self.abs();
+        let rounded = ((a + TWO_52) - TWO_52).copysign(self);
+        Self::select(a.lt(Self::splat(TWO_52)), rounded, self)
+    }
+
+    /// The largest integer ≤ x (exact; ±0, ±∞ and NaN unchanged).
+    #[inline(always)]
+    pub fn floor(self) -> Self {
+        let r = self.round_ties_even();
+        Self::select(r.gt(self), r - 1.0, r)
+    }
+
+    /// Each lane rounded to the nearest `f32` (ties to even; overflow to ±∞, subnormals
+    /// rounded once).
+    #[inline(always)]
+    pub fn to_f32(self) -> F32s<W> {
+        F32s(self.0.map(|a| a as f32))
+    }
+}
+
+/// Integer lanes: wrapping arithmetic, bit operations and shifts.
+macro_rules! lanes_int {
+    ($ty:ident, $elem:ty) => {
+        lanes_common!($ty, $elem);
+        lanes_compare!($ty);
+        lanes_binop!(
+            $ty,
+            $elem,
+            Add,
+            add,
+            |a, b| a.wrapping_add(b),
+            AddAssign,
+            add_assign
+        );
+        lanes_binop!(
+            $ty,
+            $elem,
+            Sub,
+            sub,
+            |a, b| a.wrapping_sub(b),
+            SubAssign,
+            sub_assign
+        );
+        lanes_binop!(
+            $ty,
+            $elem,
+            Mul,
+            mul,
+            |a, b| a.wrapping_mul(b),
+            MulAssign,
+            mul_assign
+        );
+        lanes_binop!($ty, $elem, BitAnd, bitand, |a, b| a & b);
+        lanes_binop!($ty, $elem, BitOr, bitor, |a, b| a | b);
+        lanes_binop!($ty, $elem, BitXor, bitxor, |a, b| a ^ b);
+
+        impl<const W: usize> Not for $ty<W> {
+            type Output = Self;
+            #[inline(always)]
+            fn not(self) -> Self {
+                Self(self.0.map(|a| !a))
+            }
+        }
+
+        /// Each lane shifted left by `n` bits (`n` below the lane's width).
+        impl<const W: usize> Shl<u32> for $ty<W> {
+            type Output = Self;
+            #[inline(always)]
+            fn shl(self, n: u32) -> Self {
+                Self(self.0.map(|a| a << n))
+            }
+        }
+
+        /// Each lane shifted right by `n` bits: arithmetic for signed lanes, logical for
+        /// unsigned ones (`n` below the lane's width).
+        impl<const W: usize> Shr<u32> for $ty<W> {
+            type Output = Self;
+            #[inline(always)]
+            fn shr(self, n: u32) -> Self {
+                Self(self.0.map(|a| a >> n))
+            }
+        }
+
+        impl<const W: usize> $ty<W> {
+            /// The smaller of each pair of lanes.
+            #[inline(always)]
+            pub fn min(self, rhs: Self) -> Self {
+                Self::select(self.lt(rhs), self, rhs)
+            }
+
+            /// The larger of each pair of lanes.
+            #[inline(always)]
+            pub fn max(self, rhs: Self) -> Self {
+                Self::select(self.gt(rhs), self, rhs)
+            }
+        }
+    };
+}
+
+lanes_int!(I32s, i32);
+lanes_int!(U32s, u32);
+lanes_int!(U64s, u64);
+
+impl<const W: usize> I32s<W> {
+    /// Each lane converted to the nearest `f32` (exact below 2²⁴ in magnitude).
+    #[inline(always)]
+    pub fn to_f32(self) -> F32s<W> {
+        F32s(self.0.map(|a| a as f32))
+    }
+
+    /// The same bits as `u32` lanes.
+    #[inline(always)]
+    pub fn cast_u32(self) -> U32s<W> {
+        U32s(self.0.map(|a| a as u32))
+    }
+}
+
+impl<const W: usize> U32s<W> {
+    /// The same bits as `i32` lanes.
+    #[inline(always)]
+    pub fn cast_i32(self) -> I32s<W> {
+        I32s(self.0.map(|a| a as i32))
+    }
+}
+
+impl<const W: usize> U64s<W> {
+    /// The low 32 bits of each lane.
+    #[inline(always)]
+    pub fn low_u32(self) -> U32s<W> {
+        U32s(self.0.map(|a| a as u32))
+    }
+}
+
+impl<const W: usize> Mask<W> {
+    /// Every lane `b`.
+    #[inline(always)]
+    pub fn splat(b: bool) -> Self {
+        Self([if b { !0 } else { 0 }; W])
+    }
+
+    /// Lane `i` is `f(i)`.
+    #[inline(always)]
+    pub fn from_fn(mut f: impl FnMut(usize) -> bool) -> Self {
+        Self(std::array::from_fn(|i| if f(i) { !0 } else { 0 }))
+    }
+
+    /// Whether lane `i` holds.
+    #[inline(always)]
+    pub fn lane(self, i: usize) -> bool {
+        self.0[i] != 0
+    }
+
+    /// Whether any lane holds.
+    #[inline(always)]
+    pub fn any(self) -> bool {
+        self.0.iter().fold(0, |acc, &m| acc | m) != 0
+    }
+
+    /// Whether every lane holds.
+    #[inline(always)]
+    pub fn all(self) -> bool {
+        self.0.iter().fold(!0, |acc, &m| acc & m) != 0
+    }
+
+    /// Lanes where `self` holds and `rhs` does not.
+    #[inline(always)]
+    pub fn and_not(self, rhs: Self) -> Self {
+        self & !rhs
+    }
+}
+
+impl<const W: usize> BitAnd for Mask<W> {
+    type Output = Self;
+    #[inline(always)]
+    fn bitand(self, rhs: Self) -> Self {
+        Self(std::array::from_fn(|i| self.0[i] & rhs.0[i]))
+    }
+}
+
+impl<const W: usize> BitOr for Mask<W> {
+    type Output = Self;
+    #[inline(always)]
+    fn bitor(self, rhs: Self) -> Self {
+        Self(std::array::from_fn(|i| self.0[i] | rhs.0[i]))
+    }
+}
+
+impl<const W: usize> BitXor for Mask<W> {
+    type Output = Self;
+    #[inline(always)]
+    fn bitxor(self, rhs: Self) -> Self {
+        Self(std::array::from_fn(|i| self.0[i] ^ rhs.0[i]))
+    }
+}
+
+impl<const W: usize> Not for Mask<W> {
+    type Output = Self;
+    #[inline(always)]
+    fn not(self) -> Self {
+        Self(self.0.map(|m| !m))
+    }
+}
