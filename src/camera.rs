@@ -43,7 +43,7 @@ impl Camera {
             forward,
             right,
             up,
-            tan_half_fov_y: (fov_y_deg.to_radians() * 0.5).tan(),
+            tan_half_fov_y: crate::lanes::math::tan(fov_y_deg.to_radians() * 0.5),
             aspect,
             lens_radius,
             focus_distance: focus_distance.unwrap_or((look_at - position).length()),

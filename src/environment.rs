@@ -24,6 +24,7 @@
 
 use std::f32::consts::PI;
 
+use crate::lanes::math;
 use crate::math::{luminance, Rgb, Vec2, Vec3};
 use crate::sampling::Distribution2D;
 use crate::texture::{Texels, Texture};
@@ -116,7 +117,7 @@ impl Environment {
         // Row `row` (top first) spans polar angles [row, row + 1] · π / h; its cells' solid
         // angles are proportional to sin θ at its middle.
         let sin_theta: Vec<f32> = (0..h)
-            .map(|row| (PI * (row as f32 + 0.5) / h as f32).sin())
+            .map(|row| math::sin(PI * (row as f32 + 0.5) / h as f32))
             .collect();
         let weights: Vec<f32> = (0..h)
             .flat_map(|row| {
@@ -159,7 +160,7 @@ impl Environment {
                 mis,
             },
             strength,
-            rotation: rotation.sin_cos(),
+            rotation: math::sin_cos(rotation),
             visible,
         }
     }
@@ -179,8 +180,8 @@ impl Environment {
         // The rotation by −φ: sin(−φ) = −sin φ.
         let (s, c) = (-self.rotation.0, self.rotation.1);
         let (x, z) = (c * d.x + s * d.z, -s * d.x + c * d.z);
-        let u = 0.5 + crate::math::atan2(z, x) / (2.0 * PI);
-        let v = 0.5 + d.y.clamp(-1.0, 1.0).asin() / PI;
+        let u = 0.5 + math::atan2(z, x) / (2.0 * PI);
+        let v = 0.5 + math::asin(d.y.clamp(-1.0, 1.0)) / PI;
         // u ∈ [0, 1] (atan2 ∈ [−π, π]; NaN stays NaN): `rem_euclid(1.0)` without its library
         // call, exact (u − 1 is exact for u ∈ [1, 2)).
         Vec2::new(if u >= 1.0 { u - 1.0 } else { u }, v)
@@ -190,10 +191,12 @@ impl Environment {
     fn direction(&self, uv: Vec2) -> Vec3 {
         let phi = (uv.x - 0.5) * 2.0 * PI;
         let elevation = (uv.y - 0.5) * PI;
-        let (x, z) = (elevation.cos() * phi.cos(), elevation.cos() * phi.sin());
+        let (sin_elevation, cos_elevation) = math::sin_cos(elevation);
+        let (sin_phi, cos_phi) = math::sin_cos(phi);
+        let (x, z) = (cos_elevation * cos_phi, cos_elevation * sin_phi);
         // The rotation by φ about +y (x → −z for φ = 90°): the inverse of `uv`'s.
         let (s, c) = self.rotation;
-        Vec3::new(c * x + s * z, elevation.sin(), -s * x + c * z)
+        Vec3::new(c * x + s * z, sin_elevation, -s * x + c * z)
     }
 
     /// Radiance arriving from direction `d` (unit, pointing away from the scene).
@@ -220,9 +223,9 @@ impl Environment {
             Radiance::Constant(c) => {
                 let z = 1.0 - 2.0 * u.x;
                 let r = (1.0 - z * z).max(0.0).sqrt();
-                let phi = 2.0 * PI * u.y;
+                let (sin_phi, cos_phi) = math::sin_cos(2.0 * PI * u.y);
                 Some(EnvironmentSample {
-                    wi: Vec3::new(r * phi.cos(), z, r * phi.sin()),
+                    wi: Vec3::new(r * cos_phi, z, r * sin_phi),
                     le: *c * self.strength,
                     pdf: 1.0 / (4.0 * PI),
                 })
@@ -236,7 +239,7 @@ impl Environment {
                 // The distribution's rows are top first; image v counts from the bottom.
                 let (xy, pdf_xy) = distribution.sample(u)?;
                 let uv = Vec2::new(xy.x, 1.0 - xy.y);
-                let sin_theta = (PI * xy.y).sin();
+                let sin_theta = math::sin(PI * xy.y);
                 if sin_theta <= 0.0 {
                     return None;
                 }
@@ -282,7 +285,7 @@ impl Environment {
     /// The solid-angle density of image coordinates `uv` under `distribution`.
     fn image_pdf(distribution: &Distribution2D, uv: Vec2) -> f32 {
         let xy = Vec2::new(uv.x, 1.0 - uv.y);
-        let sin_theta = (PI * xy.y).sin();
+        let sin_theta = math::sin(PI * xy.y);
         if sin_theta <= 0.0 {
             return 0.0;
         }

@@ -541,8 +541,8 @@ fn sample_sphere(center: Vec3, radius: f32, p: Vec3, u: Vec2) -> Option<LightSam
     if d2 <= r2 * 1.0001 {
         let z = 1.0 - 2.0 * u.x;
         let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let n = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        let (sin_phi, cos_phi) = crate::lanes::math::sin_cos(2.0 * PI * u.y);
+        let n = Vec3::new(r * cos_phi, r * sin_phi, z);
         let q = center + n * radius;
         let w = q - p;
         let dist2 = w.length_squared();
@@ -571,10 +571,10 @@ fn sample_sphere(center: Vec3, radius: f32, p: Vec3, u: Vec2) -> Option<LightSam
     let cos_t = 1.0 - omc;
     let sin2_t = omc * (2.0 - omc);
     let sin_t = sin2_t.max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
+    let (sin_phi, cos_phi) = crate::lanes::math::sin_cos(2.0 * PI * u.y);
     let frame = crate::math::Frame::from_normal(axis);
     let wi = frame
-        .to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t))
+        .to_world(Vec3::new(sin_t * cos_phi, sin_t * sin_phi, cos_t))
         .normalize();
     // Distance to the near intersection with the sphere along wi.
     let b = wi.dot(to_c);

@@ -29,6 +29,7 @@
 
 use std::f32::consts::PI;
 
+use crate::lanes::math::{acos, cos, sin, sin_cos};
 use crate::light::Light;
 use crate::math::{luminance, Vec3};
 use glam::Vec4;
@@ -66,7 +67,7 @@ impl DirectionCone {
             return a;
         }
         let (theta_a, theta_b) = (a.theta, b.theta);
-        let theta_d = a.w.dot(b.w).clamp(-1.0, 1.0).acos();
+        let theta_d = acos(a.w.dot(b.w).clamp(-1.0, 1.0));
         // One cone already holds the other.
         if (theta_d + theta_b).min(PI) <= theta_a {
             return a;
@@ -85,10 +86,10 @@ impl DirectionCone {
             return whole; // opposite axes: no plane to turn in
         }
         let perp = perp.normalize();
-        let (s, c) = theta_r.sin_cos();
+        let (s, c) = sin_cos(theta_r);
         DirectionCone {
             w: (a.w * c + perp * s).normalize(),
-            cos_theta: theta_o.cos(),
+            cos_theta: cos(theta_o),
             theta: theta_o,
         }
     }
@@ -273,7 +274,7 @@ impl LightBounds {
             Light::Directional { .. } | Light::Environment { .. } => return None,
         };
         Some(LightBounds {
-            theta_o: b.cos_theta_o.clamp(-1.0, 1.0).acos(),
+            theta_o: acos(b.cos_theta_o.clamp(-1.0, 1.0)),
             ..b
         })
     }
@@ -336,16 +337,16 @@ impl LightBounds {
     /// M_Ω (the solid angle of the normal cone grown by θ_e, weighted by the cosine), with the
     /// regularisation K_r = longest side / side along `dim` of the node against thin slabs.
     fn cost(&self, node: &LightBounds, dim: usize) -> f32 {
-        let theta_o = self.cos_theta_o.clamp(-1.0, 1.0).acos();
-        let theta_e = self.cos_theta_e.clamp(-1.0, 1.0).acos();
+        let theta_o = acos(self.cos_theta_o.clamp(-1.0, 1.0));
+        let theta_e = acos(self.cos_theta_e.clamp(-1.0, 1.0));
         let theta_w = (theta_o + theta_e).min(PI);
-        let sin_o = theta_o.sin();
+        let sin_o = sin(theta_o);
         // M_Ω = 2π(1 − cos θ_o) + π/2 (2 θ_w sin θ_o − cos(θ_o − 2θ_w) − 2 θ_o sin θ_o + cos θ_o):
         // the integral of cos(max(0, θ − θ_o)) over the directions within θ_w of the axis.
         let m_omega = 2.0 * PI * (1.0 - self.cos_theta_o)
             + 0.5
                 * PI
-                * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o
+                * (2.0 * theta_w * sin_o - cos(theta_o - 2.0 * theta_w) - 2.0 * theta_o * sin_o
                     + self.cos_theta_o);
         let diag = node.hi - node.lo;
         let kr = if diag[dim] > 0.0 {

@@ -253,7 +253,7 @@ pub fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.04045 {
         v / 12.92
     } else {
-        ((v + 0.055) / 1.055).powf(2.4)
+        crate::lanes::math::powf((v + 0.055) / 1.055, 2.4)
     }
 }
 
@@ -293,72 +293,13 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     if v <= 0.003_130_8 {
         v * 12.92
     } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// atan2(y, x) ∈ [−π, π] within 3·10⁻⁷ rad (about an ulp of π), in about 30 instructions instead of the C
-/// library's 130 (environment lookups make one per path). The argument is reduced to
-/// t = min(|x|, |y|) / max(|x|, |y|) ∈ [0, 1], then to |t′| ≤ tan(π/8) by atan t = π/4 +
-/// atan((t − 1)/(t + 1)), where the odd polynomial of Cephes' `atanf` (S. L. Moshier) holds;
-/// the octant is restored from the signs and from which of |x|, |y| was larger. atan2(0, 0) is 0
-/// (the C library's is 0 or ±π by the zeros' signs); NaN in, NaN out.
-#[inline]
-pub fn atan2(y: f32, x: f32) -> f32 {
-    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-    let (ax, ay) = (x.abs(), y.abs());
-    // Compared, not `min`/`max`, so that a NaN reaches t.
-    let (lo, hi) = if ax < ay { (ax, ay) } else { (ay, ax) };
-    if hi == 0.0 {
-        return 0.0;
-    }
-    let t = lo / hi;
-    let (base, t) = if t > 0.414_213_57 {
-        (FRAC_PI_4, (t - 1.0) / (t + 1.0))
-    } else {
-        (0.0, t)
-    };
-    let z = t * t;
-    let p = ((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1;
-    let mut a = base + (p * z * t + t);
-    if ay > ax {
-        a = FRAC_PI_2 - a;
-    }
-    if x < 0.0 {
-        a = PI - a;
-    }
-    if y < 0.0 {
-        -a
-    } else {
-        a
+        1.055 * crate::lanes::math::powf(v, 1.0 / 2.4) - 0.055
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn atan2_is_within_its_bound_everywhere() {
-        // Angles over the whole circle at radii from 10⁻³⁰ to 10³⁰, and the axes.
-        let mut worst = 0.0f64;
-        for k in 0..200_000 {
-            let angle =
-                -std::f64::consts::PI + std::f64::consts::TAU * (k as f64 + 0.5) / 200_000.0;
-            let r = 10f64.powi((k % 61) - 30);
-            let (y, x) = ((r * angle.sin()) as f32, (r * angle.cos()) as f32);
-            let exact = f64::from(y).atan2(f64::from(x));
-            worst = worst.max((f64::from(atan2(y, x)) - exact).abs());
-        }
-        assert!(worst < 3e-7, "worst error {worst:e}");
-        use std::f32::consts::{FRAC_PI_2, PI};
-        for (y, x, want) in [(0.0, 1.0, 0.0), (1.0, 0.0, FRAC_PI_2), (0.0, -1.0, PI)] {
-            assert_eq!(atan2(y, x), want);
-        }
-        assert_eq!(atan2(-1.0, 0.0), -FRAC_PI_2);
-        assert_eq!(atan2(0.0, 0.0), 0.0);
-        assert!(atan2(f32::NAN, 1.0).is_nan() && atan2(1.0, f32::NAN).is_nan());
-    }
 
     /// The SSE2 offset gives the scalar one's bits for unit normals and points at every scale
     /// (both signs, exact zeros, the near-origin band and its edge).

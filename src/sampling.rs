@@ -17,7 +17,8 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
             std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
         )
     };
-    Vec2::new(r * theta.cos(), r * theta.sin())
+    let (sin, cos) = crate::lanes::math::sin_cos(theta);
+    Vec2::new(r * cos, r * sin)
 }
 
 /// Cosine-weighted hemisphere direction (Malley's method); pdf = cos θ / π.

@@ -185,7 +185,7 @@ impl RoughDielectric {
         // angles, a fraction of a percent elsewhere) and the table, sharp there, is not accurate
         // enough to give it back without overshooting; outside the table's η range there is no
         // table.
-        let ln_eta = self.eta.ln().abs();
+        let ln_eta = crate::lanes::math::ln(self.eta).abs();
         if !self.energy_compensation
             || self.is_delta()
             || wo.z == 0.0
@@ -545,8 +545,9 @@ fn node_alpha(j: usize) -> f32 {
 /// Lower node and fraction in r and in ln η.
 fn table_position_r_eta(alpha: f32, eta: f32) -> (usize, f32, usize, f32) {
     let y = (alpha.max(0.0).sqrt() * (T_R - 1) as f32).clamp(0.0, (T_R - 1) as f32);
-    let z = ((eta.max(1e-6).ln() / T_LN_ETA_MAX + 1.0) * 0.5 * (T_ETA - 1) as f32)
-        .clamp(0.0, (T_ETA - 1) as f32);
+    let z =
+        ((crate::lanes::math::ln(eta.max(1e-6)) / T_LN_ETA_MAX + 1.0) * 0.5 * (T_ETA - 1) as f32)
+            .clamp(0.0, (T_ETA - 1) as f32);
     let (j, k) = ((y as usize).min(T_R - 2), (z as usize).min(T_ETA - 2));
     (j, y - j as f32, k, z - k as f32)
 }

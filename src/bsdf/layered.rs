@@ -149,7 +149,7 @@ impl Sheen {
         }
         let inv = 1.0 / alpha;
         let sin2 = (1.0 - wm.z * wm.z).max(0.0);
-        let d = (2.0 + inv) * sin2.powf(0.5 * inv) / (2.0 * PI);
+        let d = (2.0 + inv) * crate::lanes::math::powf(sin2, 0.5 * inv) / (2.0 * PI);
         let v = 1.0 / (4.0 * (i.z + o.z - i.z * o.z));
         d * v
     }

@@ -1,5 +1,6 @@
 //! Spheres in object space.
 
+use crate::lanes::math;
 use crate::math::{Aabb, Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -52,11 +53,11 @@ impl Sphere {
     pub fn surface(&self, p: Vec3) -> (Vec3, Vec3, Vec2) {
         let n = (p - self.center).normalize();
         let p = self.center + n * self.radius;
-        let mut phi = (-n.z).atan2(n.x);
+        let mut phi = math::atan2(-n.z, n.x);
         if phi < 0.0 {
             phi += 2.0 * PI;
         }
-        let v = 1.0 - n.y.clamp(-1.0, 1.0).acos() / PI;
+        let v = 1.0 - math::acos(n.y.clamp(-1.0, 1.0)) / PI;
         (p, n, Vec2::new(phi / (2.0 * PI), v))
     }
 }

@@ -301,5 +301,5 @@ fn transmittance(sigma: Vec3, d: f32) -> Rgb {
     if sigma == Vec3::ZERO {
         return Vec3::ONE;
     }
-    (-sigma * d).exp()
+    (-sigma * d).to_array().map(crate::lanes::math::exp).into()
 }

@@ -256,7 +256,10 @@ fn texture_ref(r: &Option<schema::TextureRef>, textures: &Named<Texture>) -> Opt
             .map(|&texture| TextureRef {
                 texture,
                 transform: Affine2::from_translation(Vec2::from(r.offset))
-                    * Affine2::from_angle(r.rotation_deg.to_radians())
+                    * {
+                        let (sin, cos) = crate::lanes::math::sin_cos(r.rotation_deg.to_radians());
+                        Affine2::from_cols(Vec2::new(cos, sin), Vec2::new(-sin, cos), Vec2::ZERO)
+                    }
                     * Affine2::from_scale(Vec2::from(r.scale)),
                 tex_coord: r.tex_coord.min(1) as u8,
             })
@@ -480,8 +483,8 @@ fn punctual_light(l: &schema::Light, scene_radius: f32) -> Light {
             position: Vec3::from(s.position),
             axis: Vec3::from(s.direction).normalize(),
             intensity: Vec3::from(s.intensity),
-            cos_inner: s.inner_angle_deg.to_radians().cos(),
-            cos_outer: s.outer_angle_deg.to_radians().cos(),
+            cos_inner: crate::lanes::math::cos(s.inner_angle_deg.to_radians()),
+            cos_outer: crate::lanes::math::cos(s.outer_angle_deg.to_radians()),
         },
     }
 }
