@@ -15,6 +15,7 @@ pub mod locate;
 pub mod migrate;
 pub mod overrides;
 mod scene;
+mod tolerant;
 mod validate;
 mod validated;
 
@@ -25,6 +26,7 @@ pub use load::{
     parse_scene, parse_scene_noted, MAX_SCENE_BYTES,
 };
 pub use scene::*;
+pub use tolerant::MAX_PARSE_PROBLEMS;
 pub use validate::{validate, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
 pub use validated::Validated;
 

@@ -20,6 +20,22 @@ pub fn parse_scene(text: &str) -> Result<Scene, Diagnostic> {
 /// [`parse_scene`], also returning the migration notes of a file of an older format version
 /// (empty for a current file).
 pub fn parse_scene_noted(text: &str) -> Result<(Scene, Vec<String>), Diagnostic> {
+    parse_first(text).map_err(|f| f.diagnostic)
+}
+
+/// Why [`parse_first`] stopped.
+struct FirstProblem {
+    /// The problem, located.
+    diagnostic: Diagnostic,
+    /// The text is not JSON (nothing more can be read from it).
+    syntax: bool,
+    /// The tree the problem was found in, when it is not the text's own: the migrated tree of
+    /// an older format version, with its notes.
+    migrated: Option<(serde_json::Value, Vec<String>)>,
+}
+
+/// Reads the scene, stopping at the first problem.
+fn parse_first(text: &str) -> Result<(Scene, Vec<String>), Box<FirstProblem>> {
     /// Only the version, read without building the document.
     #[derive(serde::Deserialize)]
     struct Version {
@@ -33,7 +49,7 @@ pub fn parse_scene_noted(text: &str) -> Result<(Scene, Vec<String>), Diagnostic>
     if old {
         if let Ok(mut value) = serde_json::from_str::<serde_json::Value>(text) {
             let notes = crate::migrate::migrate(&mut value);
-            let result: Result<Scene, _> = serde_path_to_error::deserialize(value);
+            let result: Result<Scene, _> = serde_path_to_error::deserialize(&value);
             return match result {
                 Ok(scene) => Ok((scene, notes)),
                 Err(err) => {
@@ -42,7 +58,11 @@ pub fn parse_scene_noted(text: &str) -> Result<(Scene, Vec<String>), Diagnostic>
                     let mut d = Diagnostic::new(path.clone(), message);
                     d.location = locate(text, &path);
                     d.help = help;
-                    Err(d)
+                    Err(Box::new(FirstProblem {
+                        diagnostic: d,
+                        syntax: false,
+                        migrated: Some((value, notes)),
+                    }))
                 }
             };
         }
@@ -57,11 +77,22 @@ pub fn parse_scene_noted(text: &str) -> Result<(Scene, Vec<String>), Diagnostic>
         },
         Err(err) => (JsonPath::parse(&err.path().to_string()), err.into_inner()),
     };
+    let syntax = !matches!(inner.classify(), serde_json::error::Category::Data);
+    Err(Box::new(FirstProblem {
+        diagnostic: serde_json_diagnostic(text, path, &inner),
+        syntax,
+        migrated: None,
+    }))
+}
+
+/// A diagnostic from a serde_json error at `path`, located where serde_json stopped.
+fn serde_json_diagnostic(text: &str, path: JsonPath, inner: &serde_json::Error) -> Diagnostic {
     let (message, help) = explain(&inner.to_string());
     let location = if inner.line() > 0 {
+        // serde_json counts the columns consumed, 0 right after a line break.
         Some(crate::locate::LineCol {
             line: inner.line(),
-            column: inner.column(),
+            column: inner.column().max(1),
         })
     } else {
         locate(text, &path)
@@ -69,7 +100,42 @@ pub fn parse_scene_noted(text: &str) -> Result<(Scene, Vec<String>), Diagnostic>
     let mut d = Diagnostic::new(path, message);
     d.location = location;
     d.help = help;
-    Err(d)
+    d
+}
+
+/// Every problem of a scene text whose streaming read stopped at `first`: the other problems
+/// serde finds (see [`crate::tolerant`]), then the semantic findings on the parts that read.
+fn every_problem(text: &str, first: FirstProblem, base_dir: Option<&Path>) -> Vec<Diagnostic> {
+    if first.syntax {
+        return vec![first.diagnostic];
+    }
+    let (value, exact) = match first.migrated {
+        Some((value, _)) => (value, false),
+        None => match serde_json::from_str::<serde_json::Value>(text) {
+            Ok(value) => (value, true),
+            // A type problem before a syntax error: both are reported, nothing more is read.
+            Err(e) => {
+                let mut out = vec![first.diagnostic];
+                let syntax = serde_json_diagnostic(text, JsonPath::root(), &e);
+                if out[0] != syntax {
+                    out.push(syntax);
+                }
+                return out;
+            }
+        },
+    };
+    let read = crate::tolerant::read_all(text, value, Some(first.diagnostic), exact);
+    let mut problems = read.problems;
+    if let Some(scene) = read.scene {
+        for mut d in crate::validate::validate(&scene, base_dir) {
+            if read.repairs.is_sound(&d.path) {
+                d.location = locate(text, &d.path);
+                problems.push(d);
+            }
+        }
+    }
+    problems.sort_by_key(|d| d.location.map(|l| (l.line, l.column)));
+    problems
 }
 
 /// Parses and validates scene text. `base_dir` is where relative file paths resolve (the scene
@@ -92,7 +158,10 @@ pub fn load_scene_str_noted(
         file: file.to_path_buf(),
         diagnostics,
     };
-    let (scene, notes) = parse_scene_noted(text).map_err(|d| invalid(vec![d]))?;
+    let (scene, notes) = match parse_first(text) {
+        Ok(read) => read,
+        Err(first) => return Err(invalid(every_problem(text, *first, base_dir))),
+    };
     let mut diagnostics = match Validated::new(scene, base_dir) {
         Ok(valid) => return Ok((valid, notes)),
         Err(diagnostics) => diagnostics,
@@ -157,7 +226,7 @@ pub fn base_dir_of(path: &Path) -> PathBuf {
 
 /// Rewrites serde_json's messages into "expected X, found Y" form, with a suggestion for
 /// misspelt keys.
-fn explain(raw: &str) -> (String, Option<String>) {
+pub(crate) fn explain(raw: &str) -> (String, Option<String>) {
     // serde_json appends " at line L column C"; the location is reported separately.
     let msg = match raw.rfind(" at line ") {
         Some(i) => &raw[..i],

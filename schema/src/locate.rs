@@ -107,7 +107,11 @@ pub struct LineCol {
 /// search stops and returns what it found so far.
 pub fn locate(text: &str, path: &JsonPath) -> Option<LineCol> {
     let bytes = text.as_bytes();
-    let mut scanner = Scanner { bytes, pos: 0 };
+    let mut scanner = Scanner {
+        bytes,
+        pos: 0,
+        key: None,
+    };
     scanner.skip_ws();
     let mut found = scanner.pos;
     for seg in &path.0 {
@@ -117,6 +121,67 @@ pub fn locate(text: &str, path: &JsonPath) -> Option<LineCol> {
         }
     }
     Some(line_col(text, found))
+}
+
+/// Byte ranges (start, end exclusive) of the value a path leads to, and of its key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Spans {
+    /// The member name (with its quotes) when the path ends at an object member.
+    pub key: Option<(usize, usize)>,
+    /// The value.
+    pub value: (usize, usize),
+    /// The first member name (with its quotes) when the value is a non-empty object.
+    pub first_key: Option<(usize, usize)>,
+}
+
+/// The byte ranges of the value at `path` in `text`, or `None` when the path leads to nothing
+/// there (or the text is malformed on the way).
+pub fn spans(text: &str, path: &JsonPath) -> Option<Spans> {
+    let mut scanner = Scanner {
+        bytes: text.as_bytes(),
+        pos: 0,
+        key: None,
+    };
+    scanner.skip_ws();
+    let mut key = None;
+    for seg in &path.0 {
+        scanner.descend(seg)?;
+        key = match seg {
+            PathSegment::Key(_) => scanner.key,
+            PathSegment::Index(_) => None,
+        };
+    }
+    let start = scanner.pos;
+    let first_key = if scanner.peek() == Some(b'{') {
+        let mut inner = Scanner {
+            bytes: scanner.bytes,
+            pos: start + 1,
+            key: None,
+        };
+        inner.skip_ws();
+        let k = inner.pos;
+        inner.string().map(|_| (k, inner.pos))
+    } else {
+        None
+    };
+    let end = match scanner.peek()? {
+        b'"' => scanner.string().map(|_| scanner.pos)?,
+        b'{' | b'[' => scanner.skip_value().map(|()| scanner.pos)?,
+        _ => {
+            while !matches!(
+                scanner.peek(),
+                None | Some(b',' | b'}' | b']' | b' ' | b'\t' | b'\n' | b'\r')
+            ) {
+                scanner.pos += 1;
+            }
+            scanner.pos
+        }
+    };
+    Some(Spans {
+        key,
+        value: (start, end),
+        first_key,
+    })
 }
 
 /// The line and column of a byte offset.
@@ -139,6 +204,8 @@ fn floor_char_boundary(text: &str, mut i: usize) -> usize {
 struct Scanner<'a> {
     bytes: &'a [u8],
     pos: usize,
+    /// The range of the member name [`Scanner::descend`] last matched.
+    key: Option<(usize, usize)>,
 }
 
 impl Scanner<'_> {
@@ -163,7 +230,9 @@ impl Scanner<'_> {
                     if self.peek()? == b'}' {
                         return None;
                     }
+                    let key_start = self.pos;
                     let name = self.string()?;
+                    let key_end = self.pos;
                     self.skip_ws();
                     if self.peek()? != b':' {
                         return None;
@@ -171,6 +240,7 @@ impl Scanner<'_> {
                     self.pos += 1;
                     self.skip_ws();
                     if name == *key {
+                        self.key = Some((key_start, key_end));
                         return Some(self.pos);
                     }
                     self.skip_value()?;
