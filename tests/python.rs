@@ -10,6 +10,7 @@
 //! warns when the installed module is older than the Rust source).
 
 use std::fs;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant, SystemTime};
@@ -37,7 +38,11 @@ fn venv_python() -> Option<PathBuf> {
     if std::env::var_os("LUMO_REQUIRE_PYTHON").is_some_and(|v| v == "1") {
         panic!("the Python environment is required (LUMO_REQUIRE_PYTHON=1): {what}");
     }
-    eprintln!("\n=== SKIPPED: the Python package's tests: {what} ===\n");
+    // Straight to stderr: the test harness would hide eprintln!'s output of a passing test.
+    let _ = writeln!(
+        std::io::stderr(),
+        "\n=== SKIPPED: the Python package's tests: {what} ===\n"
+    );
     None
 }
 
@@ -73,7 +78,8 @@ fn warn_if_stale(python: &Path) {
         .filter_map(|d| newest_source(&root().join(d)))
         .max();
     if source.is_some_and(|s| s > built) {
-        eprintln!(
+        let _ = writeln!(
+            std::io::stderr(),
             "\n=== WARNING: {} is older than the Rust source: the tests run the old build \
              (rebuild it: cd python && maturin develop) ===\n",
             module.display()
@@ -126,9 +132,11 @@ fn python_package_test_suite() {
             DEADLINE.as_secs()
         ),
         Some(s) if s.success() => {
-            eprintln!(
-                "the Python package's tests passed in {:.1} s",
-                start.elapsed().as_secs_f64()
+            let summary = output.lines().rev().find(|l| !l.trim().is_empty());
+            let _ = writeln!(
+                std::io::stderr(),
+                "python/tests (pytest): {}",
+                summary.unwrap_or("passed")
             );
         }
         // pytest's 5: no test was collected, which is a failure here too.
