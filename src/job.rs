@@ -158,8 +158,8 @@ pub struct Finished {
     pub std_error: Image,
     /// Counters.
     pub stats: Stats,
-    /// The job's samples as a partial film: the header says what render they belong to.
-    pub film: PartialFilm,
+    /// The job's exact per-pixel sums over its window.
+    pub sums: Film,
     /// Whether the cancel flag stopped the job before its budget was spent.
     pub interrupted: bool,
     /// Whether every pixel holds the same samples (false for adaptive renders): only such a
@@ -173,6 +173,11 @@ pub struct Finished {
     command: Option<Vec<String>>,
     /// Samples per pixel of the checkpoint the job resumed.
     resumed_spp: Option<u64>,
+    /// What the film is of, but its build id, which hashes the running program and is only
+    /// worth its time (tens of milliseconds) when a film is asked for.
+    header: FilmHeader,
+    /// The partial film, made on first use.
+    film: std::sync::OnceLock<PartialFilm>,
 }
 
 impl RenderJob {
@@ -383,12 +388,24 @@ impl RenderJob {
     /// films to merge (the scene's content hash, build, size, seed, sampler and light choice),
     /// and for checkpoints, the target and the time budget left.
     pub fn header(&self, samples: Vec<[u32; 2]>, time_left_s: Option<f64>) -> FilmHeader {
+        FilmHeader {
+            build_id: partial_film::build_id(),
+            ..self.header_without_build_id(samples, time_left_s)
+        }
+    }
+
+    /// [`RenderJob::header`] with an empty build id.
+    fn header_without_build_id(
+        &self,
+        samples: Vec<[u32; 2]>,
+        time_left_s: Option<f64>,
+    ) -> FilmHeader {
         let w = self.window;
         FilmHeader {
             format: partial_film::FORMAT.to_string(),
             format_version: partial_film::FORMAT_VERSION,
             lumo_version: env!("CARGO_PKG_VERSION").to_string(),
-            build_id: partial_film::build_id(),
+            build_id: String::new(),
             scene_hash: self.scene_hash.clone(),
             width: self.width(),
             height: self.height(),
@@ -476,16 +493,15 @@ impl RenderJob {
             image: rendered.image,
             std_error: rendered.std_error,
             stats: rendered.stats,
-            film: PartialFilm {
-                header: self.header(vec![[first, first + taken]], None),
-                film: rendered.film,
-            },
+            sums: rendered.film,
             interrupted: rendered.interrupted,
             uniform,
             new_samples: rendered.stats.samples - resumed_samples,
             time_left_s: time_left(),
             command: self.settings.command.clone(),
             resumed_spp: self.settings.resume.as_ref().map(|r| r.header.spp()),
+            header: self.header_without_build_id(vec![[first, first + taken]], None),
+            film: std::sync::OnceLock::new(),
         })
     }
 }
@@ -493,7 +509,34 @@ impl RenderJob {
 impl Finished {
     /// Samples per pixel the film holds (the same in every pixel of uniform renders).
     pub fn samples_per_pixel(&self) -> u32 {
-        self.film.film.pixel(0, 0).taken()
+        self.sums.pixel(0, 0).taken()
+    }
+
+    /// The job's samples as a partial film, whose header says what render they belong to (for
+    /// `lumo merge`; made, and the program hashed for its build id, on first use).
+    pub fn film(&self) -> &PartialFilm {
+        self.film.get_or_init(|| PartialFilm {
+            header: FilmHeader {
+                build_id: partial_film::build_id(),
+                ..self.header.clone()
+            },
+            film: self.sums.clone(),
+        })
+    }
+
+    /// The window of the image the job rendered.
+    pub fn window(&self) -> Window {
+        self.header.window()
+    }
+
+    /// Full image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.header.width
+    }
+
+    /// Full image height in pixels.
+    pub fn height(&self) -> u32 {
+        self.header.height
     }
 
     /// One line on what the job did: size, samples, time, throughput (of this run's samples),
@@ -531,12 +574,7 @@ impl Finished {
 
     /// The image at the full size of the render, black outside the job's window.
     pub fn full_image(&self) -> Image {
-        embed(
-            &self.image,
-            &self.film.header.window(),
-            self.film.header.width,
-            self.film.header.height,
-        )
+        embed(&self.image, &self.window(), self.width(), self.height())
     }
 
     /// The checkpoint of this job, to resume it later: the film with the time budget left, or
@@ -544,7 +582,7 @@ impl Finished {
     /// pixels hold different samples).
     pub fn checkpoint(&self) -> Option<PartialFilm> {
         (self.uniform && self.samples_per_pixel() > 0).then(|| {
-            let mut ck = self.film.clone();
+            let mut ck = self.film().clone();
             ck.header.time_left_s = self.time_left_s;
             ck.header.command.clone_from(&self.command);
             ck

@@ -175,11 +175,11 @@ fn two_sample_range_jobs_merge_into_one_job() {
         threads: Some(2),
         ..Default::default()
     });
-    let merged = lumo::partial_film::merge(&[second.film, first.film]).unwrap();
+    let merged = lumo::partial_film::merge(&[second.film().clone(), first.film().clone()]).unwrap();
     assert!(merged.gaps.is_empty(), "{:?}", merged.gaps);
-    assert_eq!(merged.film, whole.film.film);
+    assert_eq!(merged.film, whole.sums);
     assert_eq!(merged.header.samples, vec![[0, 8]]);
-    assert_eq!(merged.header.scene_hash, whole.film.header.scene_hash);
+    assert_eq!(merged.header.scene_hash, whole.film().header.scene_hash);
     assert_eq!(merged.film.image().pixels, whole.image.pixels);
 }
 

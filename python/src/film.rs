@@ -46,7 +46,7 @@ impl Film {
     /// The partial film.
     pub fn film(&self) -> &PartialFilm {
         match &self.source {
-            FilmSource::Finished(f) => &f.film,
+            FilmSource::Finished(f) => f.film(),
             FilmSource::Owned(f) => f,
         }
     }

@@ -153,19 +153,20 @@ impl RenderResult {
     /// Full image width of the render.
     #[getter]
     fn width(&self) -> u32 {
-        self.finished.film.header.width
+        self.finished.width()
     }
 
     /// Full image height of the render.
     #[getter]
     fn height(&self) -> u32 {
-        self.finished.film.header.height
+        self.finished.height()
     }
 
     /// The window rendered: ``(x0, y0, x1, y1)`` (all of the image unless ``crop`` was given).
     #[getter]
     fn crop(&self) -> (u32, u32, u32, u32) {
-        let [x0, y0, x1, y1] = self.finished.film.header.crop;
+        let w = self.finished.window();
+        let [x0, y0, x1, y1] = [w.x0, w.y0, w.x1, w.y1];
         (x0, y0, x1, y1)
     }
 
@@ -185,8 +186,8 @@ impl RenderResult {
         write_full_image(
             py,
             &f.image,
-            &f.film.header.window(),
-            (f.film.header.width, f.film.header.height),
+            &f.window(),
+            (f.width(), f.height()),
             path,
             tone,
         )
@@ -199,8 +200,8 @@ impl RenderResult {
         write_full_image(
             py,
             &f.std_error,
-            &f.film.header.window(),
-            (f.film.header.width, f.film.header.height),
+            &f.window(),
+            (f.width(), f.height()),
             path,
             lumo::output::ToneMap::Clamp,
         )
@@ -217,11 +218,11 @@ impl RenderResult {
     }
 
     fn __repr__(&self) -> String {
-        let h = &self.finished.film.header;
+        let w = self.finished.window();
         format!(
             "<lumo.RenderResult {}×{} at {} spp in {:.3} s{}>",
-            h.crop[2] - h.crop[0],
-            h.crop[3] - h.crop[1],
+            w.width(),
+            w.height(),
             self.finished.samples_per_pixel(),
             self.finished.stats.elapsed.as_secs_f64(),
             if self.finished.interrupted {

@@ -844,7 +844,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         ));
     }
     if let Some(f) = &args.film {
-        split::write_film(&finished.film, f)?;
+        split::write_film(finished.film(), f)?;
         if args.output.is_none() {
             let (first, w) = (render_job.first_sample(), render_job.window());
             eprintln!(
