@@ -77,6 +77,9 @@ pub struct JobSettings {
     /// Worker threads, in a pool of the job's own (default: the current rayon pool, which is
     /// all cores unless the caller installed another). The image does not depend on it.
     pub threads: Option<usize>,
+    /// Paths each thread runs at once in SIMD lanes: 1, 4, 8 or 16 (default: this CPU's widest,
+    /// or `LUMO_SIMD`). The image does not depend on it.
+    pub lane_width: Option<usize>,
     /// Continue the render saved in this checkpoint: to `spp`, else to its own target.
     pub resume: Option<PartialFilm>,
     /// Keep a checkpoint while rendering.
@@ -473,6 +476,7 @@ impl RenderJob {
             on_pass: ((self.settings.checkpoint.is_some() && uniform_film)
                 || hooks.on_pass.is_some())
             .then_some(&periodic as &(dyn Fn(&Film) + Sync)),
+            lane_width: self.settings.lane_width,
         };
         let rendered = match self.settings.threads {
             None => render_with_error(&self.scene, &options),

@@ -1,6 +1,8 @@
 //! Random numbers for rendering. Every (seed, pixel, sample) triple owns an independent stream,
 //! so an image does not depend on how pixels are spread over threads.
 
+use crate::lanes::{F32s, U32s, U64s};
+
 /// PCG32 (O'Neill 2014, "PCG: A Family of Simple Fast Space-Efficient Statistically Good
 /// Algorithms for Random Number Generation"): 64-bit LCG state, XSH-RR output.
 #[derive(Debug, Clone)]
@@ -190,6 +192,54 @@ impl Sampler {
         }
     }
 
+    /// Draws the next 2D point of every lane's sampler at once (`None` lanes are idle and get
+    /// zeros): for each, what [`get_2d`](Self::get_2d) would give, bit for bit. Scrambled Sobol
+    /// points are computed in SIMD lanes; independent numbers, which follow a sequential
+    /// generator, one lane at a time.
+    pub fn get_2d_lanes<const W: usize>(samplers: [Option<&mut Sampler>; W]) -> [glam::Vec2; W] {
+        let mut out = [glam::Vec2::ZERO; W];
+        let Some(state) = SobolLanes::gather(&samplers, 0) else {
+            for (o, s) in out.iter_mut().zip(samplers) {
+                if let Some(s) = s {
+                    *o = s.get_2d();
+                }
+            }
+            return out;
+        };
+        let (x, y) = state.point_2d();
+        for (i, s) in samplers.into_iter().enumerate() {
+            if let Some(s) = s {
+                s.dimension += 1;
+                out[i] = glam::Vec2::new(x.0[i], y.0[i]);
+            }
+        }
+        out
+    }
+
+    /// [`get_choice_2d`](Self::get_choice_2d) for every lane's sampler at once, as
+    /// [`get_2d_lanes`](Self::get_2d_lanes) draws 2D points.
+    pub fn get_choice_2d_lanes<const W: usize>(
+        samplers: [Option<&mut Sampler>; W],
+    ) -> [(f32, glam::Vec2); W] {
+        let mut out = [(0.0, glam::Vec2::ZERO); W];
+        let Some(state) = SobolLanes::gather(&samplers, 1) else {
+            for (o, s) in out.iter_mut().zip(samplers) {
+                if let Some(s) = s {
+                    *o = s.get_choice_2d();
+                }
+            }
+            return out;
+        };
+        let (choice, x, y) = state.choice_2d();
+        for (i, s) in samplers.into_iter().enumerate() {
+            if let Some(s) = s {
+                s.dimension += 2;
+                out[i] = (choice.0[i], glam::Vec2::new(x.0[i], y.0[i]));
+            }
+        }
+        out
+    }
+
     /// The scrambling hash of the next dimension (pair) of this pixel.
     #[inline]
     fn next_dimension_hash(&mut self) -> u64 {
@@ -197,6 +247,160 @@ impl Sampler {
         self.dimension += 1;
         hash
     }
+}
+
+/// Runs `$self.$method()` (a method of [`SobolLanes`] marked `#[inline(always)]`) compiled for the widest vector
+/// instructions the CPU has that suit `$w` lanes: the same operations, so the same bits.
+macro_rules! lanes_dispatch {
+    ($w:expr, $self:ident . $method:ident (), $out:ty) => {{
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx512f")]
+            unsafe fn avx512<const W: usize>(s: &SobolLanes<W>) -> $out {
+                s.$method()
+            }
+            #[target_feature(enable = "avx2")]
+            unsafe fn avx2<const W: usize>(s: &SobolLanes<W>) -> $out {
+                s.$method()
+            }
+            if $w >= 16 && std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F.
+                return unsafe { avx512($self) };
+            }
+            if $w >= 8 && std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2.
+                return unsafe { avx2($self) };
+            }
+        }
+        $self.$method()
+    }};
+}
+
+/// The scrambled Sobol streams of a wave's lanes, at one dimension (pair) each: the values
+/// [`Sampler`] computes for one lane, computed for W lanes at once with the same integer
+/// operations (so with the same bits).
+struct SobolLanes<const W: usize> {
+    /// [`Sampler::next_dimension_hash`] of each lane.
+    hash: U64s<W>,
+    /// Each lane's reversed sample index.
+    reversed_index: U32s<W>,
+}
+
+impl<const W: usize> SobolLanes<W> {
+    /// The lanes' streams at each lane's next dimension + `skip` (idle lanes get stream 0);
+    /// `None` unless every sampler given draws scrambled Sobol points.
+    fn gather(samplers: &[Option<&mut Sampler>; W], skip: u32) -> Option<SobolLanes<W>> {
+        let mut key = [0u64; W];
+        let mut reversed_index = [0u32; W];
+        for (i, s) in samplers.iter().enumerate() {
+            if let Some(s) = s {
+                if s.kind != SamplerKind::Sobol {
+                    return None;
+                }
+                key[i] = u64::from(s.pixel_seed) << 32 | u64::from(s.dimension + skip);
+                reversed_index[i] = s.reversed_index;
+            }
+        }
+        Some(SobolLanes {
+            hash: U64s(key),
+            reversed_index: U32s(reversed_index),
+        })
+    }
+
+    /// [`owen_sobol_2d_reversed`] in every lane.
+    fn point_2d(&self) -> (F32s<W>, F32s<W>) {
+        lanes_dispatch!(W, self.point_2d_here(), (F32s<W>, F32s<W>))
+    }
+
+    /// [`owen_sobol_3d_shuffled`] of the shuffled index in every lane: the lobe choice and the
+    /// 2D point of [`Sampler::get_choice_2d`].
+    fn choice_2d(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
+        lanes_dispatch!(W, self.choice_2d_here(), (F32s<W>, F32s<W>, F32s<W>))
+    }
+
+    #[inline(always)]
+    fn point_2d_here(&self) -> (F32s<W>, F32s<W>) {
+        let hash = mix64_lanes(self.hash);
+        let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
+        owen_sobol_2d_lanes(shuffled, hash)
+    }
+
+    #[inline(always)]
+    fn choice_2d_here(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
+        let hash = mix64_lanes(self.hash);
+        let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
+        let seed_z = lowbias32_lanes(scramble_seed_y_lanes(hash) ^ U32s::splat(0x9e37_79b9));
+        let choice = laine_karras_lanes(table_lanes(&SOBOL2_TABLES, shuffled), seed_z);
+        let (x, y) = owen_sobol_2d_lanes(shuffled, hash);
+        (to_unit_lanes(choice.reverse_bits()), x, y)
+    }
+}
+
+/// [`mix64`] in every lane.
+#[inline(always)]
+fn mix64_lanes<const W: usize>(z: U64s<W>) -> U64s<W> {
+    let z = (z ^ (z >> 30)) * U64s::splat(0xbf58_476d_1ce4_e5b9);
+    let z = (z ^ (z >> 27)) * U64s::splat(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// [`laine_karras`] in every lane.
+#[inline(always)]
+fn laine_karras_lanes<const W: usize>(v: U32s<W>, seed: U32s<W>) -> U32s<W> {
+    let mut v = v ^ (v * U32s::splat(0x3d20_adea));
+    v += seed;
+    v *= (seed >> 16) | U32s::splat(1);
+    v = v ^ (v * U32s::splat(0x0552_6c56));
+    v ^ (v * U32s::splat(0x53a2_2864))
+}
+
+/// The integer hash of [`scramble_seed_y`] ("lowbias32") in every lane.
+#[inline(always)]
+fn lowbias32_lanes<const W: usize>(mut x: U32s<W>) -> U32s<W> {
+    x = x ^ (x >> 16);
+    x *= U32s::splat(0x7feb_352d);
+    x = x ^ (x >> 15);
+    x *= U32s::splat(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+/// [`scramble_seed_y`] in every lane.
+#[inline(always)]
+fn scramble_seed_y_lanes<const W: usize>(hash: U64s<W>) -> U32s<W> {
+    let high = (hash >> 32).low_u32();
+    lowbias32_lanes(hash.low_u32() ^ ((high << 16) | (high >> 16)) ^ U32s::splat(0x63d8_3595))
+}
+
+/// [`owen_sobol_2d_shuffled`] in every lane.
+#[inline(always)]
+fn owen_sobol_2d_lanes<const W: usize>(shuffled: U32s<W>, hash: U64s<W>) -> (F32s<W>, F32s<W>) {
+    let x = laine_karras_lanes(shuffled, (hash >> 32).low_u32());
+    let y = laine_karras_lanes(
+        table_lanes(&SOBOL1_TABLES, shuffled),
+        scramble_seed_y_lanes(hash),
+    );
+    (
+        to_unit_lanes(x.reverse_bits()),
+        to_unit_lanes(y.reverse_bits()),
+    )
+}
+
+/// A Sobol dimension by byte tables ([`sobol_dim1_reversed`]) in every lane.
+#[inline(always)]
+fn table_lanes<const W: usize>(tables: &[[u32; 256]; 4], i: U32s<W>) -> U32s<W> {
+    U32s::from_fn(|l| {
+        let i = i.0[l];
+        tables[0][(i & 0xff) as usize]
+            ^ tables[1][((i >> 8) & 0xff) as usize]
+            ^ tables[2][((i >> 16) & 0xff) as usize]
+            ^ tables[3][(i >> 24) as usize]
+    })
+}
+
+/// [`to_unit`] in every lane.
+#[inline(always)]
+fn to_unit_lanes<const W: usize>(v: U32s<W>) -> F32s<W> {
+    (v >> 8).cast_i32().to_f32() * F32s::splat(1.0 / 16_777_216.0)
 }
 
 /// The first two dimensions of the Sobol sequence (a (0, 2)-sequence in base 2), each

@@ -121,3 +121,37 @@ fn bad_arguments_are_invalid_input() {
             .stdout(predicates::str::contains("Example:"));
     }
 }
+
+/// `lumo version` says how many paths each thread runs in SIMD lanes (this CPU's widest, or
+/// what `LUMO_SIMD` forces); a `LUMO_SIMD` that is not a width is refused before any work, with
+/// exit code 2 and the values allowed.
+#[test]
+fn lane_width_is_reported_and_can_be_forced() {
+    let version = |simd: Option<&str>| {
+        let mut c = lumo();
+        c.arg("version");
+        match simd {
+            Some(v) => c.env("LUMO_SIMD", v),
+            None => c.env_remove("LUMO_SIMD"),
+        };
+        let out = c.assert().success().get_output().stdout.clone();
+        serde_json::from_slice::<serde_json::Value>(&out).unwrap()
+    };
+    let native = version(None)["native_lanes"].as_u64().unwrap();
+    assert!([1, 4, 8, 16].contains(&native), "native width {native}");
+    assert_eq!(version(None)["lanes"].as_u64(), Some(native));
+    assert_eq!(version(Some("4"))["lanes"].as_u64(), Some(4));
+    let dir = tempfile::tempdir().unwrap();
+    let assert = lumo()
+        .env("LUMO_SIMD", "3")
+        .args(["render", "scenes/cornell.json", "--spp", "1", "-q", "-o"])
+        .arg(dir.path().join("c.png"))
+        .assert()
+        .code(2);
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(
+        stderr.contains("LUMO_SIMD") && stderr.contains("1, 4, 8 or 16"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("c.png").exists());
+}

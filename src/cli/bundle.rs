@@ -21,6 +21,8 @@ pub fn version_cmd() -> Result<(), CliError> {
         serde_json::json!({
             "version": env!("CARGO_PKG_VERSION"),
             "build_id": lumo::partial_film::build_id(),
+            "lanes": lumo::lanes::default_width(),
+            "native_lanes": lumo::lanes::native_width(),
         })
     );
     Ok(())

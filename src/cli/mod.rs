@@ -336,6 +336,7 @@ fn parse_duration(text: &str) -> Result<f32, String> {
 
 /// Runs the CLI; returns the process exit code.
 pub fn run(cli: Cli) -> Result<(), CliError> {
+    lumo::lanes::width_from_env().map_err(CliError::invalid)?;
     match cli.command {
         Command::Render(args) => render_cmd(&args),
         Command::Convert {
@@ -706,6 +707,7 @@ fn job_settings(args: &RenderArgs, scene: &Path, resume: Option<PartialFilm>) ->
             LightSamplerArg::Tree => LightChoice::Tree,
         },
         threads: args.threads.map(|t| t as usize),
+        lane_width: None,
         resume,
         checkpoint: args.checkpoint.clone().map(|path| job::Checkpointing {
             path,

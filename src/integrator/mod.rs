@@ -1,26 +1,19 @@
-//! Light-transport algorithms: radiance arriving along a camera ray.
+//! Light-transport algorithms: radiance arriving along a camera ray. The path tracer runs in
+//! steps, one vertex at a time, for the render loop's waves of lanes ([`path::Path`]); the
+//! ray-cast preview takes a whole sample at once ([`raycast::radiance`]).
 
 pub mod path;
 pub mod raycast;
 
 use crate::geometry::SurfaceHit;
 use crate::math::{offset_origin, Ray, Vec3};
-use crate::sampler::Sampler;
-use crate::scene::{IntegratorKind, Scene};
+use crate::scene::Scene;
 
 /// Counters gathered while tracing.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TraceStats {
     /// Rays cast (camera, bounce and shadow rays).
     pub rays: u64,
-}
-
-/// Radiance along `ray` with the scene's chosen integrator.
-pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut Sampler, stats: &mut TraceStats) -> Vec3 {
-    match scene.settings.integrator {
-        IntegratorKind::Path => path::radiance(scene, ray, sampler, stats),
-        IntegratorKind::Raycast => raycast::radiance(scene, ray, sampler, stats),
-    }
 }
 
 /// A ray leaving a surface point in direction `w`, offset to avoid hitting the surface again.
@@ -40,6 +33,14 @@ pub(crate) fn visible(
     stats: &mut TraceStats,
 ) -> bool {
     stats.rays += 1;
+    !scene.occluded(&segment_to(hit, target, target_n), 0.0, 1.0)
+}
+
+/// The ray from a surface point to `target` whose parameters (0, 1) span the segment between
+/// them, both ends offset off their surfaces (the far end only when it lies on one: normal
+/// `target_n` non-zero).
+#[inline]
+pub(crate) fn segment_to(hit: &SurfaceHit, target: Vec3, target_n: Vec3) -> Ray {
     let dir = target - hit.p;
     let o = offset_origin(hit.p, hit.ng, dir);
     let end = if target_n == Vec3::ZERO {
@@ -47,7 +48,7 @@ pub(crate) fn visible(
     } else {
         offset_origin(target, target_n, -dir)
     };
-    !scene.occluded(&Ray::new(o, end - o), 0.0, 1.0)
+    Ray::new(o, end - o)
 }
 
 /// Whether a ray towards a directional light escapes the scene.

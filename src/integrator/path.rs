@@ -4,8 +4,11 @@
 //! Depth is counted as in Mitsuba 3: the camera ray's hit is vertex 1, emission seen there is a
 //! path of depth 1, light sampled from it a path of depth 2, and so on up to `max_depth`.
 
-use crate::integrator::{spawn, unoccluded_towards, visible, TraceStats};
+use crate::bsdf::Bsdf;
+use crate::geometry::SurfaceHit;
+use crate::integrator::{segment_to, spawn, TraceStats};
 use crate::light::Light;
+use crate::material::Material;
 use crate::math::{Ray, Rgb, Vec3};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
@@ -14,63 +17,137 @@ use crate::scene::Scene;
 /// Depth from which Russian roulette may end paths (as in Mitsuba 3).
 pub const RR_DEPTH: u32 = 5;
 
-/// Radiance along a camera ray.
-pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut TraceStats) -> Rgb {
-    let max_depth = scene.settings.max_depth;
-    let mut l = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    // The previous scattering event, for MIS on emitters hit by BSDF sampling.
-    let mut prev_pdf = 0.0f32;
-    let mut prev_delta = true;
-    let mut prev_p = ray.o;
-    // Its shading normal, which light selection saw there.
-    let mut prev_n = Vec3::ZERO;
-    // Absorption coefficient of the medium the path is in (inside a `volume` material).
-    let mut medium: Option<Vec3> = None;
-    // The product of η′² over the refractions so far: each scaled the throughput by 1/η′²
-    // (radiance is compressed into the denser medium), which Russian roulette must not read as
-    // lost energy (pbrt-v4's `etaScale`, Mitsuba 3's `eta`).
-    let mut eta_scale = 1.0f32;
-    // Whether the light this vertex finds by BSDF sampling (emission, the environment, an
-    // unlit surface) counts: not where the previous vertex collected that light with rays of
-    // its own (its `SPLIT` samples, or the mirror reflection of glass), the path's ray then
-    // only carrying on for the light from further surfaces.
-    let mut count_found = true;
-    for depth in 1..=max_depth {
-        stats.rays += 1;
-        let Some(hit) = scene.intersect(&ray, 0.0, f32::INFINITY) else {
-            if count_found {
-                let bsdf_pdf = (!prev_delta).then_some(prev_pdf);
-                l +=
-                    beta * scene.escaped(ray.d.normalize(), bsdf_pdf, (prev_p, prev_n), depth == 1);
-            }
-            break;
-        };
-        if let Some(sigma) = medium {
-            // Beer–Lambert along the segment travelled inside.
-            beta *= transmittance(sigma, hit.t * ray.d.length());
+/// A path being traced: what its next vertex needs from the vertices before it. The render loop
+/// ([`crate::render`]) runs paths in waves of lanes, one step per vertex: it traces the closest
+/// hits of every lane's [`ray`](Path::ray), lets each lane [`shade`](Path::shade) its hit up to
+/// the light sample, traces the lanes' shadow rays, and lets each lane
+/// [`scatter`](Path::scatter) into its next ray. Every lane's numbers are its own (its sampler,
+/// its state), so a sample's value does not depend on which lane, or with which others, it ran.
+#[derive(Debug, Clone)]
+pub struct Path {
+    /// The ray to the next vertex.
+    pub ray: Ray,
+    /// The next vertex's depth (the camera ray's hit is 1).
+    depth: u32,
+    /// Radiance gathered so far.
+    l: Rgb,
+    /// Throughput.
+    beta: Rgb,
+    /// The previous scattering event, for MIS on emitters hit by BSDF sampling.
+    prev_pdf: f32,
+    prev_delta: bool,
+    prev_p: Vec3,
+    /// Its shading normal, which light selection saw there.
+    prev_n: Vec3,
+    /// Absorption coefficient of the medium the path is in (inside a `volume` material).
+    medium: Option<Vec3>,
+    /// The product of η′² over the refractions so far: each scaled the throughput by 1/η′²
+    /// (radiance is compressed into the denser medium), which Russian roulette must not read as
+    /// lost energy (pbrt-v4's `etaScale`, Mitsuba 3's `eta`).
+    eta_scale: f32,
+    /// Whether the light this vertex finds by BSDF sampling (emission, the environment, an
+    /// unlit surface) counts: not where the previous vertex collected that light with rays of
+    /// its own (its `SPLIT` samples, or the mirror reflection of glass), the path's ray then
+    /// only carrying on for the light from further surfaces.
+    count_found: bool,
+}
+
+/// A vertex between its light sample and its BSDF sample: what [`Path::shade`] leaves for
+/// [`Path::scatter`] while the shadow ray is traced.
+pub struct Vertex<'a> {
+    material: &'a Material,
+    bsdf: Bsdf,
+    wo: Vec3,
+    /// BSDF samples drawn for direct light here (see [`SPLIT`]), or 1.
+    split: f32,
+    /// The light sample's shadow ray, if it can add anything.
+    pub shadow: Option<Shadow>,
+}
+
+/// A shadow ray and the radiance its light sample adds when nothing blocks it.
+#[derive(Debug, Clone, Copy)]
+pub struct Shadow {
+    /// From the vertex towards the light.
+    pub ray: Ray,
+    /// The segment to test: (0, `t_max`) along `ray`.
+    pub t_max: f32,
+    /// Throughput × BSDF × light × MIS weight ÷ pdf.
+    radiance: Rgb,
+}
+
+impl Path {
+    /// A path leaving the camera along `ray`.
+    pub fn new(ray: Ray) -> Path {
+        Path {
+            prev_p: ray.o,
+            ray,
+            depth: 1,
+            l: Vec3::ZERO,
+            beta: Vec3::ONE,
+            prev_pdf: 0.0,
+            prev_delta: true,
+            prev_n: Vec3::ZERO,
+            medium: None,
+            eta_scale: 1.0,
+            count_found: true,
         }
-        let wo = -ray.d.normalize();
-        let material = scene.material(&hit);
+    }
+
+    /// The radiance the path has gathered: the sample's value once it has ended.
+    pub fn radiance(&self) -> Rgb {
+        self.l
+    }
+
+    /// The vertex where [`ray`](Path::ray) hits (`hit`, its closest hit): the light found
+    /// there by BSDF sampling, and the light sample of next-event estimation (with the 2D point
+    /// `u_light`, the vertex's first sampler dimension, which the caller draws for every lane
+    /// at once, used or not), whose shadow ray the caller traces before
+    /// [`scatter`](Path::scatter). The vertex is left in `vertex` (written in place: it is a few
+    /// hundred bytes); returns whether the path goes on, which it does not when it left the
+    /// scene or met an unlit surface or its last vertex.
+    pub fn shade<'a>(
+        &mut self,
+        scene: &'a Scene,
+        hit: Option<&SurfaceHit>,
+        u_light: glam::Vec2,
+        vertex: &mut Option<Vertex<'a>>,
+    ) -> bool {
+        let depth = self.depth;
+        let Some(hit) = hit else {
+            if self.count_found {
+                let bsdf_pdf = (!self.prev_delta).then_some(self.prev_pdf);
+                self.l += self.beta
+                    * scene.escaped(
+                        self.ray.d.normalize(),
+                        bsdf_pdf,
+                        (self.prev_p, self.prev_n),
+                        depth == 1,
+                    );
+            }
+            return false;
+        };
+        if let Some(sigma) = self.medium {
+            // Beer–Lambert along the segment travelled inside.
+            self.beta *= transmittance(sigma, hit.t * self.ray.d.length());
+        }
+        let wo = -self.ray.d.normalize();
+        let material = scene.material(hit);
         let direct = found_light(
             scene,
             material,
-            &hit,
+            hit,
             wo,
-            prev_p,
-            prev_n,
-            (!prev_delta).then_some(prev_pdf),
+            self.prev_p,
+            self.prev_n,
+            (!self.prev_delta).then_some(self.prev_pdf),
         );
-        if count_found && direct.weight > 0.0 {
-            l += beta * direct.radiance * direct.weight;
+        if self.count_found && direct.weight > 0.0 {
+            self.l += self.beta * direct.radiance * direct.weight;
         }
-        if direct.unlit {
-            break;
+        if direct.unlit || depth == scene.settings.max_depth {
+            return false;
         }
-        if depth == max_depth {
-            break;
-        }
-        let bsdf = material.bsdf(&scene.textures, &hit, wo);
+        let bsdf = material.bsdf(&scene.textures, hit, wo);
         // Glossy-dominated surfaces seen from the camera estimate the direct light that BSDF
         // sampling finds with `SPLIT` samples of their own (multi-sample MIS, Veach 1997 §9.2:
         // the weights compare SPLIT × the BSDF pdf with the light's).
@@ -79,52 +156,102 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         } else {
             1.0
         };
-
-        // Next-event estimation: one light, chosen (by power or by the light tree, for this
-        // point and normal) with the first coordinate of the light's 2D sample, which is then
-        // remapped to sample a point on it.
-        if !bsdf.has_smooth_lobe() {
-            sampler.skip_2d();
+        // Next-event estimation only where a lobe is not a Dirac delta (a vertex that only
+        // scatters by delta lobes leaves its point unused).
+        let shadow = if bsdf.has_smooth_lobe() {
+            self.light_sample(scene, hit, &bsdf, wo, split, u_light)
         } else {
-            let u_light = sampler.get_2d();
-            if let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x) {
-                let light = &scene.lights[index];
-                if let Some(ls) = light.sample_mis(hit.p, glam::Vec2::new(u_x, u_light.y)) {
-                    let li = if ls.delta || matches!(light, Light::Environment { .. }) {
-                        ls.li
-                    } else {
-                        scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
-                            m.emitted(&scene.textures, ls.normal, ls.uv, ls.uv, -ls.wi)
-                        })
-                    };
-                    if li != Vec3::ZERO {
-                        let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);
-                        if f != Vec3::ZERO {
-                            let unblocked = match light {
-                                Light::Directional { .. } | Light::Environment { .. } => {
-                                    unoccluded_towards(scene, &hit, ls.wi, stats)
-                                }
-                                _ => visible(scene, &hit, ls.point, ls.normal, stats),
-                            };
-                            if unblocked {
-                                let pdf_light = pmf * ls.pdf;
-                                let weight = if ls.delta {
-                                    1.0
-                                } else {
-                                    power_heuristic(pdf_light, split * pdf_bsdf)
-                                };
-                                let tr = medium
-                                    .map_or(Vec3::ONE, |sigma| transmittance(sigma, ls.distance));
-                                l += beta * f * li * tr * (weight / pdf_light);
-                            }
-                        }
-                    }
-                }
-            }
-        }
+            None
+        };
+        *vertex = Some(Vertex {
+            material,
+            bsdf,
+            wo,
+            split,
+            shadow,
+        });
+        true
+    }
 
+    /// Next-event estimation at `hit`: one light, chosen (by power or by the light tree, for
+    /// this point and normal) with the first coordinate of `u_light`, which is then remapped to
+    /// sample a point on it. The shadow ray to that point, if the sample can add anything.
+    fn light_sample(
+        &self,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        split: f32,
+        u_light: glam::Vec2,
+    ) -> Option<Shadow> {
+        let (index, pmf, u_x) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x)?;
+        let light = &scene.lights[index];
+        let ls = light.sample_mis(hit.p, glam::Vec2::new(u_x, u_light.y))?;
+        let li = if ls.delta || matches!(light, Light::Environment { .. }) {
+            ls.li
+        } else {
+            scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
+                m.emitted(&scene.textures, ls.normal, ls.uv, ls.uv, -ls.wi)
+            })
+        };
+        if li == Vec3::ZERO {
+            return None;
+        }
+        let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);
+        if f == Vec3::ZERO {
+            return None;
+        }
+        let (ray, t_max) = match light {
+            Light::Directional { .. } | Light::Environment { .. } => {
+                (spawn(hit, ls.wi), f32::INFINITY)
+            }
+            _ => (segment_to(hit, ls.point, ls.normal), 1.0),
+        };
+        let pdf_light = pmf * ls.pdf;
+        let weight = if ls.delta {
+            1.0
+        } else {
+            power_heuristic(pdf_light, split * pdf_bsdf)
+        };
+        let tr = self
+            .medium
+            .map_or(Vec3::ONE, |sigma| transmittance(sigma, ls.distance));
+        Some(Shadow {
+            ray,
+            t_max,
+            radiance: self.beta * f * li * tr * (weight / pdf_light),
+        })
+    }
+
+    /// Finishes `vertex` (at `hit`): adds its light sample when `unblocked` (what its shadow
+    /// ray found), and samples the BSDF for the path's next ray with the lobe choice and 2D
+    /// point `(u_lobe, u_dir)` (the vertex's next sampler dimensions, drawn by the caller for
+    /// every lane at once); further numbers (the split samples', Russian roulette's) come from
+    /// `sampler`. Returns whether the path goes on.
+    #[allow(clippy::too_many_arguments)]
+    pub fn scatter(
+        &mut self,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        vertex: &Vertex,
+        unblocked: bool,
+        (u_lobe, u_dir): (f32, glam::Vec2),
+        sampler: &mut Sampler,
+        stats: &mut TraceStats,
+    ) -> bool {
+        let &Vertex {
+            material,
+            ref bsdf,
+            wo,
+            split,
+            shadow,
+        } = vertex;
+        if let (Some(shadow), true) = (shadow, unblocked) {
+            self.l += shadow.radiance;
+        }
+        let medium = self.medium;
         // Continue the path by sampling the BSDF.
-        let (u_lobe, u_dir) = sampler.get_choice_2d();
         let sampled = bsdf.sample(wo, u_lobe, u_dir);
         if split > 1.0 {
             // Drawn together, so that over a pixel's samples they are one stratified set; each
@@ -135,8 +262,8 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             for &(u_lobe, u_dir) in &points {
                 if let Some(s2) = bsdf.sample(wo, u_lobe, u_dir) {
                     let pdf = (!s2.delta).then_some(split * s2.pdf);
-                    let found = light_along(scene, &hit, s2.wi, pdf, medium, stats);
-                    l += beta * s2.weight * found / split;
+                    let found = light_along(scene, hit, s2.wi, pdf, medium, stats);
+                    self.l += self.beta * s2.weight * found / split;
                 }
             }
         }
@@ -145,32 +272,32 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
         // is collected by a ray of its own every time, with the whole weight R; the path, when
         // it reflects, then counts none of the light it finds there (it still goes on for the
         // light reflected from further surfaces).
-        let mirror = if depth <= MIRROR_SPLIT_DEPTH {
+        let mirror = if self.depth <= MIRROR_SPLIT_DEPTH {
             bsdf.mirror_reflection(wo)
         } else {
             None
         };
         if let Some((wi, weight)) = mirror {
-            l += beta * weight * light_along(scene, &hit, wi, None, medium, stats);
+            self.l += self.beta * weight * light_along(scene, hit, wi, None, medium, stats);
         }
         let Some(s) = sampled else {
-            break;
+            return false;
         };
-        beta *= s.weight;
+        self.beta *= s.weight;
         if s.transmitted {
-            eta_scale *= s.etap * s.etap;
+            self.eta_scale *= s.etap * s.etap;
             if let Some(sigma) = material.absorption {
                 // Entering the solid (towards the back of the surface) or leaving it.
-                medium = (s.wi.dot(hit.ng) < 0.0).then_some(sigma);
+                self.medium = (s.wi.dot(hit.ng) < 0.0).then_some(sigma);
             }
         }
-        prev_pdf = s.pdf;
-        prev_delta = s.delta;
-        count_found = split == 1.0 && !(mirror.is_some() && s.delta && !s.transmitted);
-        prev_p = hit.p;
-        prev_n = hit.ns;
-        ray = spawn(&hit, s.wi);
-        if depth >= RR_DEPTH {
+        self.prev_pdf = s.pdf;
+        self.prev_delta = s.delta;
+        self.count_found = split == 1.0 && !(mirror.is_some() && s.delta && !s.transmitted);
+        self.prev_p = hit.p;
+        self.prev_n = hit.ns;
+        self.ray = spawn(hit, s.wi);
+        if self.depth >= RR_DEPTH {
             // Survival in proportion to the throughput without the refractions' 1/η′²: a
             // path inside glass carries 1/1.5² of the radiance it will have again outside, and
             // with the bare throughput 56 % of those paths were ended at each depth from
@@ -179,17 +306,15 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
             // which it needs for unbounded depths, but `max_depth` bounds every path here, and
             // the cap cost GlassVaseFlowers' specular chains another 1.07-1.11× the variance). Any
             // q > 0 is unbiased.
-            let q = (beta * eta_scale).max_element().min(1.0);
+            let q = (self.beta * self.eta_scale).max_element().min(1.0);
             if sampler.get_1d() >= q {
-                break;
+                return false;
             }
-            beta /= q;
+            self.beta /= q;
         }
-        if beta == Vec3::ZERO {
-            break;
-        }
+        self.depth += 1;
+        self.beta != Vec3::ZERO
     }
-    l
 }
 
 /// BSDF samples drawn for direct light at a glossy-dominated surface seen from the camera (see

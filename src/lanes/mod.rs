@@ -66,6 +66,61 @@ pub struct U64s<const W: usize>(pub [u64; W]);
 #[repr(C)]
 pub struct Mask<const W: usize>([u32; W]);
 
+/// The lane widths the render loop runs, narrowest first.
+pub const WIDTHS: [usize; 4] = [1, 4, 8, 16];
+
+/// The widest lanes this CPU runs in one register: 16 with AVX-512, 8 with AVX2, 4 with SSE2
+/// (every x86-64) or NEON (every AArch64), and 1 elsewhere.
+pub fn native_width() -> usize {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            16
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            8
+        } else {
+            4
+        }
+    }
+    #[cfg(target_arch = "aarch64")]
+    {
+        4
+    }
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    {
+        1
+    }
+}
+
+/// The environment variable that forces a lane width (for tests and benchmarks): `1`, `4`, `8`
+/// or `16`. Images are the same bits at every width; only the speed differs.
+pub const WIDTH_VARIABLE: &str = "LUMO_SIMD";
+
+/// The lane width `LUMO_SIMD` asks for: `Ok(None)` when it is unset or empty, an error naming
+/// the allowed values when it is anything but 1, 4, 8 or 16.
+pub fn width_from_env() -> Result<Option<usize>, String> {
+    match std::env::var(WIDTH_VARIABLE) {
+        Err(_) => Ok(None),
+        Ok(v) if v.trim().is_empty() => Ok(None),
+        Ok(v) => match v.trim().parse::<usize>() {
+            Ok(w) if WIDTHS.contains(&w) => Ok(Some(w)),
+            _ => Err(format!(
+                "{WIDTH_VARIABLE}={v:?} is not a lane width: use 1, 4, 8 or 16 (or unset it for \
+                 this CPU's widest, {})",
+                native_width()
+            )),
+        },
+    }
+}
+
+/// The lane width renders use unless told otherwise: `LUMO_SIMD` when it names a width, else
+/// [`native_width`] (an invalid `LUMO_SIMD` is the command line's to report; see
+/// [`width_from_env`]).
+pub fn default_width() -> usize {
+    static WIDTH: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *WIDTH.get_or_init(|| width_from_env().ok().flatten().unwrap_or_else(native_width))
+}
+
 /// `if a < b { a } else { b }`: the lanes' minimum (a NaN in either argument gives `b`).
 #[inline(always)]
 pub fn min(a: f32, b: f32) -> f32 {
@@ -462,6 +517,12 @@ macro_rules! lanes_int {
         }
 
         impl<const W: usize> $ty<W> {
+            /// Each lane's bits in reverse order.
+            #[inline(always)]
+            pub fn reverse_bits(self) -> Self {
+                Self(self.0.map(<$elem>::reverse_bits))
+            }
+
             /// The smaller of each pair of lanes.
             #[inline(always)]
             pub fn min(self, rhs: Self) -> Self {

@@ -10,12 +10,11 @@
 mod adaptive;
 mod film;
 mod pass;
-mod pixel;
 mod schedule;
 #[cfg(test)]
 mod tests;
+mod wave;
 
-use std::ops::Range;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
@@ -23,8 +22,8 @@ use adaptive::{AdaptiveAllocator, ErrorSource};
 pub use film::{ErrorEstimate, Film, PixelSum, MAX_SAMPLE};
 use pass::PassContext;
 pub use pass::TILE;
-use pixel::render_samples;
 use schedule::{NextPass, Plan, Schedule};
+use wave::{render_pixels, PixelWork};
 
 pub use crate::image::Image;
 use crate::integrator::TraceStats;
@@ -117,6 +116,10 @@ pub struct RenderOptions<'a> {
     /// [`MAX_PASS_SECONDS`] long once the throughput is known. The image is the same bits either
     /// way (the film's sums are exact).
     pub on_pass: Option<&'a (dyn Fn(&Film) + Sync)>,
+    /// Paths each thread runs at once, in SIMD lanes: 1, 4, 8 or 16 (default:
+    /// [`crate::lanes::default_width`], this CPU's widest or `LUMO_SIMD`). The image is the
+    /// same bits at every width; only the speed differs.
+    pub lane_width: Option<usize>,
 }
 
 /// Longest pass, in seconds, of renders that can be interrupted or checkpointed: an interruption
@@ -173,17 +176,20 @@ pub fn render_with_error(scene: &Scene, options: &RenderOptions) -> Rendered {
         seed: s.seed,
     };
     let (x0, y0) = (window.x0, window.y0);
+    let width = options
+        .lane_width
+        .unwrap_or_else(crate::lanes::default_width);
     let (film, rays, interrupted) = run_passes(
         &plan,
         options,
         ErrorSource::Neighbours,
-        |x, y, indices, stats| render_samples(scene, x0 + x, y0 + y, indices, stats),
+        |work, sums, stats| render_pixels(scene, width, (x0, y0), work, sums, stats),
     );
     finish(film, rays, start.elapsed(), interrupted)
 }
 
-/// Takes all samples of a render, pass by pass; `sample(x, y, indices, stats)` returns the sums
-/// of pixel (x, y)'s samples with the given indices (x, y in the film's window). Returns the
+/// Takes all samples of a render, pass by pass; `sample(work, sums, stats)` puts the sums of the
+/// samples `work` lists (pixels in the film's window) into `sums`. Returns the
 /// film, the rays cast and whether `options.cancel` interrupted the render.
 fn run_passes<F>(
     plan: &Plan,
@@ -192,7 +198,7 @@ fn run_passes<F>(
     sample: F,
 ) -> (Film, u64, bool)
 where
-    F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
+    F: Fn(&[PixelWork], &mut [PixelSum], &mut TraceStats) + Sync,
 {
     let mut film = match options.resume {
         Some(f) => {

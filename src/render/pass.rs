@@ -2,13 +2,13 @@
 //! square tiles that rayon spreads over threads; the pass's samples come back as a film of their
 //! own, to be merged into the total.
 
-use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
 
 use super::film::{Film, PixelSum};
+use super::wave::PixelWork;
 use crate::integrator::TraceStats;
 
 /// Side of the square tiles work is split into.
@@ -17,7 +17,8 @@ pub const TILE: u32 = 16;
 /// What every pass of a render shares: how to sample a pixel, whom to tell about progress, and
 /// the counters summed over all passes.
 pub(super) struct PassContext<'a, F> {
-    /// `sample(x, y, indices, stats)`: the sums of pixel (x, y)'s samples with those indices.
+    /// `sample(work, sums, stats)`: the sums of the samples `work` lists (pixels given in the
+    /// film's window), one per entry, into `sums`.
     sample: F,
     /// Called with the number of samples finished so far.
     progress: Option<&'a (dyn Fn(u64) + Sync)>,
@@ -57,15 +58,11 @@ impl Tile {
     fn pixels(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
         (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| (x, y)))
     }
-
-    fn pixel_count(&self) -> usize {
-        ((self.x1 - self.x0) * (self.y1 - self.y0)) as usize
-    }
 }
 
 impl<'a, F> PassContext<'a, F>
 where
-    F: Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync,
+    F: Fn(&[PixelWork], &mut [PixelSum], &mut TraceStats) + Sync,
 {
     /// A context whose passes sample pixels with `sample`, report to `progress`, and with
     /// `timed` record the wall time of each pixel's samples.
@@ -129,26 +126,40 @@ where
         Some(pass)
     }
 
-    /// The new samples of one tile's pixels, row by row.
+    /// The new samples of one tile's pixels, row by row: all in one call, or, when timed, a
+    /// call per pixel.
     fn render_tile(&self, film: &Film, counts: &[u32], tile: &Tile) -> Vec<PixelSum> {
         let mut stats = TraceStats::default();
-        let mut sums = Vec::with_capacity(tile.pixel_count());
-        let mut samples = 0u64;
-        for (x, y) in tile.pixels() {
-            let count = counts[(y * film.width() + x) as usize];
-            let first = self.first_sample + film.pixel(x, y).taken();
-            sums.push(if count == 0 {
-                PixelSum::default()
-            } else if self.timed {
+        let work: Vec<PixelWork> = tile
+            .pixels()
+            .map(|(x, y)| {
+                let count = counts[(y * film.width() + x) as usize];
+                let first = self.first_sample + film.pixel(x, y).taken();
+                PixelWork {
+                    x,
+                    y,
+                    indices: first..first + count,
+                }
+            })
+            .collect();
+        let mut sums = vec![PixelSum::default(); work.len()];
+        if self.timed {
+            for (pixel, sum) in work.iter().zip(&mut sums) {
+                if pixel.indices.is_empty() {
+                    continue;
+                }
                 let start = Instant::now();
-                let mut sums = (self.sample)(x, y, first..first + count, &mut stats);
-                sums.set_time(start.elapsed());
-                sums
-            } else {
-                (self.sample)(x, y, first..first + count, &mut stats)
-            });
-            samples += u64::from(count);
+                (self.sample)(
+                    std::slice::from_ref(pixel),
+                    std::slice::from_mut(sum),
+                    &mut stats,
+                );
+                sum.set_time(start.elapsed());
+            }
+        } else {
+            (self.sample)(&work, &mut sums, &mut stats);
         }
+        let samples: u64 = work.iter().map(|w| u64::from(w.indices.len() as u32)).sum();
         self.rays.fetch_add(stats.rays, Ordering::Relaxed);
         let total = self.samples_done.fetch_add(samples, Ordering::Relaxed) + samples;
         if let Some(progress) = self.progress {

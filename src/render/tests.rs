@@ -19,7 +19,7 @@ fn uniform01(seed: u64, x: u32, y: u32, i: u32) -> f64 {
 fn synthetic(
     width: u32,
     seed: u64,
-) -> impl Fn(u32, u32, Range<u32>, &mut TraceStats) -> PixelSum + Sync {
+) -> impl Fn(u32, u32, std::ops::Range<u32>, &mut TraceStats) -> PixelSum + Sync {
     move |x, y, range, _| {
         let mut acc = PixelSum::default();
         for i in range {
@@ -34,6 +34,18 @@ fn synthetic(
             acc.add_sample(crate::math::Vec3::splat(v as f32));
         }
         acc
+    }
+}
+
+/// A pass's sample function that takes each pixel of its work with `pixel(x, y, indices,
+/// stats)`.
+fn per_pixel(
+    pixel: impl Fn(u32, u32, std::ops::Range<u32>, &mut TraceStats) -> PixelSum + Sync,
+) -> impl Fn(&[PixelWork], &mut [PixelSum], &mut TraceStats) + Sync {
+    move |work, sums, stats| {
+        for (w, sum) in work.iter().zip(sums) {
+            *sum = pixel(w.x, w.y, w.indices.clone(), stats);
+        }
     }
 }
 
@@ -63,7 +75,7 @@ fn z_score(source: ErrorSource, seed: u64) -> (f64, Film) {
         adaptive: true,
         ..Default::default()
     };
-    let (film, _, _) = run_passes(&plan, &options, source, synthetic(w, seed));
+    let (film, _, _) = run_passes(&plan, &options, source, per_pixel(synthetic(w, seed)));
     let sums = film.pixels();
     let n = sums.len() as f64;
     let (mut err, mut var) = (0.0, 0.0);
@@ -129,7 +141,7 @@ fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
         &plan,
         &RenderOptions::default(),
         ErrorSource::Neighbours,
-        synthetic(20, 5),
+        per_pixel(synthetic(20, 5)),
     );
     let (passes, _, _) = run_passes(
         &plan,
@@ -138,7 +150,7 @@ fn uniform_progressive_passes_take_the_same_samples_as_one_pass() {
             ..Default::default()
         },
         ErrorSource::Neighbours,
-        synthetic(20, 5),
+        per_pixel(synthetic(20, 5)),
     );
     for (a, b) in one.pixels().iter().zip(passes.pixels()) {
         assert_eq!(a.finite_samples(), 24);
@@ -220,16 +232,18 @@ fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
         let cancel = AtomicBool::new(false);
         let calls = AtomicU64::new(0);
         let after: Mutex<HashSet<u32>> = Mutex::new(HashSet::new());
-        let sample = |x: u32, y: u32, range: Range<u32>, stats: &mut TraceStats| {
-            // Read the flag before counting: a call that saw no cancel came before it.
-            if cancel.load(Ordering::SeqCst) {
-                after.lock().unwrap().insert(tile_of(x, y));
-            }
-            if calls.fetch_add(1, Ordering::SeqCst) + 1 == cancel_at {
-                cancel.store(true, Ordering::SeqCst);
-            }
-            synthetic(w, 1)(x, y, range, stats)
-        };
+        let sample = per_pixel(
+            |x: u32, y: u32, range: std::ops::Range<u32>, stats: &mut TraceStats| {
+                // Read the flag before counting: a call that saw no cancel came before it.
+                if cancel.load(Ordering::SeqCst) {
+                    after.lock().unwrap().insert(tile_of(x, y));
+                }
+                if calls.fetch_add(1, Ordering::SeqCst) + 1 == cancel_at {
+                    cancel.store(true, Ordering::SeqCst);
+                }
+                synthetic(w, 1)(x, y, range, stats)
+            },
+        );
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(THREADS)
             .build()

@@ -97,6 +97,33 @@ impl Scene {
             .occluded_accepted(ray, t_min, t_max, &mut |k, raw| self.stops(ray, k, raw))
     }
 
+    /// The closest hits of a wave's rays into `hits` (`None` lanes are idle), each as
+    /// [`intersect`](Scene::intersect) over (0, ∞) finds it.
+    #[inline]
+    pub fn intersect_lanes<const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+        hits: &mut [Option<SurfaceHit>; W],
+    ) {
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = ray
+                .as_ref()
+                .and_then(|ray| self.intersect(ray, 0.0, f32::INFINITY));
+        }
+    }
+
+    /// Whether something blocks each of a wave's segments (a ray and its `t_max`, tested over
+    /// (0, `t_max`); `None` lanes are idle and report `false`), as
+    /// [`occluded`](Scene::occluded) finds it.
+    #[inline]
+    pub fn occluded_lanes<const W: usize>(&self, segments: &[Option<(Ray, f32)>; W]) -> [bool; W] {
+        std::array::from_fn(|i| {
+            segments[i]
+                .as_ref()
+                .is_some_and(|(ray, t_max)| self.occluded(ray, 0.0, *t_max))
+        })
+    }
+
     /// Whether hit `raw` on instance `k` stops the ray: always on opaque materials; on
     /// transparent ones where the opacity is 1, or, for a blended surface, when a hash of the
     /// ray and the hit (as pbrt-v4 does: it consumes no sampler dimension, a shadow ray decides

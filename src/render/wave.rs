@@ -1,0 +1,195 @@
+//! The render loop's core: a thread takes its tile's samples as a *wave* of W paths, one per
+//! lane, and advances all of them a vertex at a time (closest hits, shading up to the light
+//! sample, shadow rays, BSDF sampling), each stage over every lane at once. A lane whose path
+//! ends takes the tile's next sample at once (path regeneration, Novák et al. 2010), so lanes
+//! stay busy whatever the paths' lengths; the film's sums are exact integers, so which lane ran
+//! a sample, and in what order samples finish, changes no bit of the image.
+//!
+//! W is chosen per render ([`crate::lanes::default_width`]: 16 with AVX-512, 8 with AVX2, 4
+//! with SSE2 or NEON, or `LUMO_SIMD`), and W = 1 is the same code with one lane. Every lane's
+//! numbers are a function of its own (seed, pixel, sample index), so all widths give the same
+//! image bit for bit (`tests/lane_widths.rs`).
+
+use std::ops::Range;
+
+use super::film::PixelSum;
+use crate::geometry::SurfaceHit;
+use crate::integrator::path::{Path, Vertex};
+use crate::integrator::{raycast, TraceStats};
+use crate::math::{Ray, Vec2};
+use crate::sampler::Sampler;
+use crate::scene::{IntegratorKind, Scene};
+
+/// A pixel's share of a pass: pixel (x, y) takes the samples with `indices`.
+#[derive(Debug, Clone)]
+pub(super) struct PixelWork {
+    /// Column in the image.
+    pub x: u32,
+    /// Row in the image.
+    pub y: u32,
+    /// Sample indices to take.
+    pub indices: Range<u32>,
+}
+
+/// The sums of `work`'s samples, pixel by pixel into `sums` (one per entry of `work`), taken
+/// `width` lanes at a time; `origin` is added to the work's pixel coordinates to place them in
+/// the image.
+pub(super) fn render_pixels(
+    scene: &Scene,
+    width: usize,
+    origin: (u32, u32),
+    work: &[PixelWork],
+    sums: &mut [PixelSum],
+    stats: &mut TraceStats,
+) {
+    match width {
+        16 => run_wave::<16>(scene, origin, work, sums, stats),
+        8 => run_wave::<8>(scene, origin, work, sums, stats),
+        4 => run_wave::<4>(scene, origin, work, sums, stats),
+        _ => run_wave::<1>(scene, origin, work, sums, stats),
+    }
+}
+
+/// A lane's path: the path, its sampler, and the entry of the work it is a sample of.
+struct Lane {
+    path: Path,
+    sampler: Sampler,
+    pixel: usize,
+}
+
+/// Runs every sample of `work` in a wave of W lanes, refilling lanes as their paths end.
+fn run_wave<const W: usize>(
+    scene: &Scene,
+    origin: (u32, u32),
+    work: &[PixelWork],
+    sums: &mut [PixelSum],
+    stats: &mut TraceStats,
+) {
+    let mut queue = work
+        .iter()
+        .enumerate()
+        .flat_map(|(k, w)| w.indices.clone().map(move |i| (k, i)));
+    let mut lanes: [Option<Lane>; W] = std::array::from_fn(|_| None);
+    let mut rays: [Option<Ray>; W] = [None; W];
+    let mut hits: [Option<SurfaceHit>; W] = [None; W];
+    let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
+    let mut shadows: [Option<(Ray, f32)>; W] = [None; W];
+    loop {
+        for (lane, ray) in lanes.iter_mut().zip(&mut rays) {
+            if lane.is_none() {
+                *lane = next_lane(scene, origin, &mut queue, work, sums, stats);
+            }
+            *ray = lane.as_ref().map(|l| l.path.ray);
+        }
+        let traced = rays.iter().flatten().count();
+        if traced == 0 {
+            return;
+        }
+        stats.rays += traced as u64;
+        scene.intersect_lanes(&rays, &mut hits);
+        let u_light: [_; W] =
+            Sampler::get_2d_lanes(lanes.each_mut().map(|l| l.as_mut().map(|l| &mut l.sampler)));
+        for i in 0..W {
+            let Some(lane) = &mut lanes[i] else { continue };
+            if !lane
+                .path
+                .shade(scene, hits[i].as_ref(), u_light[i], &mut vertices[i])
+            {
+                vertices[i] = None;
+                finish(&mut lanes[i], sums);
+            }
+            shadows[i] = vertices[i]
+                .as_ref()
+                .and_then(|v| v.shadow.map(|s| (s.ray, s.t_max)));
+        }
+        stats.rays += shadows.iter().flatten().count() as u64;
+        let blocked = scene.occluded_lanes(&shadows);
+        let mut scattering =
+            lanes
+                .iter_mut()
+                .zip(&vertices)
+                .map(|(lane, vertex)| match (lane, vertex) {
+                    (Some(lane), Some(_)) => Some(&mut lane.sampler),
+                    _ => None,
+                });
+        let u_scatter: [_; W] =
+            Sampler::get_choice_2d_lanes(std::array::from_fn(|_| scattering.next().flatten()));
+        for i in 0..W {
+            let (Some(vertex), Some(lane), Some(hit)) = (&vertices[i], &mut lanes[i], &hits[i])
+            else {
+                continue;
+            };
+            let goes_on = lane.path.scatter(
+                scene,
+                hit,
+                vertex,
+                !blocked[i],
+                u_scatter[i],
+                &mut lane.sampler,
+                stats,
+            );
+            vertices[i] = None;
+            if !goes_on {
+                finish(&mut lanes[i], sums);
+            }
+        }
+    }
+}
+
+/// Adds the lane's finished path to its pixel's sums and frees the lane.
+fn finish(lane: &mut Option<Lane>, sums: &mut [PixelSum]) {
+    if let Some(lane) = lane.take() {
+        sums[lane.pixel].add_sample(lane.path.radiance());
+    }
+}
+
+/// The next sample of the queue as a lane, its camera ray drawn; `None` when the queue is
+/// empty. Samples that trace no path in steps (the ray-cast preview's, or any with a depth of
+/// 0) are taken here whole.
+fn next_lane(
+    scene: &Scene,
+    (x0, y0): (u32, u32),
+    queue: &mut impl Iterator<Item = (usize, u32)>,
+    work: &[PixelWork],
+    sums: &mut [PixelSum],
+    stats: &mut TraceStats,
+) -> Option<Lane> {
+    for (k, index) in queue {
+        let (mut sampler, ray) = camera_sample(scene, x0 + work[k].x, y0 + work[k].y, index);
+        match scene.settings.integrator {
+            IntegratorKind::Path if scene.settings.max_depth > 0 => {
+                return Some(Lane {
+                    path: Path::new(ray),
+                    sampler,
+                    pixel: k,
+                })
+            }
+            IntegratorKind::Path => sums[k].add_sample(glam::Vec3::ZERO),
+            IntegratorKind::Raycast => {
+                sums[k].add_sample(raycast::radiance(scene, ray, &mut sampler, stats))
+            }
+        }
+    }
+    None
+}
+
+/// Sample `index` of pixel (x, y): its sampler, and its camera ray through a jittered point of
+/// the pixel (and of the lens).
+fn camera_sample(scene: &Scene, x: u32, y: u32, index: u32) -> (Sampler, Ray) {
+    let s = &scene.settings;
+    let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
+    let mut sampler = Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(index));
+    let jitter = sampler.get_2d();
+    let film = Vec2::new(
+        (x as f32 + jitter.x) / s.width as f32,
+        (y as f32 + jitter.y) / s.height as f32,
+    );
+    let u_lens = if scene.camera.lens_radius > 0.0 {
+        sampler.get_2d()
+    } else {
+        sampler.skip_2d();
+        Vec2::ZERO
+    };
+    let ray = scene.camera.ray(film, u_lens);
+    (sampler, ray)
+}
