@@ -290,7 +290,11 @@ impl Light {
             Light::Environment { ref env, .. } => {
                 env.sample_mis(u).map(|s| environment_sample(s, p))
             }
-            _ => self.sample(p, u),
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Directional { .. }
+            | Light::Triangle { .. }
+            | Light::Sphere { .. } => self.sample(p, u),
         }
     }
 
@@ -326,7 +330,37 @@ impl Light {
                 }
                 1.0 / (2.0 * PI * one_minus_cos_max(d2, r2))
             }
-            _ => 0.0,
+            // Punctual lights cannot be hit; the environment's pdf is its own
+            // (`Environment::pdf_mis`, looked up by the scene for escaped rays).
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Directional { .. }
+            | Light::Environment { .. } => 0.0,
+        }
+    }
+
+    /// The instance whose surface emits this light (its material gives the radiance of every
+    /// point sampled on it); `None` for lights without a surface, whose samples carry their
+    /// radiance themselves.
+    pub fn surface_instance(&self) -> Option<u32> {
+        match *self {
+            Light::Triangle { instance, .. } | Light::Sphere { instance, .. } => Some(instance),
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Directional { .. }
+            | Light::Environment { .. } => None,
+        }
+    }
+
+    /// Whether the light's samples lie infinitely far away (their shadow rays run to ∞ along
+    /// the sampled direction instead of to a point).
+    pub fn at_infinity(&self) -> bool {
+        match *self {
+            Light::Directional { .. } | Light::Environment { .. } => true,
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Triangle { .. }
+            | Light::Sphere { .. } => false,
         }
     }
 }

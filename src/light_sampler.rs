@@ -129,17 +129,16 @@ impl LightSampler {
             return LightSampler::Power(PowerSampler::new(lights));
         }
         let tree = LightTree::new(lights);
-        let is_infinite =
-            |l: &Light| matches!(l, Light::Directional { .. } | Light::Environment { .. });
-        let infinite =
-            PowerSampler::weighted(
-                lights
-                    .iter()
-                    .map(|l| if is_infinite(l) { l.power() } else { 0.0 }),
-            );
+        let infinite = PowerSampler::weighted(lights.iter().map(|l| {
+            if l.at_infinity() {
+                l.power()
+            } else {
+                0.0
+            }
+        }));
         let finite_power: f64 = lights
             .iter()
-            .filter(|l| !is_infinite(l))
+            .filter(|l| !l.at_infinity())
             .map(|l| f64::from(l.power()))
             .filter(|p| p.is_finite() && *p > 0.0)
             .sum();

@@ -2,12 +2,12 @@
 //! steps, one vertex at a time, for the render loop's waves of lanes ([`path::Path`]); the
 //! ray-cast preview takes a whole sample at once ([`raycast::radiance`]).
 
+pub mod direct;
 pub mod path;
 pub mod raycast;
 
 use crate::geometry::SurfaceHit;
 use crate::math::{offset_origin, Ray, Vec3};
-use crate::scene::Scene;
 
 /// Counters gathered while tracing.
 #[derive(Debug, Clone, Copy, Default)]
@@ -20,20 +20,6 @@ pub struct TraceStats {
 #[inline]
 pub(crate) fn spawn(hit: &SurfaceHit, w: Vec3) -> Ray {
     Ray::new(offset_origin(hit.p, hit.ng, w), w)
-}
-
-/// Whether the segment from a surface point to `target` is unblocked. The far end is offset
-/// too when it lies on a surface (normal `target_n` non-zero).
-#[inline]
-pub(crate) fn visible(
-    scene: &Scene,
-    hit: &SurfaceHit,
-    target: Vec3,
-    target_n: Vec3,
-    stats: &mut TraceStats,
-) -> bool {
-    stats.rays += 1;
-    !scene.occluded(&segment_to(hit, target, target_n), 0.0, 1.0)
 }
 
 /// The ray from a surface point to `target` whose parameters (0, 1) span the segment between
@@ -49,16 +35,4 @@ pub(crate) fn segment_to(hit: &SurfaceHit, target: Vec3, target_n: Vec3) -> Ray 
         offset_origin(target, target_n, -dir)
     };
     Ray::new(o, end - o)
-}
-
-/// Whether a ray towards a directional light escapes the scene.
-#[inline]
-pub(crate) fn unoccluded_towards(
-    scene: &Scene,
-    hit: &SurfaceHit,
-    w: Vec3,
-    stats: &mut TraceStats,
-) -> bool {
-    stats.rays += 1;
-    !scene.occluded(&spawn(hit, w), 0.0, f32::INFINITY)
 }

@@ -6,8 +6,8 @@
 
 use crate::bsdf::Bsdf;
 use crate::geometry::SurfaceHit;
-use crate::integrator::{segment_to, spawn, TraceStats};
-use crate::light::Light;
+use crate::integrator::direct::{sample_light, Strategy};
+use crate::integrator::{spawn, TraceStats};
 use crate::material::Material;
 use crate::math::{Ray, Rgb, Vec3};
 use crate::sampler::Sampler;
@@ -187,27 +187,13 @@ impl Path {
     ) -> Option<Shadow> {
         let (index, pmf, u_x) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x)?;
         let light = &scene.lights[index];
-        let ls = light.sample_mis(hit.p, glam::Vec2::new(u_x, u_light.y))?;
-        let li = if ls.delta || matches!(light, Light::Environment { .. }) {
-            ls.li
-        } else {
-            scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
-                m.emitted(&scene.textures, ls.normal, ls.uv, ls.uv, -ls.wi)
-            })
-        };
-        if li == Vec3::ZERO {
-            return None;
-        }
+        let u = glam::Vec2::new(u_x, u_light.y);
+        let incident = sample_light(scene, light, hit, u, Strategy::Mis)?;
+        let ls = incident.sample;
         let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);
         if f == Vec3::ZERO {
             return None;
         }
-        let (ray, t_max) = match light {
-            Light::Directional { .. } | Light::Environment { .. } => {
-                (spawn(hit, ls.wi), f32::INFINITY)
-            }
-            _ => (segment_to(hit, ls.point, ls.normal), 1.0),
-        };
         let pdf_light = pmf * ls.pdf;
         let weight = if ls.delta {
             1.0
@@ -218,9 +204,9 @@ impl Path {
             .medium
             .map_or(Vec3::ONE, |sigma| transmittance(sigma, ls.distance));
         Some(Shadow {
-            ray,
-            t_max,
-            radiance: self.beta * f * li * tr * (weight / pdf_light),
+            ray: incident.shadow_ray,
+            t_max: incident.t_max,
+            radiance: self.beta * f * ls.li * tr * (weight / pdf_light),
         })
     }
 

@@ -3,7 +3,8 @@
 //! `max_depth` (the course framework's ray-casting mode, made physically consistent).
 
 use crate::bsdf::Bsdf;
-use crate::integrator::{spawn, unoccluded_towards, visible, TraceStats};
+use crate::integrator::direct::{sample_light, Strategy};
+use crate::integrator::{spawn, TraceStats};
 use crate::light::Light;
 use crate::math::{Ray, Rgb, Vec3};
 use crate::sampler::Sampler;
@@ -47,6 +48,9 @@ pub fn radiance(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, stats: &mut 
     l
 }
 
+/// Direct light at `hit`: every light without a surface (punctual lights, the environment)
+/// sampled once, and one light with a surface chosen by the light sampler (punctual picks are
+/// skipped, since they were summed already). No MIS: the preview follows delta lobes only.
 fn direct(
     scene: &Scene,
     bsdf: &Bsdf,
@@ -58,45 +62,32 @@ fn direct(
     let mut l = Vec3::ZERO;
     let u = sampler.get_2d();
     let u_area = sampler.get_1d();
-    for light in &scene.lights {
-        let is_area = matches!(light, Light::Triangle { .. } | Light::Sphere { .. });
-        if is_area {
-            continue;
+    let mut add = |light: &Light, pmf: f32, l: &mut Rgb| {
+        let Some(incident) = sample_light(scene, light, hit, u, Strategy::Alone) else {
+            return;
+        };
+        let ls = incident.sample;
+        let (f, _) = bsdf.eval(wo, ls.wi);
+        if f == Vec3::ZERO {
+            return;
         }
-        if let Some(ls) = light.sample(hit.p, u) {
-            let (f, _) = bsdf.eval(wo, ls.wi);
-            if f == Vec3::ZERO {
-                continue;
-            }
-            let ok = match light {
-                Light::Directional { .. } | Light::Environment { .. } => {
-                    unoccluded_towards(scene, hit, ls.wi, stats)
-                }
-                _ => visible(scene, hit, ls.point, Vec3::ZERO, stats),
-            };
-            if ok {
-                // Delta lights give their contribution; the environment one sample of it.
-                l += f * ls.li / if ls.delta { 1.0 } else { ls.pdf };
-            }
+        stats.rays += 1;
+        if !scene.occluded(&incident.shadow_ray, 0.0, incident.t_max) {
+            // Delta lights give their contribution; the others one sample of it.
+            *l += f * ls.li / if ls.delta { pmf } else { pmf * ls.pdf };
         }
+    };
+    for light in scene
+        .lights
+        .iter()
+        .filter(|l| l.surface_instance().is_none())
+    {
+        add(light, 1.0, &mut l);
     }
-    // One area-light sample, chosen by the light sampler among all lights; punctual picks are skipped since
-    // they were summed above.
     if let Some((index, pmf, _)) = scene.light_sampler.pick(hit.p, hit.ns, u_area) {
         let light = &scene.lights[index];
-        if matches!(light, Light::Triangle { .. } | Light::Sphere { .. }) {
-            if let Some(ls) = light.sample(hit.p, u) {
-                let li = scene.material_of_light(light).map_or(Vec3::ZERO, |m| {
-                    m.emitted(&scene.textures, ls.normal, ls.uv, ls.uv, -ls.wi)
-                });
-                let (f, _) = bsdf.eval(wo, ls.wi);
-                if li != Vec3::ZERO
-                    && f != Vec3::ZERO
-                    && visible(scene, hit, ls.point, ls.normal, stats)
-                {
-                    l += f * li / (pmf * ls.pdf);
-                }
-            }
+        if light.surface_instance().is_some() {
+            add(light, pmf, &mut l);
         }
     }
     l

@@ -414,7 +414,7 @@ fn area_lights(
                 }
                 None => unsampled += 1,
             },
-            _ => unsampled += 1,
+            Shape::Plane(_) | Shape::Lathe(_) => unsampled += 1,
         }
     }
     if unsampled > 0 {

@@ -192,13 +192,7 @@ impl Scene {
     /// surface.
     #[inline]
     pub fn material_of_light(&self, light: &Light) -> Option<&Material> {
-        let instance = match light {
-            Light::Triangle { instance, .. } | Light::Sphere { instance, .. } => *instance,
-            Light::Point { .. }
-            | Light::Directional { .. }
-            | Light::Spot { .. }
-            | Light::Environment { .. } => return None,
-        };
+        let instance = light.surface_instance()?;
         let material = self.geometry.instances.get(instance as usize)?.material;
         self.materials.get(material as usize)
     }
