@@ -142,7 +142,7 @@ pub struct RenderJob {
 pub struct Hooks<'a> {
     /// Called with the number of samples finished so far.
     pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
-    /// When set, the job takes no new work: threads finish their tile, the pass in flight is
+    /// When set, the job takes no new work: threads stop within a step of their wave of paths, the pass in flight is
     /// dropped, and the whole passes done so far are returned, marked interrupted.
     pub cancel: Option<&'a AtomicBool>,
     /// Called with a warning while rendering (a checkpoint that could not be written).

@@ -105,8 +105,8 @@ pub struct RenderOptions<'a> {
     /// Continue from this film (a checkpoint of the same scene, window and first sample): its
     /// samples count towards `spp`, and new samples continue each pixel's indices after them.
     pub resume: Option<&'a Film>,
-    /// When set (by a signal handler, say), the render takes no new work: threads finish the
-    /// tile they are on, the pass in flight is dropped, and the film of the passes finished so
+    /// When set (by a signal handler, say), the render takes no new work: threads stop within
+    /// the step of the wave of paths they are on, the pass in flight is dropped, and the film of the passes finished so
     /// far is returned, marked interrupted: it holds whole passes only.
     pub cancel: Option<&'a AtomicBool>,
     /// Called after every finished pass with the film so far (for checkpoints, previews).
@@ -183,7 +183,9 @@ pub fn render_with_error(scene: &Scene, options: &RenderOptions) -> Rendered {
         &plan,
         options,
         ErrorSource::Neighbours,
-        |work, sums, stats| render_pixels(scene, width, (x0, y0), work, sums, stats),
+        |work, sums, stats| {
+            render_pixels(scene, (width, options.cancel), (x0, y0), work, sums, stats)
+        },
     );
     finish(film, rays, start.elapsed(), interrupted)
 }

@@ -159,6 +159,10 @@ where
         } else {
             (self.sample)(&work, &mut sums, &mut stats);
         }
+        if self.cancelled() {
+            // Stopped part-way: the pass is dropped, and its samples were never taken.
+            return sums;
+        }
         let samples: u64 = work.iter().map(|w| u64::from(w.indices.len() as u32)).sum();
         self.rays.fetch_add(stats.rays, Ordering::Relaxed);
         let total = self.samples_done.fetch_add(samples, Ordering::Relaxed) + samples;

@@ -275,3 +275,48 @@ fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
         );
     }
 }
+
+/// A cancel stops a thread within the wave step it is on, not at the end of its tile: with the
+/// flag already set, a pixel asked for a million samples finishes none of them (its sums are
+/// dropped with the pass), at every lane width.
+#[test]
+fn a_cancel_stops_a_wave_within_a_step() {
+    use std::sync::atomic::AtomicBool;
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
+    let (scene, _) = crate::load::load(&file, &crate::load::LoadOptions::default())
+        .unwrap()
+        .build()
+        .unwrap();
+    let work = [PixelWork {
+        x: 100,
+        y: 100,
+        indices: 0..1_000_000,
+    }];
+    for width in crate::lanes::WIDTHS {
+        let cancel = AtomicBool::new(true);
+        let mut sums = [PixelSum::default()];
+        let mut stats = TraceStats::default();
+        render_pixels(
+            &scene,
+            (width, Some(&cancel)),
+            (0, 0),
+            &work,
+            &mut sums,
+            &mut stats,
+        );
+        assert_eq!(
+            sums[0].taken(),
+            0,
+            "W = {width}: samples finished after the cancel"
+        );
+        // Without the cancel the same wave does take samples.
+        let mut sums = [PixelSum::default()];
+        let work = [PixelWork {
+            x: 100,
+            y: 100,
+            indices: 0..8,
+        }];
+        render_pixels(&scene, (width, None), (0, 0), &work, &mut sums, &mut stats);
+        assert_eq!(sums[0].taken(), 8, "W = {width}");
+    }
+}

@@ -11,6 +11,7 @@
 //! image bit for bit (`tests/lane_widths.rs`).
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::PixelSum;
 use crate::geometry::SurfaceHit;
@@ -33,20 +34,21 @@ pub(super) struct PixelWork {
 
 /// The sums of `work`'s samples, pixel by pixel into `sums` (one per entry of `work`), taken
 /// `width` lanes at a time; `origin` is added to the work's pixel coordinates to place them in
-/// the image.
+/// the image. When `cancel` is set the work stops within a step of the wave, its sums left
+/// incomplete (the pass they belong to is dropped).
 pub(super) fn render_pixels(
     scene: &Scene,
-    width: usize,
+    (width, cancel): (usize, Option<&AtomicBool>),
     origin: (u32, u32),
     work: &[PixelWork],
     sums: &mut [PixelSum],
     stats: &mut TraceStats,
 ) {
     match width {
-        16 => run_wave::<16>(scene, origin, work, sums, stats),
-        8 => run_wave::<8>(scene, origin, work, sums, stats),
-        4 => run_wave::<4>(scene, origin, work, sums, stats),
-        _ => run_wave::<1>(scene, origin, work, sums, stats),
+        16 => run_wave::<16>(scene, cancel, origin, work, sums, stats),
+        8 => run_wave::<8>(scene, cancel, origin, work, sums, stats),
+        4 => run_wave::<4>(scene, cancel, origin, work, sums, stats),
+        _ => run_wave::<1>(scene, cancel, origin, work, sums, stats),
     }
 }
 
@@ -60,6 +62,7 @@ struct Lane {
 /// Runs every sample of `work` in a wave of W lanes, refilling lanes as their paths end.
 fn run_wave<const W: usize>(
     scene: &Scene,
+    cancel: Option<&AtomicBool>,
     origin: (u32, u32),
     work: &[PixelWork],
     sums: &mut [PixelSum],
@@ -82,7 +85,7 @@ fn run_wave<const W: usize>(
             *ray = lane.as_ref().map(|l| l.path.ray);
         }
         let traced = rays.iter().flatten().count();
-        if traced == 0 {
+        if traced == 0 || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             return;
         }
         stats.rays += traced as u64;
