@@ -1,5 +1,6 @@
 """Start time and peak memory on big meshes: lumo's whole start (load a .glb, build, render one
-sample) against Embree's BVH build over the same indexed triangles, side by side in one run.
+sample) against Embree's BVH build (``rtcCommitScene``) over the same indexed triangles, side by
+side in one run.
 
     .venv/bin/python start_bench.py [--lumo target/release/lumo] [--baseline OLD_LUMO]
         [--repeats 3] [--levels 3,4,5,6,7,8] [--instanced 8] [--plot ../../docs/start.svg]
@@ -18,19 +19,27 @@ lumo: ``lumo render X.glb -o out.png --spp 1 --width 64 --height 64 -q`` under
 validate, content hash, scene build, BVH build, one sample per pixel, PNG written), its user and
 system CPU time and its peak resident set size ("Maximum resident set size").
 
-Embree (embreex): ``EmbreeScene()`` + ``TriangleMesh(scene, V, F)`` + one ray (the first query
-commits the scene: ``rtcCommitScene``, the BVH build), timed in this process, on the same float32
-vertices and int32 indices that the .glb holds. Instanced case: the one level-8 mesh (what an
-instancing renderer builds; embreex has no instance API).
+Embree: ``rtcCommitScene`` alone, the BVH build, wall and CPU time, called through ctypes on
+the Embree 4 library that embreex ships (embreex has no commit call of its own). The scene is
+made as embreex makes it (default device, scene flags and build quality; one triangle geometry,
+float3 vertices with a 16-byte stride, uint3 indices) from the same float32 vertices and int32
+indices that the .glb holds, its buffers filled before the clock starts; a warm-up commit starts
+Embree's worker threads first. For context, embreex's whole Python path is timed too, part by
+part: ``EmbreeScene()``, ``TriangleMesh(scene, V, F)`` (a copy into Embree's buffers one element
+at a time through Python indexing: about as long as the build itself on 1.31M triangles) and the
+first ray (``run`` commits the scene, then traces). Before 2026-12-02 this script reported that
+whole path as "Embree's build". Instanced case: the one level-8 mesh (what an instancing
+renderer builds; embreex has no instance API).
 
 ``--baseline OLD_LUMO`` also times another lumo binary (an earlier build) the same way, right
 before the current one, for before/after ratios measured side by side.
 
 Each repeat runs every size, lumo then Embree, so both see the same machine state; reported are
 min-max ranges over --repeats and the 1-minute load average (2 cores: above ~2 means another job
-competes); CPU times (lumo: user + system; Embree: this process's CPU time over the build)
-are far less inflated by other jobs than wall times. Output: ``out/start/results.csv`` and a log-log plot of lumo's start time, Embree's
-build time and lumo's peak bytes per triangle against triangle count.
+competes); CPU times (lumo: user + system; Embree: this process's CPU time over the commit)
+are far less inflated by other jobs than wall times. Output: ``out/start/results.csv`` and a
+log-log plot of lumo's start time, Embree's commit and embreex's whole path, and lumo's peak
+bytes per triangle against triangle count.
 """
 
 from __future__ import annotations
@@ -121,21 +130,91 @@ def run_lumo(lumo: str, glb: Path) -> dict:
             "rss": int(field("Maximum resident set size (kbytes)")) * 1024}
 
 
-def embree_build(v: np.ndarray, f: np.ndarray) -> tuple[float, float]:
-    """Wall and CPU seconds (all threads of this process) for Embree to make the scene and
-    build its BVH (committed by the first ray)."""
+def _embree_lib():
+    """The Embree 4 library that embreex ships (``embreex.libs/libembree4-*.so.4``), loaded with
+    ctypes: embreex has no commit call (its ``EmbreeScene.run`` commits on the first query), so
+    the commit alone is timed through Embree's C API on the same library."""
+    import ctypes
+    import glob
+
+    import embreex
+
+    libs = sorted(glob.glob(str(Path(embreex.__file__).parent.parent / "embreex.libs"
+                                / "libembree4*.so*")))
+    if not libs:
+        raise SystemExit("no libembree4 next to embreex (embreex.libs/)")
+    lib = ctypes.CDLL(libs[0])
+    vp, u32, sz = ctypes.c_void_p, ctypes.c_uint, ctypes.c_size_t
+    lib.rtcNewDevice.restype = vp
+    lib.rtcNewDevice.argtypes = [ctypes.c_char_p]
+    lib.rtcNewScene.restype = vp
+    lib.rtcNewScene.argtypes = [vp]
+    lib.rtcNewGeometry.restype = vp
+    lib.rtcNewGeometry.argtypes = [vp, ctypes.c_int]
+    lib.rtcSetNewGeometryBuffer.restype = vp
+    lib.rtcSetNewGeometryBuffer.argtypes = [vp, ctypes.c_int, u32, ctypes.c_int, sz, sz]
+    for name in ("rtcCommitGeometry", "rtcReleaseGeometry", "rtcCommitScene",
+                 "rtcReleaseScene", "rtcReleaseDevice"):
+        getattr(lib, name).restype = None
+        getattr(lib, name).argtypes = [vp]
+    lib.rtcAttachGeometry.restype = u32
+    lib.rtcAttachGeometry.argtypes = [vp, vp]
+    lib.rtcGetDeviceError.restype = ctypes.c_int
+    lib.rtcGetDeviceError.argtypes = [vp]
+    return lib
+
+
+def embree_commit(lib, device, v: np.ndarray, f: np.ndarray) -> tuple[float, float]:
+    """Wall and CPU seconds (all threads of this process) of ``rtcCommitScene`` alone: the BVH
+    build. The scene is made as embreex makes it (default flags and build quality, one triangle
+    geometry, float3 vertices with a 16-byte stride, uint3 indices), with the buffers filled by a
+    memory copy before the clock starts."""
+    import ctypes
+
+    RTC_GEOMETRY_TYPE_TRIANGLE, RTC_BUFFER_TYPE_INDEX, RTC_BUFFER_TYPE_VERTEX = 0, 0, 1
+    RTC_FORMAT_UINT3, RTC_FORMAT_FLOAT3 = 0x5003, 0x9003
+    scene = lib.rtcNewScene(device)
+    geom = lib.rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE)
+    vb = lib.rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 16,
+                                     len(v))
+    ib = lib.rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, len(f))
+    v4 = np.zeros((len(v), 4), dtype=np.float32)
+    v4[:, :3] = v
+    ctypes.memmove(vb, v4.ctypes.data, v4.nbytes)
+    idx = np.ascontiguousarray(f, dtype=np.uint32)
+    ctypes.memmove(ib, idx.ctypes.data, idx.nbytes)
+    lib.rtcCommitGeometry(geom)
+    lib.rtcAttachGeometry(scene, geom)
+    lib.rtcReleaseGeometry(geom)
+    c0, t0 = time.process_time(), time.perf_counter()
+    lib.rtcCommitScene(scene)
+    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+    err = lib.rtcGetDeviceError(device)
+    lib.rtcReleaseScene(scene)
+    if err:
+        raise SystemExit(f"Embree error {err} in rtcCommitScene")
+    return dt, cpu
+
+
+def embreex_full(v: np.ndarray, f: np.ndarray) -> dict:
+    """embreex's whole path, each part timed (wall seconds): ``EmbreeScene()`` (a new device and
+    scene), ``TriangleMesh(scene, V, F)`` (copies the arrays into Embree's buffers one element
+    at a time through Python indexing) and the first ray (``run`` commits the scene, i.e.
+    ``rtcCommitScene``, then traces one ray)."""
     from embreex import rtcore_scene as rtcs
     from embreex.mesh_construction import TriangleMesh
 
     o = np.zeros((1, 3), dtype=np.float32)
     d = np.array([[0, 0, 1]], dtype=np.float32)
-    c0, t0 = time.process_time(), time.perf_counter()
+    t0 = time.perf_counter()
     scene = rtcs.EmbreeScene()
+    t1 = time.perf_counter()
     TriangleMesh(scene, v, f)
+    t2 = time.perf_counter()
     scene.run(o, d, output=1)
-    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+    t3 = time.perf_counter()
     del scene
-    return dt, cpu
+    return {"scene": t1 - t0, "mesh": t2 - t1, "first_ray": t3 - t2, "full": t3 - t0}
 
 
 def rng(xs: list[float], fmt: str = "{:.3f}") -> str:
@@ -165,7 +244,9 @@ def plot(rows: list[dict], path: Path) -> None:
     a.loglog(n, best("lumo_s"), "o-", label="lumo start (load + build + 1 spp)")
     if has_base:
         a.loglog(n, best("baseline_s"), "o:", color="gray", label="lumo start, before")
-    a.loglog(n, best("embree_s"), "s--", label="Embree BVH build (same triangles)")
+    a.loglog(n, best("embree_commit_s"), "s--", label="Embree BVH build: rtcCommitScene")
+    a.loglog(n, best("embreex_full_s"), "s:", color="tab:orange", alpha=0.6,
+             label="embreex EmbreeScene + TriangleMesh + first ray")
     if inst.any():
         a.loglog(n[inst], best("lumo_s")[inst], "o", mfc="none", ms=13, color="k",
                  label="8 instances of 1.31 M")
@@ -178,14 +259,14 @@ def plot(rows: list[dict], path: Path) -> None:
     if has_base:
         b.loglog(n, best("baseline_rss_bytes") / stored, "^:", color="gray",
                  label="bytes / stored triangle, before")
-    b.axhline(150, color="tab:red", ls=":", lw=1, label="150 B / triangle")
+    b.axhline(80, color="tab:red", ls=":", lw=1, label="80 B / triangle (target)")
     if inst.any():
         b.loglog(n[inst], (best("rss_bytes") / stored)[inst], "o", mfc="none", ms=13,
                  color="k", label="8 instances of 1.31 M")
     b.set_xlabel("triangles rendered")
     b.grid(True, which="both", alpha=0.3)
     b.legend(fontsize=8)
-    fig.suptitle(f"lumo start vs Embree build, icosphere .glb, {os.cpu_count()} cores, {load}")
+    fig.suptitle(f"lumo start vs Embree commit, icosphere .glb, {os.cpu_count()} cores, {load}")
     fig.tight_layout()
     fig.savefig(path)
     print(f"wrote {path}")
@@ -223,6 +304,9 @@ def main() -> int:
         cases.append((f"ico8x{args.instanced}", glb, v, f, args.instanced))
     import embreex
 
+    lib = _embree_lib()
+    device = lib.rtcNewDevice(None)
+    embree_commit(lib, device, *icosphere(3))  # start Embree's worker threads before timing
     print(f"lumo {args.lumo}; embreex {getattr(embreex, '__version__', '?')}; "
           f"{os.cpu_count()} cores; {args.repeats} repeats", flush=True)
     rows = []
@@ -230,40 +314,51 @@ def main() -> int:
         for name, glb, v, f, k in cases:
             base = run_lumo(args.baseline, glb) if args.baseline else None
             lumo = run_lumo(args.lumo, glb)
-            emb, emb_cpu = embree_build(v, f)
+            commit, commit_cpu = embree_commit(lib, device, v, f)
+            full = embreex_full(v, f)
             tris = len(f) * k
             row = {"case": name, "repeat": rep, "triangles": tris, "stored_triangles": len(f),
                    "instances": k, "glb_bytes": glb.stat().st_size, "lumo_s": lumo["wall"],
                    "lumo_user_s": lumo["user"], "lumo_sys_s": lumo["sys"],
-                   "rss_bytes": lumo["rss"], "embree_s": emb, "embree_cpu_s": emb_cpu,
-                   "load1": common.load1(),
+                   "rss_bytes": lumo["rss"], "embree_commit_s": commit,
+                   "embree_commit_cpu_s": commit_cpu, "embreex_scene_s": full["scene"],
+                   "embreex_mesh_s": full["mesh"], "embreex_first_ray_s": full["first_ray"],
+                   "embreex_full_s": full["full"], "load1": common.load1(),
                    "baseline_s": base["wall"] if base else "",
                    "baseline_rss_bytes": base["rss"] if base else ""}
             rows.append(row)
             print(f"[{rep}] {name:8s} {tris:>10,} tris  lumo {lumo['wall']:.3f} s "
                   f"(user {lumo['user']:.2f} sys {lumo['sys']:.2f})  peak "
                   f"{lumo['rss'] / 2**20:7.1f} MiB = {lumo['rss'] / len(f):6.1f} B/stored tri  "
-                  f"embree {emb:.3f} s (cpu {emb_cpu:.2f})  ratio {lumo['wall'] / emb:5.2f}  "
+                  f"embree commit {commit:.3f} s (cpu {commit_cpu:.2f})  "
+                  f"ratio {lumo['wall'] / commit:5.2f}  embreex mesh {full['mesh']:.3f} s "
+                  f"first ray {full['first_ray']:.3f} s full {full['full']:.3f} s  "
                   + (f"baseline {base['wall']:.3f} s {base['rss'] / len(f):6.1f} B/tri  "
                      if base else "")
                   + f"load {row['load1']:.2f}", flush=True)
+    lib.rtcReleaseDevice(device)
     with open(args.results, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     print(f"\nwrote {args.results}\n")
-    print("| case | triangles | lumo start s | Embree build s | lumo / Embree | lumo CPU s | "
-          "Embree CPU s | "
-          "peak MiB | peak B/stored triangle | load |"
+    print("| case | triangles | lumo start s | Embree commit s | lumo / commit | lumo CPU s | "
+          "commit CPU s | embreex TriangleMesh s | embreex first ray (commit) s | "
+          "embreex full s | lumo / full | peak MiB | peak B/stored triangle | load |"
           + (" baseline start s | baseline B/stored triangle |" if args.baseline else ""))
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|---:|" if args.baseline else ""))
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+          + ("---:|---:|" if args.baseline else ""))
     for name, _, v, f, k in cases:
         rs = [r for r in rows if r["case"] == name]
         print(f"| {name} | {len(f) * k:,} | {rng([r['lumo_s'] for r in rs])} | "
-              f"{rng([r['embree_s'] for r in rs])} | "
-              f"{rng([r['lumo_s'] / r['embree_s'] for r in rs], '{:.2f}')} | "
+              f"{rng([r['embree_commit_s'] for r in rs])} | "
+              f"{rng([r['lumo_s'] / r['embree_commit_s'] for r in rs], '{:.2f}')} | "
               f"{rng([r['lumo_user_s'] + r['lumo_sys_s'] for r in rs], '{:.2f}')} | "
-              f"{rng([r['embree_cpu_s'] for r in rs], '{:.2f}')} | "
+              f"{rng([r['embree_commit_cpu_s'] for r in rs], '{:.2f}')} | "
+              f"{rng([r['embreex_mesh_s'] for r in rs])} | "
+              f"{rng([r['embreex_first_ray_s'] for r in rs])} | "
+              f"{rng([r['embreex_full_s'] for r in rs])} | "
+              f"{rng([r['lumo_s'] / r['embreex_full_s'] for r in rs], '{:.2f}')} | "
               f"{rng([r['rss_bytes'] / 2**20 for r in rs], '{:.0f}')} | "
               f"{rng([r['rss_bytes'] / len(f) for r in rs], '{:.0f}')} | "
               f"{rng([r['load1'] for r in rs], '{:.2f}')} |"
