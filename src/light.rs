@@ -413,10 +413,10 @@ fn near_plane_bound_rejects(p: Vec3, (v0, n, area): (Vec3, Vec3, f32), d2: f32, 
 /// Strackee 1983).
 #[inline]
 fn solid_angle_of(a: glam::DVec3, b: glam::DVec3, c: glam::DVec3) -> f64 {
-    2.0 * a
-        .dot(b.cross(c))
-        .abs()
-        .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a))
+    2.0 * crate::lanes::math::atan2_f64(
+        a.dot(b.cross(c)).abs(),
+        1.0 + a.dot(b) + b.dot(c) + c.dot(a),
+    )
 }
 
 /// A triangle seen from a point as a spherical triangle (unit vectors to its corners), for
@@ -474,7 +474,9 @@ impl SphericalTriangle {
             return None;
         }
         let (nab, nbc, nca) = (nab.normalize(), nbc.normalize(), nca.normalize());
-        let angle = |x: glam::DVec3, y: glam::DVec3| x.dot(y).clamp(-1.0, 1.0).acos();
+        let angle = |x: glam::DVec3, y: glam::DVec3| {
+            crate::lanes::math::acos_f64(x.dot(y).clamp(-1.0, 1.0))
+        };
         let alpha = angle(nab, -nca);
         let beta = angle(nbc, -nab);
         let gamma = angle(nca, -nbc);
@@ -507,8 +509,8 @@ impl SphericalTriangle {
         let (u0, u1) = (f64::from(u.x), f64::from(u.y));
         // Choose the sub-triangle area A' = u0·A, i.e. the angle α + β' + γ' = A' + π …
         let ap_pi = PI + u0 * f64::from(self.solid_angle);
-        let (sin_alpha, cos_alpha) = self.alpha.sin_cos();
-        let (sin_app, cos_app) = ap_pi.sin_cos();
+        let (sin_alpha, cos_alpha) = crate::lanes::math::sin_cos_f64(self.alpha);
+        let (sin_app, cos_app) = crate::lanes::math::sin_cos_f64(ap_pi);
         let sin_phi = sin_app * cos_alpha - cos_app * sin_alpha;
         let cos_phi = cos_app * cos_alpha + sin_app * sin_alpha;
         let k1 = cos_phi + cos_alpha;

@@ -243,7 +243,8 @@ impl RoughDielectric {
             let f = d_g * r / (4.0 * wo.z.abs());
             (f, pdf_wm / (4.0 * wo.dot(wm).abs()) * r)
         } else {
-            let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
+            let half = wi.dot(wm) + wo.dot(wm) / etap;
+            let denom = half * half;
             let f = d_g * t * (wi.dot(wm) * wo.dot(wm) / (wo.z * denom)).abs() / (etap * etap);
             let dwm_dwi = wi.dot(wm).abs() / denom;
             (f, pdf_wm * dwm_dwi * t)
@@ -288,7 +289,8 @@ impl RoughDielectric {
             return None;
         }
         let t = 1.0 - r;
-        let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
+        let half = wi.dot(wm) + wo.dot(wm) / etap;
+        let denom = half * half;
         let pdf = pdf_wm * wi.dot(wm).abs() / denom * t;
         let f =
             ggx_d(wm, a) * ggx_g2(wo, wi, a) * t * (wi.dot(wm) * wo.dot(wm) / (wo.z * denom)).abs()

@@ -30,6 +30,8 @@
 pub mod math;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_f64;
 
 use std::ops::{
     Add, AddAssign, BitAnd, BitOr, BitXor, Div, DivAssign, Index, IndexMut, Mul, MulAssign, Neg,

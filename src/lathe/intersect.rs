@@ -672,7 +672,8 @@ impl Lathe {
     fn hit_record(&self, f: &Frame, b: Best) -> LatheHit {
         let piece = &self.pieces[b.piece];
         let (p, mut dp) = eval_curve_with_derivative(&piece.points, b.t);
-        if dp.length_squared() <= (1e-12 * self.scale).powi(2) {
+        let cusp = 1e-12 * self.scale;
+        if dp.length_squared() <= cusp * cusp {
             // A cusp (vanishing derivative): use the chord through nearby points instead.
             let h = 1e-6;
             let (lo, hi) = ((b.t - h).max(0.0), (b.t + h).min(1.0));
@@ -682,8 +683,12 @@ impl Lathe {
         }
         let q = f.o + b.s * f.d;
         let r = (q.x * q.x + q.z * q.z).sqrt();
-        let phi = if r > 0.0 { (-q.z).atan2(q.x) } else { 0.0 };
-        let (sin, cos) = phi.sin_cos();
+        let phi = if r > 0.0 {
+            crate::lanes::math::atan2_f64(-q.z, q.x)
+        } else {
+            0.0
+        };
+        let (sin, cos) = crate::lanes::math::sin_cos_f64(phi);
         let e_r = DVec3::new(cos, 0.0, -sin);
         let radius = p.x.max(0.0);
         let mut n = dp.y * e_r - dp.x * DVec3::Y;
