@@ -155,3 +155,134 @@ fn lane_width_is_reported_and_can_be_forced() {
     );
     assert!(!dir.path().join("c.png").exists());
 }
+
+/// `lumo render` of cornell.json at 24×16, 2 spp, with `extra` arguments, as linear pixels.
+fn tiny_render(scene: &std::path::Path, extra: &[&str], out: &std::path::Path) -> Vec<f32> {
+    lumo()
+        .args([
+            "render", "--spp", "2", "--width", "24", "--height", "16", "-q",
+        ])
+        .arg(scene)
+        .args(extra)
+        .arg("-o")
+        .arg(out)
+        .assert()
+        .success();
+    image::open(out).unwrap().to_rgb32f().into_raw()
+}
+
+#[test]
+fn set_renders_the_changed_scene_and_bundles_hash_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let cornell = common::root().join("scenes/cornell.json");
+    let set = ["--set", "materials.red.base_color=[0.2,0.2,0.8]"];
+    let changed = tiny_render(&cornell, &set, &dir.path().join("set.exr"));
+    let original = tiny_render(&cornell, &[], &dir.path().join("original.exr"));
+    // The same change written into a copy of the file.
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&cornell).unwrap()).unwrap();
+    doc["materials"]["red"]["base_color"] = serde_json::json!([0.2, 0.2, 0.8]);
+    let baked = dir.path().join("baked.json");
+    std::fs::write(&baked, doc.to_string()).unwrap();
+    let written = tiny_render(&baked, &[], &dir.path().join("baked.exr"));
+    assert_eq!(changed, written, "--set and the edited file render alike");
+    assert_ne!(changed, original);
+    // The red wall turned blue: over the image, blue gains on red.
+    let blue_minus_red = |img: &[f32]| img.chunks(3).map(|p| p[2] - p[0]).sum::<f32>();
+    assert!(
+        blue_minus_red(&changed) > blue_minus_red(&original) + 10.0,
+        "{} {}",
+        blue_minus_red(&changed),
+        blue_minus_red(&original)
+    );
+
+    // Partial films and bundles hash the composed scene: the same as the edited file's.
+    let hash = |scene: &std::path::Path, extra: &[&str], name: &str| {
+        let out = lumo()
+            .arg("bundle")
+            .arg(scene)
+            .args(extra)
+            .arg("-o")
+            .arg(dir.path().join(name))
+            .assert()
+            .success();
+        let line: serde_json::Value = serde_json::from_slice(&out.get_output().stdout).unwrap();
+        line["scene_hash"].as_str().unwrap().to_string()
+    };
+    let set_hash = hash(&cornell, &set, "set.zip");
+    assert_eq!(set_hash, hash(&baked, &[], "baked.zip"));
+    assert_ne!(set_hash, hash(&cornell, &[], "original.zip"));
+    // A patch does the same, and the shorthands are the same mechanism.
+    let patch = dir.path().join("blue.json");
+    std::fs::write(
+        &patch,
+        r#"{"materials": {"red": {"base_color": [0.2, 0.2, 0.8]}}}"#,
+    )
+    .unwrap();
+    let patched = hash(&cornell, &["--patch", patch.to_str().unwrap()], "p.zip");
+    assert_eq!(patched, set_hash);
+    assert_eq!(
+        hash(&cornell, &["--set", "render.seed=7"], "s.zip"),
+        hash(&cornell, &["--seed", "7"], "seed.zip")
+    );
+}
+
+#[test]
+fn overrides_that_name_nothing_or_mistype_are_located() {
+    let dir = tempfile::tempdir().unwrap();
+    for command in ["validate", "convert", "render", "bundle"] {
+        let mut c = lumo();
+        c.args([command, "scenes/cornell.json"]);
+        c.args([
+            "--set",
+            "render.spp=4",
+            "--set",
+            "materials.redd.base_color=[1,1,1]",
+        ]);
+        match command {
+            "convert" => c.arg("-o").arg(dir.path().join("out.json")),
+            "render" => c.arg("-o").arg(dir.path().join("out.png")),
+            "bundle" => c.arg("-o").arg(dir.path().join("out.zip")),
+            _ => &mut c,
+        };
+        let out = c.assert().code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        assert!(
+            err.contains("--set #2:1:11: materials.redd: the override names nothing")
+                && err.contains("did you mean `materials.red`?"),
+            "{command}: {err}"
+        );
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    let err = |args: &[&str]| {
+        let out = lumo().args(args).assert().code(2);
+        String::from_utf8_lossy(&out.get_output().stderr).to_string()
+    };
+    let e = err(&[
+        "validate",
+        "scenes/cornell.json",
+        "--set",
+        "render.spp=\"64\"",
+    ]);
+    assert!(
+        e.contains("--set #1:1:12: render.spp: expected a non-negative integer, found a string"),
+        "{e}"
+    );
+    let e = err(&["validate", "scenes/cornell.json", "--set", "render.spp"]);
+    assert!(
+        e.contains("--set #1:1:11:") && e.contains("expected PATH=VALUE"),
+        "{e}"
+    );
+    let patch = dir.path().join("patch.json");
+    std::fs::write(&patch, "{\n  \"render\": {\"spp\": -1}\n}\n").unwrap();
+    let e = err(&[
+        "validate",
+        "scenes/cornell.json",
+        "--patch",
+        patch.to_str().unwrap(),
+    ]);
+    assert!(
+        e.contains(&format!("{}:2:21: render.spp:", patch.display())),
+        "{e}"
+    );
+}

@@ -121,7 +121,7 @@ impl Diagnostic {
     /// A located diagnostic of the schema.
     pub fn located(file: &Path, d: &schema::Diagnostic) -> Diagnostic {
         Diagnostic {
-            file: Some(file.display().to_string()),
+            file: Some(d.file().unwrap_or(file).display().to_string()),
             line: d.location.map(|l| l.line),
             column: d.location.map(|l| l.column),
             path: d.path.to_string(),

@@ -128,6 +128,7 @@ pub fn load_options(
         lights: lights_policy(lights)?,
         camera: camera_choice(camera)?,
         scene_dir,
+        ..LoadOptions::default()
     })
 }
 

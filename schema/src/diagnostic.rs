@@ -1,7 +1,7 @@
 //! Problems found in a scene, each pointing at the exact spot.
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::locate::{JsonPath, LineCol};
 
@@ -16,6 +16,18 @@ pub struct Diagnostic {
     pub message: String,
     /// How to fix it, when there is an obvious fix (e.g. "did you mean `white`?").
     pub help: Option<String>,
+    /// Where `location` is, when it is not in the file the report is about.
+    pub source: Option<Box<Source>>,
+}
+
+/// Where a diagnostic is, when it is not in the file the report is about.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Source {
+    /// An included fragment, a merge patch, or a command-line argument (`--set #2`).
+    pub file: PathBuf,
+    /// The chain of includes that brought `file` in, innermost first: each the including file
+    /// and where it names the fragment.
+    pub included_from: Vec<(PathBuf, LineCol)>,
 }
 
 impl Diagnostic {
@@ -26,6 +38,25 @@ impl Diagnostic {
             location: None,
             message: message.into(),
             help: None,
+            source: None,
+        }
+    }
+
+    /// The file `location` is in, when it is not the report's.
+    pub fn file(&self) -> Option<&Path> {
+        self.source.as_deref().map(|s| s.file.as_path())
+    }
+
+    /// Places the diagnostic in `file` (keeping the chain of includes, if any).
+    pub fn set_file(&mut self, file: impl Into<PathBuf>) {
+        match &mut self.source {
+            Some(s) => s.file = file.into(),
+            None => {
+                self.source = Some(Box::new(Source {
+                    file: file.into(),
+                    included_from: Vec::new(),
+                }))
+            }
         }
     }
 
@@ -91,7 +122,21 @@ impl fmt::Display for Report {
             if n == 1 { "" } else { "s" }
         )?;
         for d in &self.diagnostics {
-            writeln!(f, "  {}:{d}", self.file.display())?;
+            let file = d.file().unwrap_or(&self.file);
+            writeln!(f, "  {}:{d}", file.display())?;
+            let chain = d
+                .source
+                .as_deref()
+                .map_or(&[][..], |s| &s.included_from[..]);
+            for (by, at) in chain {
+                writeln!(
+                    f,
+                    "    included from {}:{}:{}",
+                    by.display(),
+                    at.line,
+                    at.column
+                )?;
+            }
         }
         Ok(())
     }

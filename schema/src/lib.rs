@@ -7,6 +7,7 @@
 
 #![warn(missing_docs)]
 
+pub mod compose;
 mod diagnostic;
 pub mod geometry;
 mod keyword;
@@ -19,7 +20,7 @@ mod tolerant;
 mod validate;
 mod validated;
 
-pub use diagnostic::{did_you_mean, edit_distance, Diagnostic, LoadError, Report};
+pub use diagnostic::{did_you_mean, edit_distance, Diagnostic, LoadError, Report, Source};
 pub use keyword::{Keyword, UnknownKeyword};
 pub use load::{
     base_dir_of, load_scene_file, load_scene_file_noted, load_scene_str, load_scene_str_noted,

@@ -58,17 +58,28 @@ impl Override {
 /// `textures["wood.png"].file`). The error names the character where the path goes wrong; its
 /// diagnostic's path is the part read so far.
 pub fn parse_path(text: &str) -> Result<JsonPath, Diagnostic> {
+    parse_path_spanned(text)
+        .map(|(path, _)| path)
+        .map_err(|(d, _)| d)
+}
+
+/// [`parse_path`], also returning the byte offset where each segment starts (its name, or its
+/// `[`), or on error the byte offset of the character the error names: what places a problem
+/// in a command-line argument.
+pub fn parse_path_spanned(text: &str) -> Result<(JsonPath, Vec<usize>), (Diagnostic, usize)> {
     let mut segments = Vec::new();
+    let mut starts = Vec::new();
     let fail = |segments: &Vec<PathSegment>, at: usize, what: &str| {
         let column = text[..at].chars().count() + 1;
-        Diagnostic::new(
+        let d = Diagnostic::new(
             JsonPath(segments.clone()),
             format!("cannot read the override path `{text}` at character {column}: {what}"),
         )
         .with_help(
             "write a path as lumo's messages print it: `materials.red.base_color`, \
              `objects[2].sphere.radius`, `textures[\"a.b\"].file`",
-        )
+        );
+        (d, at)
     };
     if text.is_empty() {
         return Err(fail(&segments, 0, "the path is empty"));
@@ -86,6 +97,7 @@ pub fn parse_path(text: &str) -> Result<JsonPath, Diagnostic> {
         let first = segments.is_empty();
         match bytes[pos] {
             b'[' => {
+                starts.push(pos);
                 pos += 1;
                 if bytes.get(pos) == Some(&b'"') {
                     let (key, end) =
@@ -116,6 +128,7 @@ pub fn parse_path(text: &str) -> Result<JsonPath, Diagnostic> {
             }
             b'.' if !first => {
                 pos += 1;
+                starts.push(pos);
                 let (key, end) = plain_key(text, pos);
                 if key.is_empty() {
                     return Err(fail(&segments, pos, "expected a member name after `.`"));
@@ -124,6 +137,7 @@ pub fn parse_path(text: &str) -> Result<JsonPath, Diagnostic> {
                 pos = end;
             }
             _ if first => {
+                starts.push(pos);
                 let (key, end) = plain_key(text, pos);
                 if key.is_empty() {
                     return Err(fail(&segments, pos, "expected a member name"));
@@ -140,7 +154,7 @@ pub fn parse_path(text: &str) -> Result<JsonPath, Diagnostic> {
             }
         }
     }
-    Ok(JsonPath(segments))
+    Ok((JsonPath(segments), starts))
 }
 
 /// Whether `c` may appear in a member name written without quotes (as [`JsonPath`] prints it).
@@ -237,6 +251,25 @@ fn quoted(text: &str, pos: usize) -> Result<(String, usize), (usize, String)> {
 /// quoted name, then a JSON value (`render.spp=64`, `materials.red.base_color=[0.8,0.1,0.1]`,
 /// `camera.name="top"`).
 pub fn parse_assignment(text: &str) -> Result<Override, Diagnostic> {
+    parse_assignment_spanned(text)
+        .map(|a| a.change)
+        .map_err(|(d, _)| d)
+}
+
+/// An assignment read by [`parse_assignment_spanned`], with where its parts are in its text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpannedAssignment {
+    /// The override.
+    pub change: Override,
+    /// The byte offset where each segment of the path starts (see [`parse_path_spanned`]).
+    pub segment_starts: Vec<usize>,
+    /// The byte offset where the value starts (after the `=`).
+    pub value_start: usize,
+}
+
+/// [`parse_assignment`], also returning where the path's segments and the value start, or on
+/// error the byte offset of the character the error is about.
+pub fn parse_assignment_spanned(text: &str) -> Result<SpannedAssignment, (Diagnostic, usize)> {
     let mut in_quotes = false;
     let mut escaped = false;
     let mut split = None;
@@ -253,26 +286,43 @@ pub fn parse_assignment(text: &str) -> Result<Override, Diagnostic> {
         }
     }
     let Some(eq) = split else {
-        return Err(Diagnostic::new(
+        let d = Diagnostic::new(
             JsonPath::root(),
             format!("`{text}` is not an override: expected PATH=VALUE"),
         )
-        .with_help("for example `render.spp=64` or `materials.red.base_color=[0.8,0.1,0.1]`"));
+        .with_help("for example `render.spp=64` or `materials.red.base_color=[0.8,0.1,0.1]`");
+        return Err((d, text.len()));
     };
-    let path = parse_path(&text[..eq])?;
-    let value_text = &text[eq + 1..];
+    let (path, segment_starts) = parse_path_spanned(&text[..eq])?;
+    let value_start = eq + 1;
+    let value_text = &text[value_start..];
     let value = serde_json::from_str(value_text).map_err(|e| {
-        Diagnostic::new(
+        let d = Diagnostic::new(
             path.clone(),
             format!("the value `{value_text}` is not JSON: {e}"),
         )
-        .with_help("strings are quoted (`\"top\"`), arrays are `[0.8,0.1,0.1]`")
+        .with_help("strings are quoted (`\"top\"`), arrays are `[0.8,0.1,0.1]`");
+        // serde_json's column counts characters of the line, 0 before the first.
+        let line_start = value_text
+            .split_inclusive('\n')
+            .take(e.line().saturating_sub(1))
+            .map(str::len)
+            .sum::<usize>();
+        let at = value_text[line_start..]
+            .char_indices()
+            .nth(e.column().saturating_sub(1))
+            .map_or(value_text.len(), |(i, _)| line_start + i);
+        (d, value_start + at)
     })?;
-    Ok(Override { path, value })
+    Ok(SpannedAssignment {
+        change: Override { path, value },
+        segment_starts,
+        value_start,
+    })
 }
 
 /// JSON's word for the type of a value, for messages.
-fn kind(value: &Value) -> &'static str {
+pub(crate) fn kind(value: &Value) -> &'static str {
     match value {
         Value::Null => "null",
         Value::Bool(_) => "a boolean",

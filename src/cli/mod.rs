@@ -108,6 +108,9 @@ pub enum Command {
         /// Scene files to check.
         #[arg(required = true)]
         files: Vec<PathBuf>,
+        /// Changes applied to every file before it is checked.
+        #[command(flatten)]
+        compose: ComposeArgs,
     },
     /// Render at a ladder of sample counts and report error against time (CSV and log-log plot).
     #[command(
@@ -131,6 +134,9 @@ pub enum Command {
         /// Legacy input: keep or drop the `Lights` block, or decide per scene (see docs/legacy.md).
         #[arg(long, value_parser = keyword::<LightsPolicy>(), default_value = "auto")]
         lights: LightsPolicy,
+        /// Changes written into the converted scene.
+        #[command(flatten)]
+        compose: ComposeArgs,
     },
     /// Merge partial films (`lumo render --samples A..B --film F`, checkpoints) into an image or
     /// a bigger partial film, bit for bit as one render taking all their samples.
@@ -177,10 +183,42 @@ pub enum Command {
     },
 }
 
+/// Changes to any value of a scene from the command line, shared by every command that loads
+/// one (see `lumo_schema::compose`): a merge patch, then each `--set` in order.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct ComposeArgs {
+    /// Set the value at a JSON path, as lumo's messages print paths (repeatable; a later one
+    /// wins): `--set materials.red.base_color=[0.2,0.2,0.8]`, `--set objects[2].sphere.radius=0.5`.
+    #[arg(long = "set", value_name = "PATH=JSON")]
+    pub set: Vec<String>,
+    /// Apply a JSON merge patch (RFC 7396) to the scene before the `--set`s: an object shaped
+    /// like the part of the scene it changes, `null` removing a member.
+    #[arg(long, value_name = "FILE.json")]
+    pub patch: Option<PathBuf>,
+}
+
+impl ComposeArgs {
+    /// The changes these arguments ask for (every `--set` that does not parse is an error placed
+    /// in it), with `shorthands` (from flags such as `--width`) applied after the patch and
+    /// before the `--set`s.
+    pub fn composition(
+        &self,
+        shorthands: Vec<schema::compose::Set>,
+    ) -> Result<schema::compose::Composition, CliError> {
+        let mut c = schema::compose::Composition::from_args(&self.set, self.patch.as_deref())
+            .map_err(lumo::load::from_schema)?;
+        c.sets.splice(0..0, shorthands);
+        Ok(c)
+    }
+}
+
 /// Command-line changes to a scene that change its pixels (besides the sample count and time
 /// budget), shared by `lumo render`, `lumo preview` and `lumo bundle`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SceneOverrides {
+    /// Any value of the scene (`--set`, `--patch`); the flags below are shorthands of `--set`.
+    #[command(flatten)]
+    pub compose: ComposeArgs,
     /// Image width in pixels (overrides the scene).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(schema::MAX_IMAGE_SIDE)))]
     pub width: Option<u32>,
@@ -344,8 +382,9 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             output,
             camera,
             lights,
-        } => convert_cmd(&input, &output, camera.as_deref(), lights),
-        Command::Validate { files } => validate_cmd(&files),
+            compose,
+        } => convert_cmd(&input, &output, camera.as_deref(), lights, &compose),
+        Command::Validate { files, compose } => validate_cmd(&files, &compose),
         Command::Schema { output } => schema_cmd(output.as_deref()),
         Command::Version => bundle::version_cmd(),
         Command::Preview(args) => preview::preview_cmd(&args),
@@ -379,6 +418,7 @@ fn convert_cmd(
     output: &Path,
     camera: Option<&str>,
     lights: LightsPolicy,
+    compose: &ComposeArgs,
 ) -> Result<(), CliError> {
     let ext = lumo_schema::geometry::paths::lowercase_extension(output);
     let out_dir = match output.parent() {
@@ -407,6 +447,7 @@ fn convert_cmd(
         lights,
         camera: camera.map(camera_choice),
         scene_dir: json_out.then(|| out_dir.clone()),
+        composition: compose.composition(Vec::new())?,
     };
     let inp = lumo::load::read_scene(input_path, &options)?;
     let base_dir = inp.base_dir;
@@ -480,11 +521,15 @@ pub fn write_text_atomically(path: &Path, text: &str) -> Result<(), CliError> {
     Ok(())
 }
 
-fn validate_cmd(files: &[PathBuf]) -> Result<(), CliError> {
+fn validate_cmd(files: &[PathBuf], compose: &ComposeArgs) -> Result<(), CliError> {
     let mut worst = 0;
     let mut report = String::new();
+    let options = LoadOptions {
+        composition: compose.composition(Vec::new())?,
+        ..LoadOptions::default()
+    };
     for f in files {
-        match lumo::load::read_scene(f, &LoadOptions::default()) {
+        match lumo::load::read_scene(f, &options) {
             Ok(inp) => {
                 for w in &inp.warnings {
                     eprintln!("warning: {}: {w}", f.display());
@@ -516,50 +561,58 @@ pub fn load_overridden(scene: &Path, o: &SceneOverrides) -> Result<lumo::load::L
         lights: o.lights,
         camera: o.camera.as_deref().map(camera_choice),
         scene_dir: None,
+        composition: o.compose.composition(shorthands(o)?)?,
     };
-    let mut loaded = lumo::load(scene, &options)?;
+    Ok(lumo::load(scene, &options)?)
+}
+
+/// The flags that are shorthands of `--set`, as overrides.
+fn shorthands(o: &SceneOverrides) -> Result<Vec<schema::compose::Set>, CliError> {
+    use schema::compose::Set;
+    use serde_json::json;
+    let mut sets = Vec::new();
+    let mut add = |flag: &str, path: &str, value: Option<serde_json::Value>| {
+        if let Some(v) = value {
+            sets.push(Set::shorthand(flag, path, v));
+        }
+    };
+    add("--width", "image.width", o.width.map(|v| json!(v)));
+    add("--height", "image.height", o.height.map(|v| json!(v)));
+    add("--seed", "render.seed", o.seed.map(|v| json!(v)));
+    add(
+        "--max-depth",
+        "render.max_depth",
+        o.max_depth.map(|v| json!(v)),
+    );
+    add(
+        "--integrator",
+        "render.integrator",
+        o.integrator.map(|v| json!(v.keyword())),
+    );
+    add(
+        "--sampler",
+        "render.sampler",
+        o.sampler.map(|v| json!(v.keyword())),
+    );
     // The environment file is named relative to the working directory; the scene's paths are
     // relative to its folder, so it goes in as an absolute path.
-    let env_file = match &o.env {
-        Some(p) => Some(
-            std::path::absolute(p)
-                .map_err(|e| CliError::invalid(format!("{}: {e}", p.display())))?
-                .to_string_lossy()
-                .into_owned(),
-        ),
-        None => None,
-    };
-    loaded.edit(|s| {
-        if let Some(v) = o.width {
-            s.image.width = v;
+    if let Some(p) = &o.env {
+        let file = std::path::absolute(p)
+            .map_err(|e| CliError::invalid(format!("{}: {e}", p.display())))?
+            .to_string_lossy()
+            .into_owned();
+        let mut background = json!({ "image": file });
+        if let Some(r) = o.env_rotation {
+            background["rotation_deg"] = json!(r);
         }
-        if let Some(v) = o.height {
-            s.image.height = v;
-        }
-        if let Some(v) = o.seed {
-            s.render.seed = v;
-        }
-        if let Some(v) = o.max_depth {
-            s.render.max_depth = v;
-        }
-        if let Some(i) = o.integrator {
-            s.render.integrator = i;
-        }
-        if let Some(k) = o.sampler {
-            s.render.sampler = k;
-        }
-        if let Some(file) = &env_file {
-            s.background = schema::Background {
-                image: Some(file.clone()),
-                rotation_deg: o.env_rotation.unwrap_or(0.0),
-                ..schema::Background::default()
-            };
-        }
-        if let Some(k) = o.env_strength {
-            s.background.strength = k;
-        }
-    })?;
-    Ok(loaded)
+        add("--env", "background", Some(background));
+    }
+    add(
+        "--env-strength",
+        "background.strength",
+        o.env_strength.map(|v| json!(v)),
+    );
+    Ok(sets)
 }
 
 /// The warnings of loading a scene that still hold after the overrides: with `--env`, the
@@ -622,6 +675,10 @@ fn recorded_command(args: &RenderArgs, scene: &Path) -> Vec<String> {
         }
     };
     let o = &args.overrides;
+    flag("patch", o.compose.patch.as_deref().map(absolute));
+    for set in &o.compose.set {
+        flag("set", Some(set.clone()));
+    }
     flag("width", o.width.map(|v| v.to_string()));
     flag("height", o.height.map(|v| v.to_string()));
     flag("seed", o.seed.map(|v| v.to_string()));

@@ -52,6 +52,10 @@ pub struct LoadOptions {
     /// glTF: the folder the scene's relative paths should be relative to (where a converted
     /// scene file will be written). Default: the glTF file's folder.
     pub scene_dir: Option<PathBuf>,
+    /// Changes from outside the file (`--patch`, `--set` and their shorthands), applied to the
+    /// scene before it is validated, so that everything downstream (assets read, the content
+    /// hash of partial films, bundles, conversions) sees the composed scene.
+    pub composition: schema::compose::Composition,
 }
 
 /// Why an input could not be loaded. Every message names the file.
@@ -382,6 +386,19 @@ fn read_scene_keeping_gltf(
             (scene, base_dir, warnings)
         }
     };
+    let scene = if options.composition.is_empty() {
+        scene
+    } else {
+        // Problems the changes did not write are placed in the scene file's own text.
+        let text = match kind {
+            InputKind::Json => std::fs::read_to_string(path).ok(),
+            _ => None,
+        };
+        options
+            .composition
+            .apply(&scene, path, text.as_deref(), Some(&base_dir))
+            .map_err(|d| invalid_report(path, d))?
+    };
     let description = SceneFile {
         scene,
         base_dir,
@@ -400,7 +417,7 @@ fn invalid_report(file: &Path, diagnostics: Vec<schema::Diagnostic>) -> LoadErro
 }
 
 /// The loader's error for the schema's.
-fn from_schema(e: schema::LoadError) -> LoadError {
+pub fn from_schema(e: schema::LoadError) -> LoadError {
     match e {
         schema::LoadError::Io { ref path, .. } => LoadError::io(path, e.to_string()),
         schema::LoadError::Invalid { file, diagnostics } => invalid_report(&file, diagnostics),
