@@ -286,3 +286,78 @@ fn overrides_that_name_nothing_or_mistype_are_located() {
         "{e}"
     );
 }
+
+#[test]
+fn scenes_with_includes_flatten_bundle_and_validate_their_fragments() {
+    let dir = tempfile::tempdir().unwrap();
+    let flat = dir.path().join("flat.json");
+    lumo()
+        .args(["convert", "scenes/studio.json", "-o"])
+        .arg(&flat)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&flat).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(doc.get("include").is_none(), "{text}");
+    assert!(
+        doc["materials"]["softbox"].is_object() && doc["lights"].as_array().unwrap().len() == 2
+    );
+    // The flat scene is the same scene: the same content hash.
+    let hash = |scene: &std::path::Path, name: &str| {
+        let out = lumo()
+            .arg("bundle")
+            .arg(scene)
+            .arg("-o")
+            .arg(dir.path().join(name))
+            .assert()
+            .success();
+        let line: serde_json::Value = serde_json::from_slice(&out.get_output().stdout).unwrap();
+        line["scene_hash"].as_str().unwrap().to_string()
+    };
+    assert_eq!(
+        hash(&common::root().join("scenes/studio.json"), "a.zip"),
+        hash(&flat, "b.zip")
+    );
+    // Fragments validate on their own; a problem in one is placed in it.
+    let out = lumo()
+        .args([
+            "validate",
+            "scenes/studio.json",
+            "scenes/common/materials.json",
+        ])
+        .assert()
+        .success();
+    let said = String::from_utf8_lossy(&out.get_output().stdout).to_string();
+    assert!(
+        said.contains("materials.json: ok (a scene fragment)"),
+        "{said}"
+    );
+    let fragment = dir.path().join("rig.json");
+    std::fs::write(
+        &fragment,
+        "{\"$schema\": \"scene-fragment.schema.json\",\n \"materials\": {\"a\": {\"roughness\": 3}}}",
+    )
+    .unwrap();
+    let scene = dir.path().join("scene.json");
+    std::fs::write(
+        &scene,
+        "{\"format_version\": 2,\n \"camera\": {\"position\": [0, 0, 3], \"look_at\": [0, 0, 0], \"fov_y_deg\": 40},\n \"materials\": {},\n \"include\": [\"rig.json\"], \"objects\": []}",
+    )
+    .unwrap();
+    for (file, chain) in [(&fragment, false), (&scene, true)] {
+        let out = lumo().arg("validate").arg(file).assert().code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        assert!(
+            err.contains(&format!(
+                "{}:2:35: materials.a.roughness: roughness 3 is outside [0, 1]",
+                fragment.display()
+            )),
+            "{err}"
+        );
+        assert_eq!(
+            err.contains(&format!("included from {}:4:14", scene.display())),
+            chain,
+            "{err}"
+        );
+    }
+}

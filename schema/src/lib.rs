@@ -10,6 +10,7 @@
 pub mod compose;
 mod diagnostic;
 pub mod geometry;
+pub mod include;
 mod keyword;
 mod load;
 pub mod locate;
@@ -23,8 +24,9 @@ mod validated;
 pub use diagnostic::{did_you_mean, edit_distance, Diagnostic, LoadError, Report, Source};
 pub use keyword::{Keyword, UnknownKeyword};
 pub use load::{
-    base_dir_of, load_scene_file, load_scene_file_noted, load_scene_str, load_scene_str_noted,
-    parse_scene, parse_scene_noted, MAX_SCENE_BYTES,
+    base_dir_of, check_fragment_file, load_scene_file, load_scene_file_noted,
+    load_scene_file_with_fragments, load_scene_str, load_scene_str_noted, parse_scene,
+    parse_scene_noted, SceneRead, MAX_SCENE_BYTES,
 };
 pub use scene::*;
 pub use tolerant::MAX_PARSE_PROBLEMS;
@@ -34,12 +36,57 @@ pub use validated::Validated;
 /// The JSON Schema (draft 2020-12) of a scene file, pretty-printed with a trailing newline.
 /// `schema/scene.schema.json` in the repository is exactly this text.
 pub fn json_schema() -> String {
+    pretty(scene_schema())
+}
+
+/// The JSON Schema of a scene fragment (a file a scene includes): the scene's, generated from
+/// the same types, with every top-level member optional. `schema/scene-fragment.schema.json`
+/// in the repository is exactly this text.
+pub fn json_fragment_schema() -> String {
+    let mut schema = scene_schema();
+    schema.remove("required");
+    schema.insert("title".into(), "lumo scene fragment".into());
+    schema.insert(
+        "$id".into(),
+        "https://lumo.dev/schema/scene-fragment.schema.json".into(),
+    );
+    schema.insert(
+        "description".into(),
+        "Part of a lumo scene, read into scenes by their `include`: materials and textures by \
+         name, objects and lights, or any other top-level member. Every member is optional."
+            .into(),
+    );
+    pretty(schema)
+}
+
+/// The scene's schema as generated from [`Scene`], with `include` (read before the scene's
+/// types see it, see [`include`]).
+fn scene_schema() -> schemars::Schema {
     let mut schema = schemars::schema_for!(Scene);
     schema.insert("title".into(), "lumo scene".into());
     schema.insert(
         "$id".into(),
         "https://lumo.dev/schema/scene.schema.json".into(),
     );
+    if let Some(serde_json::Value::Object(properties)) = schema.get_mut("properties") {
+        properties.insert(
+            include::INCLUDE.into(),
+            serde_json::json!({
+                "description": "Scene fragments to read into this scene, relative to this file \
+                    (each following scene-fragment.schema.json): their materials and textures \
+                    merge by name (a name two fragments define is an error unless this file \
+                    defines it too: this file wins), their objects and lights come before this \
+                    file's, in include order.",
+                "type": "array",
+                "items": {"type": "string"}
+            }),
+        );
+    }
+    schema
+}
+
+/// A schema as pretty JSON with a trailing newline.
+fn pretty(schema: schemars::Schema) -> String {
     let mut text = serde_json::to_string_pretty(&schema).expect("a schema is always serialisable");
     text.push('\n');
     text

@@ -154,6 +154,9 @@ pub fn load_scene_str_noted(
     file: &Path,
     base_dir: Option<&Path>,
 ) -> Result<(Validated<Scene>, Vec<String>), LoadError> {
+    if let Some(base) = base_dir.filter(|_| crate::include::has_includes(text)) {
+        return load_composed(text, file, base).map(|(scene, notes, _)| (scene, notes));
+    }
     let invalid = |diagnostics| LoadError::Invalid {
         file: file.to_path_buf(),
         diagnostics,
@@ -173,6 +176,112 @@ pub fn load_scene_str_noted(
     Err(invalid(diagnostics))
 }
 
+/// A scene that includes fragments ([`crate::include`]): the fragments read and merged, then
+/// the composed scene read and validated, every problem placed in the file that wrote it. Also
+/// returns the fragments read.
+fn load_composed(text: &str, file: &Path, base_dir: &Path) -> Result<SceneRead, LoadError> {
+    let invalid = |diagnostics| LoadError::Invalid {
+        file: file.to_path_buf(),
+        diagnostics,
+    };
+    let value = serde_json::from_str(text)
+        .map_err(|e| invalid(vec![serde_json_diagnostic(text, JsonPath::root(), &e)]))?;
+    let composed = crate::include::compose(file, text, value, base_dir).map_err(invalid)?;
+    let composed_text = composed.value.to_string();
+    match load_scene_str_noted(&composed_text, file, Some(base_dir)) {
+        Ok((scene, notes)) => Ok((scene, notes, composed.fragments)),
+        Err(LoadError::Invalid { diagnostics, .. }) => Err(invalid(
+            diagnostics.into_iter().map(|d| composed.place(d)).collect(),
+        )),
+        Err(e) => Err(e),
+    }
+}
+
+/// Checks a scene fragment on its own (a file a scene includes, see [`crate::include`]): every
+/// problem a scene including it would find in it (its includes, types, ranges, files), except
+/// references to materials and textures, which other files may define. Returns the fragments
+/// it includes.
+pub fn check_fragment_file(path: &Path) -> Result<Vec<PathBuf>, LoadError> {
+    let text = read_scene_text(path)?;
+    let invalid = |diagnostics| LoadError::Invalid {
+        file: path.to_path_buf(),
+        diagnostics,
+    };
+    let value: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| invalid(vec![serde_json_diagnostic(&text, JsonPath::root(), &e)]))?;
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return Err(invalid(vec![Diagnostic::new(
+            JsonPath::root(),
+            "not a file name",
+        )]));
+    };
+    // A scene that includes the fragment and has what every scene needs (only where the
+    // fragment does not give it, so that the fragment's own is checked).
+    let mut host = serde_json::json!({
+        "format_version": crate::FORMAT_VERSION,
+        crate::include::INCLUDE: [name],
+    });
+    for (key, stand_in) in [
+        (
+            "camera",
+            serde_json::json!({"position": [0, 0, 1], "look_at": [0, 0, 0], "fov_y_deg": 40}),
+        ),
+        ("materials", serde_json::json!({})),
+        ("objects", serde_json::json!([])),
+    ] {
+        if value.get(key).is_none() {
+            host[key] = stand_in;
+        }
+    }
+    let base = base_dir_of(path);
+    let host_file = base.join(format!(".{name}.host"));
+    // Problems in the fragment, without the stand-in scene that included it.
+    let own = |mut d: Diagnostic| {
+        if let Some(source) = &mut d.source {
+            source.included_from.pop();
+            if source.file == path && source.included_from.is_empty() {
+                d.source = None;
+            }
+        }
+        d
+    };
+    let host_text = host.to_string();
+    let composed = crate::include::compose(&host_file, &host_text, host, &base)
+        .map_err(|ds| invalid(ds.into_iter().map(own).collect()))?;
+    let composed_text = composed.value.to_string();
+    match load_scene_str_noted(&composed_text, &host_file, Some(&base)) {
+        Ok(_) => Ok(composed.fragments[1..].to_vec()),
+        Err(LoadError::Invalid { diagnostics, .. }) => {
+            let problems: Vec<Diagnostic> = diagnostics
+                .into_iter()
+                .filter(|d| !crate::include::names_another_file(d))
+                .map(|d| own(composed.place(d)))
+                .collect();
+            if problems.is_empty() {
+                Ok(composed.fragments[1..].to_vec())
+            } else {
+                Err(invalid(problems))
+            }
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// [`load_scene_file_noted`], also returning the fragments the scene includes (every file read
+/// besides the scene, before its assets).
+pub fn load_scene_file_with_fragments(path: &Path) -> Result<SceneRead, LoadError> {
+    let text = read_scene_text(path)?;
+    let base = base_dir_of(path);
+    if crate::include::has_includes(&text) {
+        return load_composed(&text, path, &base);
+    }
+    load_scene_str_noted(&text, path, Some(&base)).map(|(s, n)| (s, n, Vec::new()))
+}
+
+/// A scene file read and validated: the scene, the migration notes of an older format version,
+/// and the fragments it includes.
+pub type SceneRead = (Validated<Scene>, Vec<String>, Vec<PathBuf>);
+
 /// Reads, parses and validates a scene file; relative paths inside resolve against its folder.
 pub fn load_scene_file(path: &Path) -> Result<Validated<Scene>, LoadError> {
     load_scene_file_noted(path).map(|(scene, _)| scene)
@@ -180,6 +289,12 @@ pub fn load_scene_file(path: &Path) -> Result<Validated<Scene>, LoadError> {
 
 /// [`load_scene_file`], also returning the migration notes of an older format version.
 pub fn load_scene_file_noted(path: &Path) -> Result<(Validated<Scene>, Vec<String>), LoadError> {
+    load_scene_file_with_fragments(path).map(|(s, n, _)| (s, n))
+}
+
+/// The text of a scene file: an error for a file that cannot be read, is too large or is not
+/// UTF-8.
+fn read_scene_text(path: &Path) -> Result<String, LoadError> {
     let io = |source| LoadError::Io {
         path: path.to_path_buf(),
         source,
@@ -212,8 +327,7 @@ pub fn load_scene_file_noted(path: &Path) -> Result<(Validated<Scene>, Vec<Strin
             });
         }
     };
-    let base = base_dir_of(path);
-    load_scene_str_noted(&text, path, Some(&base))
+    Ok(text)
 }
 
 /// The folder relative paths in the scene file at `path` resolve against.

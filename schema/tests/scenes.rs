@@ -16,7 +16,11 @@ fn workspace() -> PathBuf {
 }
 
 fn schema_validator() -> jsonschema::Validator {
-    let text = std::fs::read_to_string(workspace().join("schema/scene.schema.json")).unwrap();
+    validator_of("schema/scene.schema.json")
+}
+
+fn validator_of(file: &str) -> jsonschema::Validator {
+    let text = std::fs::read_to_string(workspace().join(file)).unwrap();
     let schema: Value = serde_json::from_str(&text).unwrap();
     jsonschema::validator_for(&schema).expect("the schema itself is valid")
 }
@@ -35,8 +39,10 @@ fn json_files(dir: &Path, out: &mut Vec<PathBuf>) {
 #[test]
 fn example_scenes_are_valid_and_round_trip() {
     let validator = schema_validator();
+    let fragment_validator = validator_of("schema/scene-fragment.schema.json");
     let mut files = Vec::new();
     json_files(&workspace().join("scenes"), &mut files);
+    let mut fragments = 0;
     assert!(
         files.iter().any(|f| f.ends_with("cornell.json")),
         "scenes/cornell.json is missing"
@@ -44,6 +50,22 @@ fn example_scenes_are_valid_and_round_trip() {
     for file in files {
         let text = std::fs::read_to_string(&file).unwrap();
         let value: Value = serde_json::from_str(&text).unwrap();
+        if lumo_schema::include::is_fragment(&text) {
+            // A part of scenes (scenes/common/): its own schema and checks.
+            fragments += 1;
+            let errors: Vec<String> = fragment_validator
+                .iter_errors(&value)
+                .map(|e| format!("{}: {e}", e.instance_path()))
+                .collect();
+            assert!(errors.is_empty(), "{}: {errors:#?}", file.display());
+            assert!(
+                validator.iter_errors(&value).next().is_some(),
+                "{}: a fragment should not pass as a whole scene",
+                file.display()
+            );
+            lumo_schema::check_fragment_file(&file).unwrap_or_else(|e| panic!("{e}"));
+            continue;
+        }
         assert_eq!(
             value["$schema"],
             "../schema/scene.schema.json",
@@ -70,6 +92,7 @@ fn example_scenes_are_valid_and_round_trip() {
             file.display()
         );
     }
+    assert!(fragments >= 2, "scenes/common/ holds the example fragments");
 }
 
 #[test]

@@ -175,11 +175,17 @@ pub enum Command {
     /// Print lumo's version and build id (SHA-256 of the executable) as JSON.
     Version,
     /// Print the JSON Schema of scene files (draft 2020-12).
-    #[command(after_help = "Example:\n  lumo schema -o schema/scene.schema.json")]
+    #[command(
+        after_help = "Example:\n  lumo schema -o schema/scene.schema.json\n  lumo schema --fragment -o schema/scene-fragment.schema.json"
+    )]
     Schema {
         /// Write to this file instead of standard output.
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// The schema of scene fragments (files a scene includes): every top-level member
+        /// optional.
+        #[arg(long)]
+        fragment: bool,
     },
 }
 
@@ -385,7 +391,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             compose,
         } => convert_cmd(&input, &output, camera.as_deref(), lights, &compose),
         Command::Validate { files, compose } => validate_cmd(&files, &compose),
-        Command::Schema { output } => schema_cmd(output.as_deref()),
+        Command::Schema { output, fragment } => schema_cmd(output.as_deref(), fragment),
         Command::Version => bundle::version_cmd(),
         Command::Preview(args) => preview::preview_cmd(&args),
         Command::Bundle(a) => bundle::bundle_cmd(&a.scene, &a.overrides, &a.output),
@@ -497,8 +503,12 @@ fn rebase_paths(scene: &mut schema::Scene, from: &Path, to: &Path) {
     }
 }
 
-fn schema_cmd(output: Option<&Path>) -> Result<(), CliError> {
-    let text = schema::json_schema();
+fn schema_cmd(output: Option<&Path>, fragment: bool) -> Result<(), CliError> {
+    let text = if fragment {
+        schema::json_fragment_schema()
+    } else {
+        schema::json_schema()
+    };
     match output {
         None => {
             print!("{text}");
@@ -529,6 +539,18 @@ fn validate_cmd(files: &[PathBuf], compose: &ComposeArgs) -> Result<(), CliError
         ..LoadOptions::default()
     };
     for f in files {
+        if lumo::load::is_fragment_file(f) {
+            match schema::check_fragment_file(f) {
+                Ok(_) => println!("{}: ok (a scene fragment)", f.display()),
+                Err(e) => {
+                    let e = CliError::from(lumo::load::from_schema(e));
+                    worst = worst.max(e.code);
+                    report.push_str(&e.message);
+                    report.push('\n');
+                }
+            }
+            continue;
+        }
         match lumo::load::read_scene(f, &options) {
             Ok(inp) => {
                 for w in &inp.warnings {

@@ -148,6 +148,9 @@ pub struct SceneFile {
     pub file: PathBuf,
     /// What kind of input it was.
     pub kind: InputKind,
+    /// The scene fragments the input includes (see `lumo_schema::include`), in the order
+    /// first read.
+    pub fragments: Vec<PathBuf>,
 }
 
 impl SceneFile {
@@ -178,10 +181,11 @@ impl Loaded {
         crate::scene::build(&self.description.scene, &self.assets)
     }
 
-    /// Every file read to load this scene: the input, then its meshes, glTF buffers and
-    /// images, each once, in the order first read.
+    /// Every file read to load this scene: the input, the fragments it includes, then its
+    /// meshes, glTF buffers and images, each once, in the order first read.
     pub fn files(&self) -> Vec<PathBuf> {
         let mut files = vec![self.description.file.clone()];
+        files.extend(self.description.fragments.iter().cloned());
         for f in self.assets.files() {
             if !files.contains(f) {
                 files.push(f.clone());
@@ -291,6 +295,13 @@ pub fn kind_of(path: &Path) -> Result<InputKind, LoadError> {
     }
 }
 
+/// Whether `path` is a scene fragment (a `.json` file whose `$schema` names the fragment
+/// schema): a part of scenes, checked with `lumo_schema::check_fragment_file`, not loaded.
+pub fn is_fragment_file(path: &Path) -> bool {
+    kind_of(path).is_ok_and(|k| k == InputKind::Json)
+        && std::fs::read_to_string(path).is_ok_and(|t| schema::include::is_fragment(&t))
+}
+
 /// Reads and validates the scene at `path` and reads every asset it references.
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, LoadError> {
     let path = path.as_ref();
@@ -320,6 +331,7 @@ fn read_scene_keeping_gltf(
 ) -> Result<(SceneFile, Option<Arc<GltfFile>>), LoadError> {
     let kind = kind_of(path)?;
     let mut opened = None;
+    let mut fragments = Vec::new();
     let (scene, base_dir, warnings) = match kind {
         InputKind::Gltf => {
             use lumo_converters::gltf as g;
@@ -353,7 +365,9 @@ fn read_scene_keeping_gltf(
             (scene, base_dir, imported.warnings)
         }
         InputKind::Json => {
-            let (scene, notes) = schema::load_scene_file_noted(path).map_err(from_schema)?;
+            let (scene, notes, read) =
+                schema::load_scene_file_with_fragments(path).map_err(from_schema)?;
+            fragments = read;
             (scene, schema::base_dir_of(path), notes)
         }
         InputKind::Legacy => {
@@ -405,6 +419,7 @@ fn read_scene_keeping_gltf(
         warnings,
         file: path.to_path_buf(),
         kind,
+        fragments,
     };
     Ok((description, opened))
 }
@@ -439,6 +454,7 @@ pub fn load_json_str(text: &str, label: &Path, base_dir: &Path) -> Result<Loaded
             warnings,
             file: label.to_path_buf(),
             kind: InputKind::Json,
+            fragments: Vec::new(),
         },
         assets,
     })
