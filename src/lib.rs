@@ -40,6 +40,7 @@ pub use load::{load, LoadOptions, Loaded};
 pub mod light;
 pub mod light_sampler;
 pub mod light_tree;
+pub mod lsp;
 pub mod material;
 pub mod math;
 pub mod output;

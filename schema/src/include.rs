@@ -88,7 +88,20 @@ pub fn compose(
     value: Value,
     base_dir: &Path,
 ) -> Result<Composed, Vec<Diagnostic>> {
+    compose_with(file, text, value, base_dir, &BTreeMap::new())
+}
+
+/// [`compose`], reading the files in `unsaved` (by canonical path) from there rather than from
+/// disk: an editor's buffers.
+pub fn compose_with(
+    file: &Path,
+    text: &str,
+    value: Value,
+    base_dir: &Path,
+    unsaved: &BTreeMap<PathBuf, String>,
+) -> Result<Composed, Vec<Diagnostic>> {
     let mut reader = Reader {
+        unsaved,
         texts: BTreeMap::new(),
         fragments: Vec::new(),
         stack: Vec::new(),
@@ -134,6 +147,20 @@ pub fn compose(
 }
 
 impl Composed {
+    /// Where the value at `path` of the composed scene (or the part that holds it) was
+    /// written: the file, the value's path in it and its line and column there.
+    pub fn origin_of(&self, path: &JsonPath) -> Option<(PathBuf, JsonPath, LineCol)> {
+        let (prefix, origin) = self
+            .origins
+            .iter()
+            .filter(|(p, _)| path.0.starts_with(&p.0))
+            .max_by_key(|(p, _)| p.0.len())?;
+        let mut inner = origin.path.clone();
+        inner.0.extend_from_slice(&path.0[prefix.0.len()..]);
+        let at = locate(self.texts.get(&origin.file)?, &inner)?;
+        Some((origin.file.clone(), inner, at))
+    }
+
     /// `d`, found in the composed scene, placed where its value was written: its path and
     /// location in that file, and the includes that brought it in.
     pub fn place(&self, mut d: Diagnostic) -> Diagnostic {
@@ -160,7 +187,8 @@ impl Composed {
     }
 }
 
-struct Reader {
+struct Reader<'a> {
+    unsaved: &'a BTreeMap<PathBuf, String>,
     texts: BTreeMap<PathBuf, String>,
     fragments: Vec<PathBuf>,
     /// Canonical paths of the files being read, outermost first (to refuse cycles).
@@ -168,7 +196,7 @@ struct Reader {
     problems: Vec<Diagnostic>,
 }
 
-impl Reader {
+impl Reader<'_> {
     /// A problem at `path` of `file` (brought in by `chain`).
     fn problem(
         &mut self,
@@ -370,7 +398,21 @@ impl Reader {
         if !self.fragments.contains(&path) {
             self.fragments.push(path.clone());
         }
-        let text = match std::fs::read_to_string(&path) {
+        let read = match self.unsaved.get(&canonical) {
+            Some(t) => Ok(t.clone()),
+            // Only a regular file of a scene's size (not a device that never ends).
+            None => match std::fs::metadata(&canonical) {
+                Ok(m) if !m.is_file() => Err(std::io::Error::other("not a regular file")),
+                Ok(m) if m.len() > crate::MAX_SCENE_BYTES => Err(std::io::Error::other(format!(
+                    "{} bytes, above the limit of {}",
+                    m.len(),
+                    crate::MAX_SCENE_BYTES
+                ))),
+                Ok(_) => std::fs::read_to_string(&path),
+                Err(e) => Err(e),
+            },
+        };
+        let text = match read {
             Ok(t) => t,
             Err(e) => {
                 self.problem(

@@ -24,9 +24,9 @@ mod validated;
 pub use diagnostic::{did_you_mean, edit_distance, Diagnostic, LoadError, Report, Source};
 pub use keyword::{Keyword, UnknownKeyword};
 pub use load::{
-    base_dir_of, check_fragment_file, load_scene_file, load_scene_file_noted,
-    load_scene_file_with_fragments, load_scene_str, load_scene_str_noted, parse_scene,
-    parse_scene_noted, SceneRead, MAX_SCENE_BYTES,
+    base_dir_of, check_fragment_file, check_fragment_str, check_fragment_with, load_scene_file,
+    load_scene_file_noted, load_scene_file_with_fragments, load_scene_str, load_scene_str_noted,
+    load_scene_with, parse_scene, parse_scene_noted, SceneRead, MAX_SCENE_BYTES,
 };
 pub use scene::*;
 pub use tolerant::MAX_PARSE_PROBLEMS;

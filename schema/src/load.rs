@@ -203,6 +203,51 @@ fn load_composed(text: &str, file: &Path, base_dir: &Path) -> Result<SceneRead, 
 /// it includes.
 pub fn check_fragment_file(path: &Path) -> Result<Vec<PathBuf>, LoadError> {
     let text = read_scene_text(path)?;
+    check_fragment_str(&text, path)
+}
+
+/// Reads and validates scene text at `path` (an editor's unsaved buffer), with its includes
+/// read from `unsaved` (by canonical path) or from disk.
+pub fn load_scene_with(
+    text: &str,
+    path: &Path,
+    unsaved: &std::collections::BTreeMap<PathBuf, String>,
+) -> Result<Validated<Scene>, LoadError> {
+    let base = base_dir_of(path);
+    if !crate::include::has_includes(text) {
+        return load_scene_str(text, path, Some(&base));
+    }
+    let invalid = |diagnostics| LoadError::Invalid {
+        file: path.to_path_buf(),
+        diagnostics,
+    };
+    let value = serde_json::from_str(text)
+        .map_err(|e| invalid(vec![serde_json_diagnostic(text, JsonPath::root(), &e)]))?;
+    let composed =
+        crate::include::compose_with(path, text, value, &base, unsaved).map_err(invalid)?;
+    match load_scene_str_noted(&composed.value.to_string(), path, Some(&base)) {
+        Ok((scene, _)) => Ok(scene),
+        Err(LoadError::Invalid { diagnostics, .. }) => Err(invalid(
+            diagnostics.into_iter().map(|d| composed.place(d)).collect(),
+        )),
+        Err(e) => Err(e),
+    }
+}
+
+/// [`check_fragment_file`] of a fragment's text (an editor's unsaved buffer); `path` is where
+/// the file is, which its relative paths resolve against.
+pub fn check_fragment_str(text: &str, path: &Path) -> Result<Vec<PathBuf>, LoadError> {
+    check_fragment_with(text, path, &std::collections::BTreeMap::new())
+}
+
+/// [`check_fragment_str`], reading the files in `unsaved` (by canonical path) from there: an
+/// editor's buffers.
+pub fn check_fragment_with(
+    text: &str,
+    path: &Path,
+    unsaved: &std::collections::BTreeMap<PathBuf, String>,
+) -> Result<Vec<PathBuf>, LoadError> {
+    let text = text.to_string();
     let invalid = |diagnostics| LoadError::Invalid {
         file: path.to_path_buf(),
         diagnostics,
@@ -235,6 +280,11 @@ pub fn check_fragment_file(path: &Path) -> Result<Vec<PathBuf>, LoadError> {
     }
     let base = base_dir_of(path);
     let host_file = base.join(format!(".{name}.host"));
+    // The fragment as given, not as saved.
+    let mut unsaved = unsaved.clone();
+    if let Ok(c) = std::fs::canonicalize(path) {
+        unsaved.insert(c, text.clone());
+    }
     // Problems in the fragment, without the stand-in scene that included it.
     let own = |mut d: Diagnostic| {
         if let Some(source) = &mut d.source {
@@ -246,7 +296,7 @@ pub fn check_fragment_file(path: &Path) -> Result<Vec<PathBuf>, LoadError> {
         d
     };
     let host_text = host.to_string();
-    let composed = crate::include::compose(&host_file, &host_text, host, &base)
+    let composed = crate::include::compose_with(&host_file, &host_text, host, &base, &unsaved)
         .map_err(|ds| invalid(ds.into_iter().map(own).collect()))?;
     let composed_text = composed.value.to_string();
     match load_scene_str_noted(&composed_text, &host_file, Some(&base)) {

@@ -174,6 +174,10 @@ pub enum Command {
     Preview(Box<preview::PreviewArgs>),
     /// Print lumo's version and build id (SHA-256 of the executable) as JSON.
     Version,
+    /// Run the language server for scene files over standard input and output (diagnostics
+    /// as you type, completion of material and texture names, hover, go to definition).
+    #[command(after_help = "Editors start it themselves: see docs/editors.md")]
+    Lsp,
     /// Print the JSON Schema of scene files (draft 2020-12).
     #[command(
         after_help = "Example:\n  lumo schema -o schema/scene.schema.json\n  lumo schema --fragment -o schema/scene-fragment.schema.json"
@@ -393,6 +397,9 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Validate { files, compose } => validate_cmd(&files, &compose),
         Command::Schema { output, fragment } => schema_cmd(output.as_deref(), fragment),
         Command::Version => bundle::version_cmd(),
+        Command::Lsp => {
+            lumo::lsp::run_stdio().map_err(|e| CliError::failure(format!("lumo lsp: {e}")))
+        }
         Command::Preview(args) => preview::preview_cmd(&args),
         Command::Bundle(a) => bundle::bundle_cmd(&a.scene, &a.overrides, &a.output),
         Command::Merge {
