@@ -80,6 +80,12 @@ pub fn scene_files() -> Vec<PathBuf> {
         ],
         &["json"],
     )
+    .into_iter()
+    // Fragments (`scenes/common/`) only complete the scenes that include them, which are here.
+    .filter(|f| {
+        std::fs::read_to_string(f).map_or(true, |text| !lumo_schema::include::is_fragment(&text))
+    })
+    .collect()
 }
 
 /// Files with one of `exts` under the folders, recursively, sorted.
