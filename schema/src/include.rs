@@ -527,11 +527,21 @@ fn rebase_paths(members: &mut Map<String, Value>, rel: &Path) {
         if let Value::String(s) = v {
             if !Path::new(s.as_str()).is_absolute() {
                 let joined = rel.join(s.as_str());
-                // Forward slashes, as scene files write paths on every system.
-                let parts: Vec<String> = joined
-                    .components()
-                    .map(|c| c.as_os_str().to_string_lossy().into_owned())
-                    .collect();
+                // Forward slashes, as scene files write paths on every system, and a folder
+                // followed by `..` dropped (`common/../textures/a.png` is `textures/a.png`), so
+                // that the composed scene names each file as a scene written by hand would.
+                let mut parts: Vec<String> = Vec::new();
+                for c in joined.components() {
+                    let part = c.as_os_str().to_string_lossy().into_owned();
+                    let is_folder = parts
+                        .last()
+                        .is_some_and(|p| !matches!(p.as_str(), ".." | "." | "/"));
+                    if c == std::path::Component::ParentDir && is_folder {
+                        parts.pop();
+                    } else if c != std::path::Component::CurDir {
+                        parts.push(part);
+                    }
+                }
                 *s = parts.join("/");
             }
         }

@@ -46,11 +46,9 @@ fn the_example_scene_composes_its_fragments() {
     // The including file wins: its copper `gold` replaces the fragment's.
     assert_eq!(scene.materials["gold"].base_color, [0.95, 0.64, 0.54]);
     assert!(scene.materials.contains_key("softbox") && scene.materials.contains_key("glass"));
-    // Paths in a fragment are relative to the fragment.
-    assert_eq!(
-        scene.textures["glaze"].file,
-        "common/../textures/vase_glaze.png"
-    );
+    // Paths in a fragment are relative to the fragment (`../textures/…` from `common/`),
+    // written relative to the scene's folder.
+    assert_eq!(scene.textures["glaze"].file, "textures/vase_glaze.png");
     // Included objects come first, in include order, then the scene's own.
     let names: Vec<_> = scene.objects.iter().map(Object::name).collect();
     assert_eq!(
