@@ -76,7 +76,6 @@ fn run_wave<const W: usize>(
     let mut rays: [Option<Ray>; W] = [None; W];
     let mut hits: [Option<SurfaceHit>; W] = [None; W];
     let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
-    let mut shadows: [Option<(Ray, f32)>; W] = [None; W];
     loop {
         for (lane, ray) in lanes.iter_mut().zip(&mut rays) {
             if lane.is_none() {
@@ -98,13 +97,15 @@ fn run_wave<const W: usize>(
                 .path
                 .shade(scene, hits[i].as_ref(), u_light[i], &mut vertices[i])
             {
-                vertices[i] = None;
                 finish(&mut lanes[i], sums);
             }
-            shadows[i] = vertices[i]
-                .as_ref()
-                .and_then(|v| v.shadow.map(|s| (s.ray, s.t_max)));
         }
+        // Only this step's vertices: a lane that is idle or whose path just ended traces none.
+        let shadows: [Option<(Ray, f32)>; W] = std::array::from_fn(|i| {
+            vertices[i]
+                .as_ref()
+                .and_then(|v| v.shadow.map(|s| (s.ray, s.t_max)))
+        });
         stats.rays += shadows.iter().flatten().count() as u64;
         let blocked = scene.occluded_lanes(&shadows);
         let mut scattering =
