@@ -3,6 +3,7 @@
 
 use std::f32::consts::PI;
 
+use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{luminance, Rgb, Vec2, Vec3};
 
 /// A light that next-event estimation can sample.
@@ -549,6 +550,116 @@ impl SphericalTriangle {
             (0.0, 0.0)
         };
         Some((wi, q, t, (b1, b2)))
+    }
+}
+
+/// The triangle lights that a wave's lanes sample, one per lane (structure of arrays), for
+/// [`TriangleLanes::sample`].
+pub(crate) struct TriangleLanes<const W: usize> {
+    v: [V3s<W>; 3],
+    n: V3s<W>,
+    area: F32s<W>,
+    two_sided: Mask<W>,
+    centroid: V3s<W>,
+    r2: F32s<W>,
+}
+
+/// What [`TriangleLanes::sample`] found in each lane.
+pub(crate) struct TriangleSamples<const W: usize> {
+    /// The lanes it decided: those behind a one-sided emitter and those that sample the
+    /// triangle by area ([`Light::sample`]'s choice, with its bounds); in the others the
+    /// triangle may subtend [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`], and [`Light::sample`]
+    /// decides.
+    pub decided: Mask<W>,
+    /// The decided lanes with a sample ([`Light::sample`] gives `Some`).
+    pub valid: Mask<W>,
+    /// Unit direction to the sampled point.
+    pub wi: V3s<W>,
+    /// The sampled point.
+    pub point: V3s<W>,
+    /// Its solid-angle pdf.
+    pub pdf: F32s<W>,
+}
+
+impl<const W: usize> TriangleLanes<W> {
+    /// No lights: every lane's data zero (its results mean nothing until [`set`](Self::set)).
+    pub fn new() -> Self {
+        TriangleLanes {
+            v: [V3s::default(); 3],
+            n: V3s::default(),
+            area: F32s::default(),
+            two_sided: Mask::splat(false),
+            centroid: V3s::default(),
+            r2: F32s::default(),
+        }
+    }
+
+    /// Lane `i` samples `light`, when it is a triangle (other kinds leave the lane as it was).
+    #[inline]
+    pub fn set(&mut self, i: usize, light: &Light) {
+        if let Light::Triangle {
+            v,
+            n,
+            area,
+            two_sided,
+            sphere: (centroid, r2),
+            ..
+        } = light
+        {
+            for (lanes, corner) in self.v.iter_mut().zip(v) {
+                lanes.set(i, *corner);
+            }
+            self.n.set(i, *n);
+            self.area[i] = *area;
+            self.two_sided.set(i, *two_sided);
+            self.centroid.set(i, *centroid);
+            self.r2[i] = *r2;
+        }
+    }
+
+    /// Each lane's unit normal (front side).
+    #[inline(always)]
+    pub fn normal(&self) -> V3s<W> {
+        self.n
+    }
+
+    /// [`Light::sample`] of each lane's triangle from `p` with the 2D point `u`, where the
+    /// triangle is sampled by area: the same operations lane by lane, so the same bits.
+    #[inline(always)]
+    pub fn sample(&self, p: V3s<W>, u: (F32s<W>, F32s<W>)) -> TriangleSamples<W> {
+        let zero = F32s::splat(0.0);
+        let [v0, v1, v2] = self.v;
+        let behind = !self.two_sided & self.n.dot(p - v0).le(zero);
+        // `SphericalTriangle::seen_from`'s bounds, each lane's decision as there.
+        let d2 = (p - self.centroid).length_squared();
+        let far = self.r2.lt(F32s::splat(SPHERICAL_SAMPLING_FAR_SIN2) * d2);
+        let sin2 = self.r2 / d2;
+        let bound = F32s::splat(2.0 * PI) * sin2 / (1.0 + (1.0 - sin2).sqrt());
+        let small = bound.lt(F32s::splat(SPHERICAL_SAMPLING_MIN_SOLID_ANGLE));
+        let gap = d2.sqrt() - self.r2.sqrt();
+        let h = self.n.dot(p - v0).abs();
+        let near_plane = gap.gt(zero)
+            & (self.area * h).lt(F32s::splat(SPHERICAL_SAMPLING_PLANE_BOUND) * (gap * gap * gap));
+        let by_area = far | (d2.gt(self.r2) & (small | near_plane));
+        // A uniform point on the triangle (pbrt-v4's square-root mapping).
+        let su = u.0.sqrt();
+        let (b0, b1) = (1.0 - su, u.1 * su);
+        let b2 = 1.0 - b0 - b1;
+        let q = v0 * b0 + v1 * b1 + v2 * b2;
+        let w = q - p;
+        let dist2 = w.length_squared();
+        let d = dist2.sqrt();
+        let wi = w / d;
+        let cos_l = self.n.dot(-wi);
+        let facing = !(cos_l.le(zero) & !self.two_sided);
+        let pdf = dist2 / (cos_l.abs() * self.area);
+        TriangleSamples {
+            decided: behind | by_area,
+            valid: !behind & by_area & d.ne(zero) & facing & pdf.is_finite(),
+            wi,
+            point: q,
+            pdf,
+        }
     }
 }
 

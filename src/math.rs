@@ -178,6 +178,38 @@ pub fn offset_origin(p: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     }
 }
 
+/// [`offset_origin`] in every lane, with the same operations per coordinate as
+/// [`offset_towards`] (its branches as selects), so the same bits.
+#[inline(always)]
+pub fn offset_origin_lanes<const W: usize>(
+    p: crate::lanes::V3s<W>,
+    n: crate::lanes::V3s<W>,
+    w: crate::lanes::V3s<W>,
+) -> crate::lanes::V3s<W> {
+    let n = crate::lanes::V3s::select(n.dot(w).lt(crate::lanes::F32s::splat(0.0)), -n, n);
+    crate::lanes::V3s {
+        x: offset_towards_lanes(p.x, n.x),
+        y: offset_towards_lanes(p.y, n.y),
+        z: offset_towards_lanes(p.z, n.z),
+    }
+}
+
+/// One coordinate of [`offset_towards`] in every lane.
+#[inline(always)]
+fn offset_towards_lanes<const W: usize>(
+    p: crate::lanes::F32s<W>,
+    n: crate::lanes::F32s<W>,
+) -> crate::lanes::F32s<W> {
+    use crate::lanes::{F32s, I32s};
+    let nudged = p + F32s::splat(OFFSET_FLOAT_SCALE) * n;
+    let of = (F32s::splat(OFFSET_INT_SCALE) * n).to_i32();
+    let bits = p.to_bits().cast_i32();
+    let of_abs = I32s::select(of.lt(I32s::splat(0)), I32s::splat(0) - of, of);
+    let down = p.lt(F32s::splat(0.0)) ^ of.lt(I32s::splat(0));
+    let moved = F32s::from_bits(I32s::select(down, bits - of_abs, bits + of_abs).cast_u32());
+    F32s::select(p.abs().lt(F32s::splat(OFFSET_ORIGIN)), nudged, moved)
+}
+
 /// Bound of [`offset_origin`]: below this magnitude a coordinate moves by an absolute amount.
 const OFFSET_ORIGIN: f32 = 1.0 / 32.0;
 /// [`offset_origin`]'s absolute offset near the origin, per unit of the normal.

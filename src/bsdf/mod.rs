@@ -11,6 +11,7 @@
 
 use std::f32::consts::FRAC_1_PI;
 
+use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::cosine_hemisphere;
 
@@ -214,6 +215,76 @@ impl Bsdf {
                 m.sample_world_with(&self.frame, self.ng, wo, u_lobe, u, Some(p))
             }
             Lobes::Layered(l) => l.sample(&self.frame, self.ng, wo, u_lobe, u),
+        }
+    }
+}
+
+/// The Lambertian lobes of W lanes (one per lane, structure of arrays) for
+/// [`LambertLanes::sample`]: what [`Bsdf::sample`] reads of a [`Lobes::Lambert`] BSDF.
+pub(crate) struct LambertLanes<const W: usize> {
+    /// The shading frame's axes.
+    pub s: V3s<W>,
+    /// Second tangent.
+    pub t: V3s<W>,
+    /// Shading normal.
+    pub n: V3s<W>,
+    /// Geometric normal.
+    pub ng: V3s<W>,
+    /// Direction to the viewer.
+    pub wo: V3s<W>,
+    /// The 2D sample point.
+    pub u: (F32s<W>, F32s<W>),
+}
+
+/// What [`LambertLanes::sample`] found in each lane.
+pub(crate) struct LambertSamples<const W: usize> {
+    /// The lanes with a sample ([`Bsdf::sample`] gives `Some`).
+    pub valid: Mask<W>,
+    /// The sampled direction.
+    pub wi: V3s<W>,
+    /// Its pdf.
+    pub pdf: F32s<W>,
+}
+
+impl<const W: usize> LambertLanes<W> {
+    /// [`Bsdf::sample`] of a Lambertian BSDF in every lane, compiled for the widest vector
+    /// instructions the CPU has that suit W lanes.
+    pub fn sample(&self) -> LambertSamples<W> {
+        crate::lanes::widest!(W, lanes: &LambertLanes<W> => LambertSamples<W>, self,
+            lanes.sample_here())
+    }
+
+    /// The operations of [`Bsdf::sample`]'s Lambertian case, [`cosine_hemisphere`] and
+    /// [`crate::sampling::concentric_disk`], in their order, so with their bits.
+    #[inline(always)]
+    fn sample_here(&self) -> LambertSamples<W> {
+        use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+        let zero = F32s::splat(0.0);
+        let lo_z = self.wo.dot(self.n);
+        // The concentric map of the unit square to the disk.
+        let (ox, oy) = (self.u.0 * 2.0 - 1.0, self.u.1 * 2.0 - 1.0);
+        let centre = ox.eq(zero) & oy.eq(zero);
+        let by_x = ox.abs().gt(oy.abs());
+        let r = F32s::select(by_x, ox, oy);
+        let theta = F32s::select(
+            by_x,
+            FRAC_PI_4 * (oy / ox),
+            FRAC_PI_2 - FRAC_PI_4 * (ox / oy),
+        );
+        let (sin, cos) = theta.sin_cos();
+        let (dx, dy) = (
+            F32s::select(centre, zero, r * cos),
+            F32s::select(centre, zero, r * sin),
+        );
+        // Lifted to the hemisphere (Malley), on the side of `wo`.
+        let z = (1.0 - (dx * dx + dy * dy)).max(zero).sqrt();
+        let pdf = z * FRAC_1_PI;
+        let wi = self.s * dx + self.t * dy + self.n * z.copysign(lo_z);
+        let across = (self.wo.dot(self.ng) * wi.dot(self.ng)).le(zero);
+        LambertSamples {
+            valid: lo_z.ne(zero) & !z.le(zero) & !across,
+            wi,
+            pdf,
         }
     }
 }

@@ -4,12 +4,16 @@
 //! Depth is counted as in Mitsuba 3: the camera ray's hit is vertex 1, emission seen there is a
 //! path of depth 1, light sampled from it a path of depth 2, and so on up to `max_depth`.
 
-use crate::bsdf::Bsdf;
+use std::f32::consts::FRAC_1_PI;
+
+use crate::bsdf::{Bsdf, BsdfSample, LambertLanes, Lobes};
 use crate::geometry::SurfaceHit;
 use crate::integrator::direct::{sample_light, Strategy};
 use crate::integrator::{spawn, TraceStats};
+use crate::lanes::{F32s, Mask, V3s};
+use crate::light::{Light, TriangleLanes};
 use crate::material::Material;
-use crate::math::{Ray, Rgb, Vec3};
+use crate::math::{offset_origin_lanes, Ray, Rgb, Vec3};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
@@ -60,6 +64,8 @@ pub struct Vertex<'a> {
     wo: Vec3,
     /// BSDF samples drawn for direct light here (see [`SPLIT`]), or 1.
     split: f32,
+    /// Whether next-event estimation samples a light here (some lobe is not a Dirac delta).
+    needs_light: bool,
     /// The light sample's shadow ray, if it can add anything.
     pub shadow: Option<Shadow>,
 }
@@ -109,7 +115,6 @@ impl Path {
         &mut self,
         scene: &'a Scene,
         hit: Option<&SurfaceHit>,
-        u_light: glam::Vec2,
         vertex: &mut Option<Vertex<'a>>,
     ) -> bool {
         let depth = self.depth;
@@ -158,36 +163,111 @@ impl Path {
         };
         // Next-event estimation only where a lobe is not a Dirac delta (a vertex that only
         // scatters by delta lobes leaves its point unused).
-        let shadow = if bsdf.has_smooth_lobe() {
-            self.light_sample(scene, hit, &bsdf, wo, split, u_light)
-        } else {
-            None
-        };
+        let needs_light = bsdf.has_smooth_lobe();
         *vertex = Some(Vertex {
             material,
             bsdf,
             wo,
             split,
-            shadow,
+            needs_light,
+            shadow: None,
         });
         true
     }
 
-    /// Next-event estimation at `hit`: one light, chosen (by power or by the light tree, for
-    /// this point and normal) with the first coordinate of `u_light`, which is then remapped to
-    /// sample a point on it. The shadow ray to that point, if the sample can add anything.
+    /// Next-event estimation at a wave's vertices (`vertices[i]`, made by lane `i`'s
+    /// [`shade`](Path::shade) of `hits[i]`, when it needs a light sample): each lane picks a
+    /// light with the first coordinate of its `u_light` (which is then remapped to sample a
+    /// point on it) and leaves the shadow ray in its vertex. Lanes that sample a triangle light
+    /// by area from a Lambertian surface, outside any medium (most of an interior's light
+    /// samples), run in SIMD lanes; the others one at a time. Both compute each lane's numbers
+    /// with the same operations, so a lane's bits are the same whichever way it went and
+    /// whatever the width.
+    pub fn sample_lights<const W: usize>(
+        scene: &Scene,
+        paths: [Option<&Path>; W],
+        hits: &[Option<SurfaceHit>; W],
+        vertices: &mut [Option<Vertex>; W],
+        u_light: &[glam::Vec2; W],
+        scratch: &mut Scratch<W>,
+    ) {
+        let mut picked: [Option<Picked>; W] = [None; W];
+        let mut in_lanes: [Option<&Light>; W] = [None; W];
+        for i in 0..W {
+            let (Some(path), Some(hit), Some(vertex)) = (paths[i], &hits[i], &mut vertices[i])
+            else {
+                continue;
+            };
+            if !vertex.needs_light {
+                continue;
+            }
+            let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light[i].x)
+            else {
+                continue;
+            };
+            let light = &scene.lights[index];
+            let pick = Picked {
+                light: index,
+                pmf,
+                u: glam::Vec2::new(u_x, u_light[i].y),
+            };
+            picked[i] = Some(pick);
+            if path.medium.is_none()
+                && matches!(vertex.bsdf.lobes, Lobes::Lambert(_))
+                && matches!(light, Light::Triangle { .. })
+                && constant_emission(scene, light).is_some()
+            {
+                in_lanes[i] = Some(light);
+            } else {
+                vertex.shadow = path.light_sample(scene, hit, vertex, pick);
+            }
+        }
+        if in_lanes.iter().all(Option::is_none) {
+            return;
+        }
+        let input = &mut scratch.lights;
+        input.gather(scene, &paths, hits, vertices, &picked, &in_lanes);
+        let out = input.run();
+        for i in 0..W {
+            let (Some(path), Some(hit), Some(vertex), Some(pick)) =
+                (paths[i], &hits[i], &mut vertices[i], picked[i])
+            else {
+                continue;
+            };
+            if in_lanes[i].is_none() {
+                continue;
+            }
+            vertex.shadow = if !out.decided.lane(i) {
+                path.light_sample(scene, hit, vertex, pick)
+            } else if out.valid.lane(i) {
+                Some(Shadow {
+                    ray: Ray::new(out.origin.lane(i), out.dir.lane(i)),
+                    t_max: 1.0,
+                    radiance: out.radiance.lane(i),
+                })
+            } else {
+                None
+            };
+        }
+    }
+
+    /// Next-event estimation at `hit` (one lane of [`sample_lights`](Path::sample_lights),
+    /// one at a time) with the light it picked. The shadow ray to the point sampled on the
+    /// light, if the sample can add anything.
     fn light_sample(
         &self,
         scene: &Scene,
         hit: &SurfaceHit,
-        bsdf: &Bsdf,
-        wo: Vec3,
-        split: f32,
-        u_light: glam::Vec2,
+        vertex: &Vertex,
+        Picked { light, pmf, u }: Picked,
     ) -> Option<Shadow> {
-        let (index, pmf, u_x) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x)?;
-        let light = &scene.lights[index];
-        let u = glam::Vec2::new(u_x, u_light.y);
+        let &Vertex {
+            ref bsdf,
+            wo,
+            split,
+            ..
+        } = vertex;
+        let light = &scene.lights[light];
         let incident = sample_light(scene, light, hit, u, Strategy::Mis)?;
         let ls = incident.sample;
         let (f, pdf_bsdf) = bsdf.eval(wo, ls.wi);
@@ -210,11 +290,61 @@ impl Path {
         })
     }
 
+    /// The BSDF samples of a wave's vertices (`None` where a lane has none, or its BSDF
+    /// samples nothing), each with its lane's lobe choice and 2D point `u[i]` (the vertex's
+    /// next sampler dimensions, drawn for every lane at once): for [`scatter`](Path::scatter).
+    /// Lambertian lanes are sampled in SIMD lanes, the others one at a time; a lane's bits are
+    /// the same either way.
+    pub fn sample_bsdfs<const W: usize>(
+        vertices: &[Option<Vertex>; W],
+        u: &[(f32, glam::Vec2); W],
+        scratch: &mut Scratch<W>,
+    ) -> [Option<BsdfSample>; W] {
+        let mut sampled = [None; W];
+        let mut lambert = [None; W];
+        for i in 0..W {
+            let Some(vertex) = &vertices[i] else { continue };
+            match vertex.bsdf.lobes {
+                Lobes::Lambert(albedo) => lambert[i] = Some(albedo),
+                _ => sampled[i] = vertex.bsdf.sample(vertex.wo, u[i].0, u[i].1),
+            }
+        }
+        if lambert.iter().all(Option::is_none) {
+            return sampled;
+        }
+        let lanes = &mut scratch.lambert;
+        for i in 0..W {
+            let (Some(vertex), Some(_)) = (&vertices[i], lambert[i]) else {
+                continue;
+            };
+            let frame = &vertex.bsdf.frame;
+            lanes.s.set(i, frame.s);
+            lanes.t.set(i, frame.t);
+            lanes.n.set(i, frame.n);
+            lanes.ng.set(i, vertex.bsdf.ng);
+            lanes.wo.set(i, vertex.wo);
+            (lanes.u.0[i], lanes.u.1[i]) = (u[i].1.x, u[i].1.y);
+        }
+        let out = lanes.sample();
+        for i in 0..W {
+            if let (Some(albedo), true) = (lambert[i], out.valid.lane(i)) {
+                sampled[i] = Some(BsdfSample {
+                    wi: out.wi.lane(i),
+                    weight: albedo,
+                    pdf: out.pdf[i],
+                    delta: false,
+                    transmitted: false,
+                    etap: 1.0,
+                });
+            }
+        }
+        sampled
+    }
+
     /// Finishes `vertex` (at `hit`): adds its light sample when `unblocked` (what its shadow
-    /// ray found), and samples the BSDF for the path's next ray with the lobe choice and 2D
-    /// point `(u_lobe, u_dir)` (the vertex's next sampler dimensions, drawn by the caller for
-    /// every lane at once); further numbers (the split samples', Russian roulette's) come from
-    /// `sampler`. Returns whether the path goes on.
+    /// ray found), and continues the path by `sampled`, its BSDF sample from
+    /// [`sample_bsdfs`](Path::sample_bsdfs); further numbers (the split samples', Russian
+    /// roulette's) come from `sampler`. Returns whether the path goes on.
     #[allow(clippy::too_many_arguments)]
     pub fn scatter(
         &mut self,
@@ -222,7 +352,7 @@ impl Path {
         hit: &SurfaceHit,
         vertex: &Vertex,
         unblocked: bool,
-        (u_lobe, u_dir): (f32, glam::Vec2),
+        sampled: Option<BsdfSample>,
         sampler: &mut Sampler,
         stats: &mut TraceStats,
     ) -> bool {
@@ -232,13 +362,12 @@ impl Path {
             wo,
             split,
             shadow,
+            ..
         } = vertex;
         if let (Some(shadow), true) = (shadow, unblocked) {
             self.l += shadow.radiance;
         }
         let medium = self.medium;
-        // Continue the path by sampling the BSDF.
-        let sampled = bsdf.sample(wo, u_lobe, u_dir);
         if split > 1.0 {
             // Drawn together, so that over a pixel's samples they are one stratified set; each
             // counts 1/SPLIT, whether or not the others succeed. The path goes on with its own
@@ -301,6 +430,193 @@ impl Path {
         self.depth += 1;
         self.beta != Vec3::ZERO
     }
+}
+
+/// A wave's working memory for the stages that run in SIMD lanes, kept from step to step.
+pub struct Scratch<const W: usize> {
+    lights: LightLanes<W>,
+    lambert: LambertLanes<W>,
+}
+
+impl<const W: usize> Scratch<W> {
+    /// Working memory for a wave of W lanes.
+    pub fn new() -> Self {
+        Scratch {
+            lights: LightLanes::new(),
+            lambert: LambertLanes {
+                s: V3s::default(),
+                t: V3s::default(),
+                n: V3s::default(),
+                ng: V3s::default(),
+                wo: V3s::default(),
+                u: (F32s::default(), F32s::default()),
+            },
+        }
+    }
+}
+
+impl<const W: usize> Default for Scratch<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A lane's light choice for next-event estimation: the light, its probability, and the 2D
+/// point that samples it.
+#[derive(Debug, Clone, Copy)]
+struct Picked {
+    light: usize,
+    pmf: f32,
+    u: glam::Vec2,
+}
+
+/// The radiance of an area light's surface when it is the same everywhere (an emissive
+/// material without an emission texture), and whether both faces emit it.
+fn constant_emission(scene: &Scene, light: &Light) -> Option<(Rgb, bool)> {
+    let material = scene.material_of_light(light)?;
+    (material.is_emissive() && material.emission_texture.is_none())
+        .then_some((material.emission, material.two_sided_emission))
+}
+
+/// The lanes of [`Path::sample_lights`] that sample a triangle light by area from a
+/// Lambertian surface: what [`Path::light_sample`] reads, one lane per path (structure of
+/// arrays; other lanes hold zeros, and their results mean nothing).
+struct LightLanes<const W: usize> {
+    triangles: TriangleLanes<W>,
+    u: (F32s<W>, F32s<W>),
+    pmf: F32s<W>,
+    /// The light's radiance and whether both its faces emit it.
+    emission: V3s<W>,
+    two_sided_emission: Mask<W>,
+    /// The hit point and its geometric normal.
+    p: V3s<W>,
+    ng: V3s<W>,
+    /// The BSDF's shading normal, geometric normal and albedo, and the direction to the eye.
+    frame_n: V3s<W>,
+    bsdf_ng: V3s<W>,
+    albedo: V3s<W>,
+    wo: V3s<W>,
+    split: F32s<W>,
+    beta: V3s<W>,
+}
+
+/// What [`LightLanes::run`] found in each lane.
+struct LightLanesOut<const W: usize> {
+    /// The lanes whose result is here (the others sample a triangle that may be seen large:
+    /// see [`TriangleSamples::decided`](crate::light::TriangleSamples)).
+    decided: Mask<W>,
+    /// The decided lanes with a shadow ray.
+    valid: Mask<W>,
+    origin: V3s<W>,
+    dir: V3s<W>,
+    radiance: V3s<W>,
+}
+
+impl<const W: usize> LightLanes<W> {
+    /// Lanes of nothing (zeros).
+    fn new() -> Self {
+        LightLanes {
+            triangles: TriangleLanes::new(),
+            u: (F32s::default(), F32s::default()),
+            pmf: F32s::default(),
+            emission: V3s::default(),
+            two_sided_emission: Mask::splat(false),
+            p: V3s::default(),
+            ng: V3s::default(),
+            frame_n: V3s::default(),
+            bsdf_ng: V3s::default(),
+            albedo: V3s::default(),
+            wo: V3s::default(),
+            split: F32s::default(),
+            beta: V3s::default(),
+        }
+    }
+
+    /// Sets the lanes of `lights` (the others keep what they held, which means nothing).
+    fn gather(
+        &mut self,
+        scene: &Scene,
+        paths: &[Option<&Path>; W],
+        hits: &[Option<SurfaceHit>; W],
+        vertices: &[Option<Vertex>; W],
+        picked: &[Option<Picked>; W],
+        lights: &[Option<&Light>; W],
+    ) {
+        let l = self;
+        for i in 0..W {
+            let (Some(path), Some(hit), Some(vertex), Some(pick), Some(light)) =
+                (paths[i], &hits[i], &vertices[i], picked[i], lights[i])
+            else {
+                continue;
+            };
+            let (Some((emission, two_sided)), Lobes::Lambert(albedo)) =
+                (constant_emission(scene, light), &vertex.bsdf.lobes)
+            else {
+                continue;
+            };
+            l.triangles.set(i, light);
+            (l.u.0[i], l.u.1[i], l.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
+            l.emission.set(i, emission);
+            l.two_sided_emission.set(i, two_sided);
+            l.p.set(i, hit.p);
+            l.ng.set(i, hit.ng);
+            l.frame_n.set(i, vertex.bsdf.frame.n);
+            l.bsdf_ng.set(i, vertex.bsdf.ng);
+            l.albedo.set(i, *albedo);
+            l.wo.set(i, vertex.wo);
+            l.split[i] = vertex.split;
+            l.beta.set(i, path.beta);
+        }
+    }
+
+    /// [`Path::light_sample`] in every lane, compiled for the widest vector instructions the
+    /// CPU has that suit W lanes (the same operations, so the same bits).
+    fn run(&self) -> LightLanesOut<W> {
+        crate::lanes::widest!(W, lanes: &LightLanes<W> => LightLanesOut<W>, self, lanes.run_here())
+    }
+
+    /// The operations of [`Path::light_sample`], [`sample_light`], `Material::emitted`, the
+    /// Lambertian `Bsdf::eval` and `segment_to`, in their order.
+    #[inline(always)]
+    fn run_here(&self) -> LightLanesOut<W> {
+        let zero = F32s::splat(0.0);
+        let s = self.triangles.sample(self.p, self.u);
+        // The emitter's radiance towards the hit point (none from behind a one-sided one).
+        let cos_emitted = self.triangles.normal().dot(-s.wi);
+        let dark = !self.two_sided_emission & cos_emitted.le(zero);
+        // The Lambertian lobe: f·|cos θi| and its pdf, none across the surface.
+        let (cos_o, cos_i) = (self.wo.dot(self.frame_n), s.wi.dot(self.frame_n));
+        let across = (cos_o * cos_i).le(zero)
+            | (self.wo.dot(self.bsdf_ng) * s.wi.dot(self.bsdf_ng)).le(zero);
+        let pdf_bsdf = cos_i.abs() * FRAC_1_PI;
+        let f = self.albedo * pdf_bsdf;
+        let pdf_light = self.pmf * s.pdf;
+        let weight = power_heuristic_lanes(pdf_light, self.split * pdf_bsdf);
+        let radiance = self.beta * f * self.emission * (weight / pdf_light);
+        // The shadow segment, both ends offset off their surfaces.
+        let dir = s.point - self.p;
+        let origin = offset_origin_lanes(self.p, self.ng, dir);
+        let end = offset_origin_lanes(s.point, self.triangles.normal(), -dir);
+        LightLanesOut {
+            decided: s.decided,
+            valid: s.valid & !dark & !self.emission.is_zero() & !across & !f.is_zero(),
+            origin,
+            dir: end - origin,
+            radiance,
+        }
+    }
+}
+
+/// [`power_heuristic`] in every lane.
+#[inline(always)]
+fn power_heuristic_lanes<const W: usize>(pdf_a: F32s<W>, pdf_b: F32s<W>) -> F32s<W> {
+    let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
+    let weight = F32s::select(
+        a.eq(F32s::splat(f32::INFINITY)),
+        F32s::splat(1.0),
+        a / (a + b),
+    );
+    F32s::select(a.eq(F32s::splat(0.0)), F32s::splat(0.0), weight)
 }
 
 /// BSDF samples drawn for direct light at a glossy-dominated surface seen from the camera (see

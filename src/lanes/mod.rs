@@ -30,6 +30,9 @@
 pub mod math;
 #[cfg(test)]
 mod tests;
+mod vec3s;
+
+pub use vec3s::V3s;
 #[cfg(test)]
 mod tests_f64;
 
@@ -123,6 +126,37 @@ pub fn default_width() -> usize {
     *WIDTH.get_or_init(|| width_from_env().ok().flatten().unwrap_or_else(native_width))
 }
 
+/// The body of a function of W lanes, `$body` (an expression of `$arg: &$ty`), run compiled
+/// for the widest vector instructions the CPU has that suit W: AVX-512 for W ≥ 16, AVX2 for
+/// W ≥ 8 (by `#[target_feature]` copies of it), else the baseline. Every copy performs the same
+/// lane operations, so gives the same bits.
+macro_rules! widest {
+    ($w:ident, $arg:ident: &$ty:ty => $out:ty, $value:expr, $body:expr) => {{
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx512f")]
+            unsafe fn avx512<const $w: usize>($arg: &$ty) -> $out {
+                $body
+            }
+            #[target_feature(enable = "avx2")]
+            unsafe fn avx2<const $w: usize>($arg: &$ty) -> $out {
+                $body
+            }
+            if $w >= 16 && std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F.
+                return unsafe { avx512::<$w>($value) };
+            }
+            if $w >= 8 && std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2.
+                return unsafe { avx2::<$w>($value) };
+            }
+        }
+        let $arg: &$ty = $value;
+        $body
+    }};
+}
+pub(crate) use widest;
+
 /// `if a < b { a } else { b }`: the lanes' minimum (a NaN in either argument gives `b`).
 #[inline(always)]
 pub fn min(a: f32, b: f32) -> f32 {
@@ -168,11 +202,25 @@ macro_rules! lanes_common {
             /// `if_true` in the lanes where `mask` holds, `if_false` in the others.
             #[inline(always)]
             pub fn select(mask: Mask<W>, if_true: Self, if_false: Self) -> Self {
+                if sse2::chunked::<W>() && std::mem::size_of::<$elem>() == 4 {
+                    let mut out = if_false;
+                    for k in 0..W / 4 {
+                        // SAFETY: SSE2 is part of x86-64 (`chunked` holds only there), lanes
+                        // 4k..4k + 4 lie within arrays of W lanes, and the values are 4 bytes.
+                        unsafe {
+                            sse2::select32(&mask.0, &if_true.0, &if_false.0, &mut out.0, 4 * k)
+                        };
+                    }
+                    return out;
+                }
+                // A select per lane (no store under a branch), which vectorises as a blend.
                 let mut out = if_false;
                 for i in 0..W {
-                    if mask.0[i] != 0 {
-                        out.0[i] = if_true.0[i];
-                    }
+                    out.0[i] = if mask.0[i] != 0 {
+                        if_true.0[i]
+                    } else {
+                        out.0[i]
+                    };
                 }
                 out
             }
@@ -213,12 +261,22 @@ macro_rules! lanes_common {
 /// stands for every lane), with its assigning forms when `$assign` is given.
 macro_rules! lanes_binop {
     ($ty:ident, $elem:ty, $trait:ident, $method:ident, |$a:ident, $b:ident| $body:expr
-        $(, $assign:ident, $assign_method:ident)?) => {
+        $(, $assign:ident, $assign_method:ident)? $(; sse2 $sse:ident)?) => {
         impl<const W: usize> $trait for $ty<W> {
             type Output = Self;
             #[inline(always)]
             fn $method(self, rhs: Self) -> Self {
                 let mut out = self;
+                $(
+                    if sse2::chunked::<W>() {
+                        for k in 0..W / 4 {
+                            // SAFETY: SSE2 is part of x86-64 (`chunked` holds only there), and
+                            // lanes 4k..4k + 4 lie within arrays of W lanes, a multiple of 4.
+                            unsafe { sse2::$sse(&self.0, &rhs.0, &mut out.0, 4 * k) };
+                        }
+                        return out;
+                    }
+                )?
                 for i in 0..W {
                     let ($a, $b): ($elem, $elem) = (self.0[i], rhs.0[i]);
                     out.0[i] = $body;
@@ -263,44 +321,57 @@ macro_rules! lanes_binop {
 
 /// Comparisons of one lane type, each giving a [`Mask`].
 macro_rules! lanes_compare {
-    ($ty:ident) => {
+    ($ty:ident, $elem:ty $(; sse2 $f32:ident)?) => {
         impl<const W: usize> $ty<W> {
             #[inline(always)]
-            fn compare(self, rhs: Self, f: impl Fn(bool, bool, bool) -> bool) -> Mask<W> {
-                Mask::from_fn(|i| {
-                    let (a, b) = (self.0[i], rhs.0[i]);
-                    f(a < b, a == b, a > b)
-                })
+            fn compare(self, rhs: Self, op: Comparison) -> Mask<W> {
+                let mut out = Mask([0; W]);
+                $(
+                    // (`$f32` only marks the f32 lanes, which SSE2 compares four at a time.)
+                    let _ = sse2::$f32::<W>;
+                    if sse2::chunked::<W>() {
+                        for k in 0..W / 4 {
+                            // SAFETY: as for the binary operators.
+                            unsafe { sse2::compare_ps(op, &self.0, &rhs.0, &mut out.0, 4 * k) };
+                        }
+                        return out;
+                    }
+                )?
+                // A loop writing every lane (not `from_fn`), which LLVM vectorises.
+                for i in 0..W {
+                    out.0[i] = if op.holds(self.0[i], rhs.0[i]) { !0 } else { 0 };
+                }
+                out
             }
 
             /// Lanes where `self < rhs` (false where either is NaN).
             #[inline(always)]
             pub fn lt(self, rhs: Self) -> Mask<W> {
-                self.compare(rhs, |lt, _, _| lt)
+                self.compare(rhs, Comparison::Lt)
             }
 
             /// Lanes where `self <= rhs` (false where either is NaN).
             #[inline(always)]
             pub fn le(self, rhs: Self) -> Mask<W> {
-                self.compare(rhs, |lt, eq, _| lt || eq)
+                self.compare(rhs, Comparison::Le)
             }
 
             /// Lanes where `self > rhs` (false where either is NaN).
             #[inline(always)]
             pub fn gt(self, rhs: Self) -> Mask<W> {
-                self.compare(rhs, |_, _, gt| gt)
+                self.compare(rhs, Comparison::Gt)
             }
 
             /// Lanes where `self >= rhs` (false where either is NaN).
             #[inline(always)]
             pub fn ge(self, rhs: Self) -> Mask<W> {
-                self.compare(rhs, |_, eq, gt| gt || eq)
+                self.compare(rhs, Comparison::Ge)
             }
 
             /// Lanes where `self == rhs` (false where either is NaN; −0 equals +0).
             #[inline(always)]
             pub fn eq(self, rhs: Self) -> Mask<W> {
-                self.compare(rhs, |_, eq, _| eq)
+                self.compare(rhs, Comparison::Eq)
             }
 
             /// Lanes where `self != rhs` (true where either is NaN).
@@ -312,20 +383,220 @@ macro_rules! lanes_compare {
     };
 }
 
+/// A comparison of two lanes' values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Comparison {
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+}
+
+impl Comparison {
+    /// Whether `a` compares to `b` so.
+    #[inline(always)]
+    fn holds<T: PartialOrd>(self, a: T, b: T) -> bool {
+        match self {
+            Comparison::Lt => a < b,
+            Comparison::Le => a <= b,
+            Comparison::Gt => a > b,
+            Comparison::Ge => a >= b,
+            Comparison::Eq => a == b,
+        }
+    }
+}
+
+/// The f32 lanes' operations four lanes at a time in SSE2 registers (part of every x86-64),
+/// when W is a multiple of 4: the same IEEE-754 operations, so the same bits, in vector
+/// instructions whatever LLVM's vectoriser makes of the lane loops (it leaves some lanes of
+/// long expressions scalar). Inside functions compiled for AVX2 or AVX-512, LLVM may join
+/// neighbouring chunks into wider registers.
+mod sse2 {
+    /// Whether the operations run in SSE2 chunks.
+    #[inline(always)]
+    pub(super) const fn chunked<const W: usize>() -> bool {
+        cfg!(target_arch = "x86_64") && W.is_multiple_of(4) && W > 0
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    use std::arch::x86_64::*;
+
+    /// Binary operations on lanes `k..k + 4`.
+    macro_rules! binary {
+        ($($name:ident = $intrinsic:ident),*) => {$(
+            /// Lanes `k..k + 4` of `out` from those of `a` and `b`.
+            ///
+            /// # Safety
+            /// `k + 4 <= W`, on x86-64 only.
+            #[inline(always)]
+            pub(super) unsafe fn $name<const W: usize>(
+                a: &[f32; W],
+                b: &[f32; W],
+                out: &mut [f32; W],
+                k: usize,
+            ) {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: the caller keeps k + 4 within the arrays.
+                unsafe {
+                    let r = $intrinsic(_mm_loadu_ps(a.as_ptr().add(k)), _mm_loadu_ps(b.as_ptr().add(k)));
+                    _mm_storeu_ps(out.as_mut_ptr().add(k), r);
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                unreachable!("{a:?}{b:?}{out:?}{k}");
+            }
+        )*};
+    }
+    binary!(
+        add_ps = _mm_add_ps,
+        sub_ps = _mm_sub_ps,
+        mul_ps = _mm_mul_ps,
+        div_ps = _mm_div_ps
+    );
+
+    /// Unary operations on lanes `k..k + 4`.
+    macro_rules! unary {
+        ($($name:ident = |$v:ident| $body:expr),*) => {$(
+            /// Lanes `k..k + 4` of `out` from those of `a`.
+            ///
+            /// # Safety
+            /// `k + 4 <= W`, on x86-64 only.
+            #[inline(always)]
+            pub(super) unsafe fn $name<const W: usize>(a: &[f32; W], out: &mut [f32; W], k: usize) {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: the caller keeps k + 4 within the arrays.
+                unsafe {
+                    let $v = _mm_loadu_ps(a.as_ptr().add(k));
+                    _mm_storeu_ps(out.as_mut_ptr().add(k), $body);
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                unreachable!("{a:?}{out:?}{k}");
+            }
+        )*};
+    }
+    unary!(
+        neg_ps = |v| _mm_xor_ps(v, _mm_set1_ps(-0.0)),
+        abs_ps = |v| _mm_andnot_ps(_mm_set1_ps(-0.0), v),
+        sqrt_ps = |v| _mm_sqrt_ps(v)
+    );
+
+    /// Lanes `k..k + 4` of `out`: all ones where `a op b`, zero elsewhere.
+    ///
+    /// # Safety
+    /// `k + 4 <= W`, on x86-64 only.
+    #[inline(always)]
+    pub(super) unsafe fn compare_ps<const W: usize>(
+        op: super::Comparison,
+        a: &[f32; W],
+        b: &[f32; W],
+        out: &mut [u32; W],
+        k: usize,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the caller keeps k + 4 within the arrays.
+        unsafe {
+            let (a, b) = (
+                _mm_loadu_ps(a.as_ptr().add(k)),
+                _mm_loadu_ps(b.as_ptr().add(k)),
+            );
+            let r = match op {
+                super::Comparison::Lt => _mm_cmplt_ps(a, b),
+                super::Comparison::Le => _mm_cmple_ps(a, b),
+                super::Comparison::Gt => _mm_cmpgt_ps(a, b),
+                super::Comparison::Ge => _mm_cmpge_ps(a, b),
+                super::Comparison::Eq => _mm_cmpeq_ps(a, b),
+            };
+            _mm_storeu_ps(out.as_mut_ptr().add(k).cast(), r);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        unreachable!("{op:?}{a:?}{b:?}{out:?}{k}");
+    }
+
+    /// Lanes `k..k + 4` of 32-bit values: `t` where `mask` is all ones, `f` where it is zero.
+    ///
+    /// # Safety
+    /// `k + 4 <= W`, on x86-64 only; `T` is 4 bytes.
+    #[inline(always)]
+    pub(super) unsafe fn select32<T: Copy + std::fmt::Debug, const W: usize>(
+        mask: &[u32; W],
+        t: &[T; W],
+        f: &[T; W],
+        out: &mut [T; W],
+        k: usize,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the caller keeps k + 4 within the arrays of 4-byte values.
+        unsafe {
+            let m = _mm_loadu_si128(mask.as_ptr().add(k).cast());
+            let t = _mm_loadu_si128(t.as_ptr().add(k).cast());
+            let f = _mm_loadu_si128(f.as_ptr().add(k).cast());
+            let r = _mm_or_si128(_mm_and_si128(m, t), _mm_andnot_si128(m, f));
+            _mm_storeu_si128(out.as_mut_ptr().add(k).cast(), r);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        unreachable!("{mask:?}{t:?}{f:?}{out:?}{k}");
+    }
+
+    /// Lanes `k..k + 4` of masks combined bit by bit: `a & b`, `a | b`, `a ^ b`, `!a`.
+    macro_rules! logic {
+        ($($name:ident = |$a:ident, $b:ident| $body:expr),*) => {$(
+            /// Lanes `k..k + 4` of `out` from those of `a` and `b`.
+            ///
+            /// # Safety
+            /// `k + 4 <= W`, on x86-64 only.
+            #[inline(always)]
+            pub(super) unsafe fn $name<const W: usize>(
+                a: &[u32; W],
+                b: &[u32; W],
+                out: &mut [u32; W],
+                k: usize,
+            ) {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: the caller keeps k + 4 within the arrays.
+                unsafe {
+                    let $a = _mm_loadu_si128(a.as_ptr().add(k).cast());
+                    let $b = _mm_loadu_si128(b.as_ptr().add(k).cast());
+                    _mm_storeu_si128(out.as_mut_ptr().add(k).cast(), $body);
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                unreachable!("{a:?}{b:?}{out:?}{k}");
+            }
+        )*};
+    }
+    logic!(
+        and = |a, b| _mm_and_si128(a, b),
+        or = |a, b| _mm_or_si128(a, b),
+        xor = |a, b| _mm_xor_si128(a, b),
+        and_not = |a, b| _mm_andnot_si128(b, a)
+    );
+}
+
 /// Floating-point lanes: arithmetic, min/max, and the IEEE-exact functions.
 macro_rules! lanes_float {
-    ($ty:ident, $elem:ident, $bits_ty:ident) => {
+    ($ty:ident, $elem:ident, $bits_ty:ident
+        $(; sse2 $add:ident, $sub:ident, $mul:ident, $div:ident, $neg:ident, $abs:ident,
+        $sqrt:ident)?) => {
         lanes_common!($ty, $elem);
-        lanes_compare!($ty);
-        lanes_binop!($ty, $elem, Add, add, |a, b| a + b, AddAssign, add_assign);
-        lanes_binop!($ty, $elem, Sub, sub, |a, b| a - b, SubAssign, sub_assign);
-        lanes_binop!($ty, $elem, Mul, mul, |a, b| a * b, MulAssign, mul_assign);
-        lanes_binop!($ty, $elem, Div, div, |a, b| a / b, DivAssign, div_assign);
+        lanes_compare!($ty, $elem $(; sse2 $add)?);
+        lanes_binop!($ty, $elem, Add, add, |a, b| a + b, AddAssign, add_assign $(; sse2 $add)?);
+        lanes_binop!($ty, $elem, Sub, sub, |a, b| a - b, SubAssign, sub_assign $(; sse2 $sub)?);
+        lanes_binop!($ty, $elem, Mul, mul, |a, b| a * b, MulAssign, mul_assign $(; sse2 $mul)?);
+        lanes_binop!($ty, $elem, Div, div, |a, b| a / b, DivAssign, div_assign $(; sse2 $div)?);
 
         impl<const W: usize> Neg for $ty<W> {
             type Output = Self;
             #[inline(always)]
             fn neg(self) -> Self {
+                $(
+                    if sse2::chunked::<W>() {
+                        let mut out = self;
+                        for k in 0..W / 4 {
+                            // SAFETY: as for the binary operators.
+                            unsafe { sse2::$neg(&self.0, &mut out.0, 4 * k) };
+                        }
+                        return out;
+                    }
+                )?
                 Self(self.0.map(|a| -a))
             }
         }
@@ -334,12 +605,32 @@ macro_rules! lanes_float {
             /// |x| (the sign bit cleared, NaN included).
             #[inline(always)]
             pub fn abs(self) -> Self {
+                $(
+                    if sse2::chunked::<W>() {
+                        let mut out = self;
+                        for k in 0..W / 4 {
+                            // SAFETY: as for the binary operators.
+                            unsafe { sse2::$abs(&self.0, &mut out.0, 4 * k) };
+                        }
+                        return out;
+                    }
+                )?
                 Self(self.0.map(|a| a.abs()))
             }
 
             /// √x, correctly rounded (NaN below −0; √−0 = −0).
             #[inline(always)]
             pub fn sqrt(self) -> Self {
+                $(
+                    if sse2::chunked::<W>() {
+                        let mut out = self;
+                        for k in 0..W / 4 {
+                            // SAFETY: as for the binary operators.
+                            unsafe { sse2::$sqrt(&self.0, &mut out.0, 4 * k) };
+                        }
+                        return out;
+                    }
+                )?
                 Self(self.0.map(|a| a.sqrt()))
             }
 
@@ -394,7 +685,7 @@ macro_rules! lanes_float {
     };
 }
 
-lanes_float!(F32s, f32, U32s);
+lanes_float!(F32s, f32, U32s; sse2 add_ps, sub_ps, mul_ps, div_ps, neg_ps, abs_ps, sqrt_ps);
 lanes_float!(F64s, f64, U64s);
 
 impl<const W: usize> F32s<W> {
@@ -419,7 +710,33 @@ impl<const W: usize> F32s<W> {
     /// Lane-wise `x as i32`: toward zero, saturating at the `i32` range, NaN → 0.
     #[inline(always)]
     pub fn to_i32(self) -> I32s<W> {
-        I32s(self.0.map(|a| a as i32))
+        // `a as i32` saturates, which LLVM leaves scalar; SSE2's truncation and two fix-ups
+        // give the same values four lanes at a time.
+        const TWO_31: f32 = 2_147_483_648.0;
+        let mut out = I32s([0; W]);
+        #[cfg(target_arch = "x86_64")]
+        if sse2::chunked::<W>() {
+            use std::arch::x86_64::*;
+            for c in 0..W / 4 {
+                // SAFETY: SSE2 is part of x86-64; each load and store covers lanes 4c..4c + 4 of
+                // arrays of W lanes, W a multiple of 4.
+                unsafe {
+                    let a = _mm_loadu_ps(self.0.as_ptr().add(4 * c));
+                    // 0x8000_0000 (i32::MIN) for NaN and out-of-range lanes …
+                    let t = _mm_cvttps_epi32(a);
+                    // … which becomes i32::MAX at and above 2³¹ and 0 for NaN, as `as i32` does.
+                    let big = _mm_castps_si128(_mm_cmpge_ps(a, _mm_set1_ps(TWO_31)));
+                    let nan = _mm_castps_si128(_mm_cmpunord_ps(a, a));
+                    let r = _mm_andnot_si128(nan, _mm_xor_si128(t, big));
+                    _mm_storeu_si128(out.0.as_mut_ptr().add(4 * c).cast(), r);
+                }
+            }
+            return out;
+        }
+        for (o, &a) in out.0.iter_mut().zip(&self.0) {
+            *o = a as i32;
+        }
+        out
     }
 
     /// Each lane widened to `f64` (exact).
@@ -459,7 +776,7 @@ impl<const W: usize> F64s<W> {
 macro_rules! lanes_int {
     ($ty:ident, $elem:ty) => {
         lanes_common!($ty, $elem);
-        lanes_compare!($ty);
+        lanes_compare!($ty, $elem);
         lanes_binop!(
             $ty,
             $elem,
@@ -587,6 +904,12 @@ impl<const W: usize> Mask<W> {
         Self(std::array::from_fn(|i| if f(i) { !0 } else { 0 }))
     }
 
+    /// Sets lane `i` to `b`.
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, b: bool) {
+        self.0[i] = if b { !0 } else { 0 };
+    }
+
     /// Whether lane `i` holds.
     #[inline(always)]
     pub fn lane(self, i: usize) -> bool {
@@ -616,7 +939,19 @@ impl<const W: usize> BitAnd for Mask<W> {
     type Output = Self;
     #[inline(always)]
     fn bitand(self, rhs: Self) -> Self {
-        Self(std::array::from_fn(|i| self.0[i] & rhs.0[i]))
+        let mut out = self;
+        if sse2::chunked::<W>() {
+            for k in 0..W / 4 {
+                // SAFETY: SSE2 is part of x86-64 (`chunked` holds only there), and lanes
+                // 4k..4k + 4 lie within arrays of W lanes.
+                unsafe { sse2::and(&self.0, &rhs.0, &mut out.0, 4 * k) };
+            }
+            return out;
+        }
+        for i in 0..W {
+            out.0[i] &= rhs.0[i];
+        }
+        out
     }
 }
 
@@ -624,7 +959,19 @@ impl<const W: usize> BitOr for Mask<W> {
     type Output = Self;
     #[inline(always)]
     fn bitor(self, rhs: Self) -> Self {
-        Self(std::array::from_fn(|i| self.0[i] | rhs.0[i]))
+        let mut out = self;
+        if sse2::chunked::<W>() {
+            for k in 0..W / 4 {
+                // SAFETY: SSE2 is part of x86-64 (`chunked` holds only there), and lanes
+                // 4k..4k + 4 lie within arrays of W lanes.
+                unsafe { sse2::or(&self.0, &rhs.0, &mut out.0, 4 * k) };
+            }
+            return out;
+        }
+        for i in 0..W {
+            out.0[i] |= rhs.0[i];
+        }
+        out
     }
 }
 
@@ -632,7 +979,19 @@ impl<const W: usize> BitXor for Mask<W> {
     type Output = Self;
     #[inline(always)]
     fn bitxor(self, rhs: Self) -> Self {
-        Self(std::array::from_fn(|i| self.0[i] ^ rhs.0[i]))
+        let mut out = self;
+        if sse2::chunked::<W>() {
+            for k in 0..W / 4 {
+                // SAFETY: SSE2 is part of x86-64 (`chunked` holds only there), and lanes
+                // 4k..4k + 4 lie within arrays of W lanes.
+                unsafe { sse2::xor(&self.0, &rhs.0, &mut out.0, 4 * k) };
+            }
+            return out;
+        }
+        for i in 0..W {
+            out.0[i] ^= rhs.0[i];
+        }
+        out
     }
 }
 
@@ -640,6 +999,14 @@ impl<const W: usize> Not for Mask<W> {
     type Output = Self;
     #[inline(always)]
     fn not(self) -> Self {
+        if sse2::chunked::<W>() {
+            let mut out = self;
+            for k in 0..W / 4 {
+                // SAFETY: as for `&`.
+                unsafe { sse2::and_not(&[!0; W], &self.0, &mut out.0, 4 * k) };
+            }
+            return out;
+        }
         Self(self.0.map(|m| !m))
     }
 }

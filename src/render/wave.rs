@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::PixelSum;
 use crate::geometry::SurfaceHit;
-use crate::integrator::path::{Path, Vertex};
+use crate::integrator::path::{Path, Scratch, Vertex};
 use crate::integrator::{raycast, TraceStats};
 use crate::math::{Ray, Vec2};
 use crate::sampler::Sampler;
@@ -76,6 +76,7 @@ fn run_wave<const W: usize>(
     let mut rays: [Option<Ray>; W] = [None; W];
     let mut hits: [Option<SurfaceHit>; W] = [None; W];
     let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
+    let mut scratch = Box::new(Scratch::<W>::new());
     loop {
         for (lane, ray) in lanes.iter_mut().zip(&mut rays) {
             if lane.is_none() {
@@ -93,13 +94,18 @@ fn run_wave<const W: usize>(
             Sampler::get_2d_lanes(lanes.each_mut().map(|l| l.as_mut().map(|l| &mut l.sampler)));
         for i in 0..W {
             let Some(lane) = &mut lanes[i] else { continue };
-            if !lane
-                .path
-                .shade(scene, hits[i].as_ref(), u_light[i], &mut vertices[i])
-            {
+            if !lane.path.shade(scene, hits[i].as_ref(), &mut vertices[i]) {
                 finish(&mut lanes[i], sums);
             }
         }
+        Path::sample_lights(
+            scene,
+            lanes.each_ref().map(|l| l.as_ref().map(|l| &l.path)),
+            &hits,
+            &mut vertices,
+            &u_light,
+            &mut scratch,
+        );
         // Only this step's vertices: a lane that is idle or whose path just ended traces none.
         let shadows: [Option<(Ray, f32)>; W] = std::array::from_fn(|i| {
             vertices[i]
@@ -118,6 +124,7 @@ fn run_wave<const W: usize>(
                 });
         let u_scatter: [_; W] =
             Sampler::get_choice_2d_lanes(std::array::from_fn(|_| scattering.next().flatten()));
+        let sampled = Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch);
         for i in 0..W {
             let (Some(vertex), Some(lane), Some(hit)) = (&vertices[i], &mut lanes[i], &hits[i])
             else {
@@ -128,7 +135,7 @@ fn run_wave<const W: usize>(
                 hit,
                 vertex,
                 !blocked[i],
-                u_scatter[i],
+                sampled[i],
                 &mut lane.sampler,
                 stats,
             );
