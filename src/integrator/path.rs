@@ -180,9 +180,9 @@ impl Path {
     /// light with the first coordinate of its `u_light` (which is then remapped to sample a
     /// point on it) and leaves the shadow ray in its vertex. Lanes that sample a triangle light
     /// by area from a Lambertian surface, outside any medium (most of an interior's light
-    /// samples), run in SIMD lanes; the others one at a time. Both compute each lane's numbers
-    /// with the same operations, so a lane's bits are the same whichever way it went and
-    /// whatever the width.
+    /// samples), run in SIMD lanes when the wave is [`LANE_KERNELS_FROM`] lanes wide or more;
+    /// the others one at a time. Both compute each lane's numbers with the same operations, so
+    /// a lane's bits are the same whichever way it went and whatever the width.
     pub fn sample_lights<const W: usize>(
         scene: &Scene,
         paths: [Option<&Path>; W],
@@ -212,7 +212,8 @@ impl Path {
                 u: glam::Vec2::new(u_x, u_light[i].y),
             };
             picked[i] = Some(pick);
-            if path.medium.is_none()
+            if LANE_KERNELS_FROM <= W
+                && path.medium.is_none()
                 && matches!(vertex.bsdf.lobes, Lobes::Lambert(_))
                 && matches!(light, Light::Triangle { .. })
                 && constant_emission(scene, light).is_some()
@@ -293,8 +294,8 @@ impl Path {
     /// The BSDF samples of a wave's vertices (`None` where a lane has none, or its BSDF
     /// samples nothing), each with its lane's lobe choice and 2D point `u[i]` (the vertex's
     /// next sampler dimensions, drawn for every lane at once): for [`scatter`](Path::scatter).
-    /// Lambertian lanes are sampled in SIMD lanes, the others one at a time; a lane's bits are
-    /// the same either way.
+    /// Lambertian lanes are sampled in SIMD lanes (from [`LANE_KERNELS_FROM`] lanes on), the
+    /// others one at a time; a lane's bits are the same either way.
     pub fn sample_bsdfs<const W: usize>(
         vertices: &[Option<Vertex>; W],
         u: &[(f32, glam::Vec2); W],
@@ -305,7 +306,7 @@ impl Path {
         for i in 0..W {
             let Some(vertex) = &vertices[i] else { continue };
             match vertex.bsdf.lobes {
-                Lobes::Lambert(albedo) => lambert[i] = Some(albedo),
+                Lobes::Lambert(albedo) if LANE_KERNELS_FROM <= W => lambert[i] = Some(albedo),
                 _ => sampled[i] = vertex.bsdf.sample(vertex.wo, u[i].0, u[i].1),
             }
         }
@@ -431,6 +432,12 @@ impl Path {
         self.beta != Vec3::ZERO
     }
 }
+
+/// The narrowest wave whose stages run their vector kernels. Narrower waves (W = 1) take the
+/// scalar code for every lane: it computes the same bits, with none of the kernels' gathering,
+/// and `tests/lane_widths.rs`, which requires W = 4, 8 and 16 to give W = 1's films, so checks
+/// every kernel against the scalar code it stands for on every scene it renders.
+pub const LANE_KERNELS_FROM: usize = 4;
 
 /// A wave's working memory for the stages that run in SIMD lanes, kept from step to step.
 pub struct Scratch<const W: usize> {
