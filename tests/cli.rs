@@ -496,3 +496,32 @@ fn converted_scenes_name_one_schema_beside_them_and_paths_that_travel() {
         "{\"title\": \"mine\"}"
     );
 }
+
+#[test]
+fn converge_takes_set_and_patch() {
+    // A --set that names nothing is a located error, as in every command that loads a scene.
+    let assert = lumo()
+        .args(["converge", "scenes/cornell.json", "--set", "image.wdth=32"])
+        .assert()
+        .code(2);
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("--set #1:"), "{stderr}");
+    // A valid one changes the scene converge renders: here its size, which no longer matches
+    // the reference's (refused before any render).
+    let dir = tempfile::tempdir().unwrap();
+    let assert = lumo()
+        .args([
+            "converge",
+            "scenes/cornell.json",
+            "--reference",
+            "tests/reference/cornell_mitsuba_4096.exr",
+            "--set",
+            "image.width=32",
+            "-o",
+        ])
+        .arg(dir.path().join("conv"))
+        .assert()
+        .failure();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("but the scene renders 32×"), "{stderr}");
+}
