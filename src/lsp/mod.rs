@@ -1184,6 +1184,109 @@ mod tests {
     }
 
     #[test]
+    fn positions_count_code_units_of_the_negotiated_encoding() {
+        let text = "{\"🎨 é\": 1,\n \"x\": \"é🎨\"}";
+        // The `1` on the first line: after 1 + 1 + 2 + 1 + 1 + 1 + 2 bytes' worth of text.
+        let one = text.find('1').unwrap();
+        let at = |e| position_at(text, one, e);
+        assert_eq!(at(Encoding::Utf8).character, 12);
+        assert_eq!(at(Encoding::Utf16).character, 9);
+        assert_eq!(at(Encoding::Utf32).character, 8);
+        for e in [Encoding::Utf8, Encoding::Utf16, Encoding::Utf32] {
+            assert_eq!(offset_of(text, at(e), e), Some(one), "{e:?}");
+            // lumo's line and column (characters) land on the same place.
+            let lc = schema::locate::line_col(text, one);
+            assert_eq!(position_of(Some(text), lc, e), at(e), "{e:?}");
+        }
+        // Inside the emoji's UTF-16 pair: its start.
+        let inside = lsp::Position {
+            line: 0,
+            character: 3,
+        };
+        assert_eq!(offset_of(text, inside, Encoding::Utf16), Some(2));
+        // Past a line's end: the end of that line.
+        let past = lsp::Position {
+            line: 1,
+            character: 99,
+        };
+        assert_eq!(offset_of(text, past, Encoding::Utf16), Some(text.len()));
+        let offered = serde_json::json!({"capabilities": {"general": {"positionEncodings": ["utf-32", "utf-8"]}}});
+        assert_eq!(Encoding::negotiate(&offered), Encoding::Utf32);
+        assert_eq!(Encoding::negotiate(&serde_json::json!({})), Encoding::Utf16);
+    }
+
+    #[test]
+    fn only_lumo_files_are_lumo_files() {
+        for (text, lumo) in [
+            (
+                r#"{"$schema": "../schema/scene.schema.json", "objects": []}"#,
+                true,
+            ),
+            (
+                r#"{"$schema": "https://example.org/x/scene-fragment.schema.json"}"#,
+                true,
+            ),
+            (r#"{"format_version": 2}"#, true),
+            (r#"{"$schema": "scene.schema.json", "objects": [{"#, true),
+            (r#"{"name": "demo", "version": "1.0.0"}"#, false),
+            (
+                r#"{"$schema": "https://json.schemastore.org/package.json"}"#,
+                false,
+            ),
+            (r#"{"$schema": "not-a-scene.schema.json.bak"}"#, false),
+            (r#"{"name": "x", "#, false),
+        ] {
+            assert_eq!(is_lumo_text(text, None), lumo, "{text}");
+        }
+        // A broken text is judged by its last JSON.
+        assert!(is_lumo_text("{", Some(r#"{"format_version": 2}"#)));
+    }
+
+    #[test]
+    fn contexts_for_member_names_and_file_paths() {
+        let text =
+            r#"{"include": ["lib/a.json"], "objects": [{"sphere": {"center": [0, 0, 0], "ra"#;
+        assert_eq!(
+            context_at(text, text.len()),
+            Some(Context::Key {
+                object: JsonPath::parse("objects[0].sphere"),
+                quoted: true
+            })
+        );
+        let after_comma = text.find(r#", "ra"#).unwrap() + 2;
+        assert!(matches!(
+            context_at(text, after_comma),
+            Some(Context::Key { quoted: false, .. })
+        ));
+        let include = text.find("lib/").unwrap() + 2;
+        let Some(Context::StringValue { path, value }) = context_at(text, include) else {
+            panic!("a string value");
+        };
+        assert_eq!(
+            (path.to_string().as_str(), value.as_str()),
+            ("include[0]", "lib/a.json")
+        );
+        assert!(names_a_file(&path));
+        assert!(names_a_file(&JsonPath::parse("objects[3].mesh.source.obj")));
+        assert!(names_a_file(&JsonPath::parse("textures.wood.file")));
+        assert!(!names_a_file(&JsonPath::parse("materials.red.name")));
+        // Right after a member name, before its `:`, nothing is offered.
+        let named = text.find(r#""include""#).unwrap() + 9;
+        assert_eq!(context_at(text, named), None);
+        let schema: Value = serde_json::from_str(&schema::json_schema()).unwrap();
+        let Some(lsp::CompletionResponse::Array(items)) =
+            keywords(&schema, &JsonPath::parse("objects[0].sphere"), true)
+        else {
+            panic!("completion items");
+        };
+        let names: Vec<&str> = items.iter().map(|i| i.label.as_str()).collect();
+        assert!(
+            names.contains(&"radius") && !names.contains(&"base_color"),
+            "{names:?}"
+        );
+    }
+
+    #[test]
     fn uris_and_paths_round_trip() {
         let p = Path::new("/tmp/a b/ü.json");
         let uri = path_to_uri(p).unwrap();
