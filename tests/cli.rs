@@ -361,3 +361,167 @@ fn scenes_with_includes_flatten_bundle_and_validate_their_fragments() {
         );
     }
 }
+
+/// Every file path a JSON scene stores (textures, meshes, the background image).
+fn stored_paths(doc: &serde_json::Value) -> Vec<String> {
+    let mut found = Vec::new();
+    if let Some(textures) = doc["textures"].as_object() {
+        found.extend(
+            textures
+                .values()
+                .filter_map(|t| t["file"].as_str().map(String::from)),
+        );
+    }
+    for o in doc["objects"].as_array().into_iter().flatten() {
+        let source = &o["mesh"]["source"];
+        found.extend(source["obj"].as_str().map(String::from));
+        found.extend(source["gltf"]["file"].as_str().map(String::from));
+    }
+    found.extend(doc["background"]["image"].as_str().map(String::from));
+    found
+}
+
+#[test]
+fn converted_scenes_name_one_schema_beside_them_and_paths_that_travel() {
+    let dir = tempfile::tempdir().unwrap();
+    let check = |out: &std::path::Path| -> Vec<String> {
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+        assert_eq!(doc["$schema"], "scene.schema.json", "{}", out.display());
+        let beside = out.parent().unwrap().join("scene.schema.json");
+        assert_eq!(
+            std::fs::read_to_string(&beside).unwrap(),
+            lumo_schema::json_schema(),
+            "the schema is written beside {}",
+            out.display()
+        );
+        lumo().arg("validate").arg(out).assert().success();
+        stored_paths(&doc)
+    };
+
+    // Legacy → JSON, written far from the legacy scene's assets (the temporary folder and the
+    // checkout share no folder but the root): absolute paths, never `../../…` up to the root.
+    std::fs::create_dir_all(dir.path().join("legacy")).unwrap();
+    for input in ["transformed_mesh.txt", "textured_sphere.txt"] {
+        let out = dir
+            .path()
+            .join("legacy")
+            .join(input.replace(".txt", ".json"));
+        lumo()
+            .args(["convert", &format!("scenes/legacy/{input}"), "-o"])
+            .arg(&out)
+            .assert()
+            .success();
+        let paths = check(&out);
+        assert!(!paths.is_empty(), "{input}");
+        for p in paths {
+            assert!(std::path::Path::new(&p).is_absolute(), "{input}: {p}");
+        }
+    }
+
+    // A project folder (a scene and its mesh) converted to .glb and back to JSON two folders
+    // down: the mesh's path is relative, and the folder still loads once moved elsewhere.
+    let project = dir.path().join("project");
+    std::fs::create_dir_all(project.join("assets")).unwrap();
+    std::fs::create_dir_all(project.join("out/json")).unwrap();
+    std::fs::copy(
+        common::root().join("scenes/assets/glass_blob.obj"),
+        project.join("assets/glass_blob.obj"),
+    )
+    .unwrap();
+    std::fs::copy(
+        common::root().join("scenes/glass_bunny.json"),
+        project.join("bunny.json"),
+    )
+    .unwrap();
+    lumo()
+        .arg("convert")
+        .arg(project.join("bunny.json"))
+        .arg("-o")
+        .arg(project.join("out/bunny.glb"))
+        .assert()
+        .success();
+    let out = project.join("out/json/bunny.json");
+    lumo()
+        .arg("convert")
+        .arg(project.join("out/bunny.glb"))
+        .arg("-o")
+        .arg(&out)
+        .assert()
+        .success();
+    let paths = check(&out);
+    assert_eq!(paths, ["../../assets/glass_blob.obj"]);
+    let moved = dir.path().join("moved");
+    std::fs::rename(&project, &moved).unwrap();
+    lumo()
+        .arg("validate")
+        .arg(moved.join("out/json/bunny.json"))
+        .assert()
+        .success();
+
+    // A file of that name that is not lumo's schema is left alone.
+    let foreign = dir.path().join("foreign");
+    std::fs::create_dir_all(&foreign).unwrap();
+    std::fs::write(foreign.join("scene.schema.json"), "{\"title\": \"mine\"}").unwrap();
+    // (With a background image, whose path is rewritten for the new folder like the others.)
+    let assert = lumo()
+        .args([
+            "convert",
+            "scenes/cornell.json",
+            "--set",
+            r#"background.image="../tests/reference/cornell_mitsuba_4096.exr""#,
+            "-o",
+        ])
+        .arg(foreign.join("c.json"))
+        .assert()
+        .success();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("not lumo's scene schema"), "{stderr}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(foreign.join("c.json")).unwrap()).unwrap();
+    assert_eq!(
+        stored_paths(&doc),
+        [common::root()
+            .join("tests/reference/cornell_mitsuba_4096.exr")
+            .display()
+            .to_string()]
+    );
+    lumo()
+        .arg("validate")
+        .arg(foreign.join("c.json"))
+        .assert()
+        .success();
+    assert_eq!(
+        std::fs::read_to_string(foreign.join("scene.schema.json")).unwrap(),
+        "{\"title\": \"mine\"}"
+    );
+}
+
+#[test]
+fn converge_takes_set_and_patch() {
+    // A --set that names nothing is a located error, as in every command that loads a scene.
+    let assert = lumo()
+        .args(["converge", "scenes/cornell.json", "--set", "image.wdth=32"])
+        .assert()
+        .code(2);
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("--set #1:"), "{stderr}");
+    // A valid one changes the scene converge renders: here its size, which no longer matches
+    // the reference's (refused before any render).
+    let dir = tempfile::tempdir().unwrap();
+    let assert = lumo()
+        .args([
+            "converge",
+            "scenes/cornell.json",
+            "--reference",
+            "tests/reference/cornell_mitsuba_4096.exr",
+            "--set",
+            "image.width=32",
+            "-o",
+        ])
+        .arg(dir.path().join("conv"))
+        .assert()
+        .failure();
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(stderr.contains("but the scene renders 32×"), "{stderr}");
+}

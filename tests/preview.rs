@@ -558,3 +558,46 @@ fn editing_a_texture_renders_again() {
         mean_blue_minus_red(&after)
     );
 }
+
+#[test]
+fn editing_the_patch_or_an_included_fragment_renders_again() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = cornell_copy(dir.path());
+    // A fragment in a folder of its own, included by the scene.
+    std::fs::create_dir_all(dir.path().join("lib")).expect("mkdir");
+    let fragment = dir.path().join("lib/extra.json");
+    let spare = r#"{"$schema": "scene-fragment.schema.json", "materials": {"spare": {"base_color": [0.5, 0.5, 0.5]}}}"#;
+    write_atomically(&fragment, spare);
+    let text = std::fs::read_to_string(&scene).expect("read");
+    write_atomically(
+        &scene,
+        &text.replacen('{', r#"{"include": ["lib/extra.json"],"#, 1),
+    );
+    // The patch, in a folder the scene reads nothing from.
+    std::fs::create_dir_all(dir.path().join("patches")).expect("mkdir");
+    let patch = dir.path().join("patches/blue.json");
+    write_atomically(
+        &patch,
+        r#"{"materials": {"red": {"base_color": [0.1, 0.1, 0.6]}}}"#,
+    );
+    let mut args = SMALL.to_vec();
+    args.extend(["--patch", patch.to_str().expect("UTF-8 path")]);
+    let preview = Preview::start(&scene, &args);
+    preview.wait_done(1);
+    // A broken patch is reported, placed in the patch file; its fix renders again.
+    write_atomically(&patch, r#"{"materials": {"red": {"base_color": "blue"}}}"#);
+    let bad = preview.wait_for("the patch's problem", |s| s["state"] == "invalid");
+    let report = bad["error"].as_str().unwrap_or_default();
+    assert!(report.contains("blue.json:1:"), "{report}");
+    write_atomically(
+        &patch,
+        r#"{"materials": {"red": {"base_color": [0.6, 0.1, 0.1]}}}"#,
+    );
+    let fixed = preview.wait_done(3);
+    assert_eq!(fixed["error"], Value::Null);
+    // An edit of the included fragment renders again too.
+    write_atomically(&fragment, &spare.replace("0.5, 0.5, 0.5", "0.2, 0.2, 0.2"));
+    let again = preview.wait_done(4);
+    assert_eq!(again["error"], Value::Null);
+}

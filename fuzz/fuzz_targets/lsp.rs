@@ -1,20 +1,24 @@
 //! Fuzzes the language server's message handling (`lumo lsp`, `lumo::lsp::Server`) with
-//! arbitrary bytes, in two ways chosen by the first byte:
+//! arbitrary bytes, in ways chosen by the first byte:
 //! - 0: the rest is a sequence of framed LSP messages (`Content-Length: N` headers and JSON
-//!   bodies, as an editor writes them), each handled, then the documents checked;
-//! - otherwise: the rest is the text of a scene opened in the editor (a file under a temporary
-//!   folder), then completion, hover and go to definition asked at positions taken from the
-//!   first bytes, and the document checked.
+//!   bodies, as an editor writes them), read by `lumo::lsp::framing` (bounded: a huge
+//!   `Content-Length` is skipped, not allocated) and each handled, then the documents checked;
+//! - otherwise: the rest is the text of a document opened in the editor (a file under a
+//!   temporary folder; when the first byte is odd, after `{"$schema": "scene.schema.json",` so
+//!   that most inputs are lumo scenes), then completion, hover and go to definition asked at
+//!   positions taken from the first bytes, counted in UTF-8, UTF-16 or UTF-32 as the first
+//!   byte says, and the document checked.
 //!
-//! Nothing may panic, every request gets exactly one response, and a session that opened a
-//! document publishes its diagnostics.
+//! Nothing may panic, every request gets exactly one response, and an opened document
+//! publishes diagnostics exactly when it is a lumo scene or fragment.
 #![no_main]
 
 use std::sync::OnceLock;
 
 use libfuzzer_sys::fuzz_target;
 use lsp_server::{Message, Notification, Request, RequestId};
-use lumo::lsp::Server;
+use lumo::lsp::framing::{read_message, ReadError};
+use lumo::lsp::{is_lumo_text, Encoding, Server};
 
 /// A folder with a fragment the fuzzed scene can include.
 fn folder() -> &'static std::path::Path {
@@ -42,12 +46,18 @@ fuzz_target!(|data: &[u8]| {
     let Some((&mode, rest)) = data.split_first() else {
         return;
     };
-    let mut server = Server::new();
+    let encoding = [Encoding::Utf8, Encoding::Utf16, Encoding::Utf32][usize::from(mode / 2 % 3)];
+    let mut server = Server::with_encoding(encoding);
     let mut out = Vec::new();
     if mode == 0 {
         let mut reader = rest;
         let mut asked = 0;
-        while let Ok(Some(message)) = Message::read(&mut reader) {
+        loop {
+            let message = match read_message(&mut reader) {
+                Ok(Some(m)) => m,
+                Ok(None) | Err(ReadError::Fatal(_)) => break,
+                Err(ReadError::Skipped(_)) => continue,
+            };
             asked += usize::from(matches!(message, Message::Request(_)));
             if !server.handle(message, &mut out) {
                 break;
@@ -58,7 +68,10 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let (positions, text) = rest.split_at(rest.len().min(6));
-    let text = String::from_utf8_lossy(text).into_owned();
+    let mut text = String::from_utf8_lossy(text).into_owned();
+    if mode % 2 == 1 {
+        text.insert_str(0, r#"{"$schema": "scene.schema.json","#);
+    }
     let uri = format!("file://{}/scene.json", folder().display());
     let open = Notification::new(
         "textDocument/didOpen".into(),
@@ -87,8 +100,12 @@ fuzz_target!(|data: &[u8]| {
     requests_answered(&out, asked);
     out.clear();
     server.check_now(&mut out);
-    assert!(
-        out.iter().any(|m| matches!(m, Message::Notification(n) if n.method == "textDocument/publishDiagnostics")),
-        "an opened document's diagnostics are published"
+    let published = out.iter().any(
+        |m| matches!(m, Message::Notification(n) if n.method == "textDocument/publishDiagnostics"),
+    );
+    assert_eq!(
+        published,
+        is_lumo_text(&text, None),
+        "diagnostics are published for lumo's documents only"
     );
 });

@@ -33,6 +33,11 @@ pub use tolerant::MAX_PARSE_PROBLEMS;
 pub use validate::{validate, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
 pub use validated::Validated;
 
+/// The `"$schema"` scene files written by lumo carry (`lumo convert` to `.json`): the schema's
+/// file name, which `lumo convert` writes next to the scene when that folder has none, so the
+/// reference resolves wherever the folder goes (see `docs/editors.md`).
+pub const SCENE_SCHEMA: &str = "scene.schema.json";
+
 /// The JSON Schema (draft 2020-12) of a scene file, pretty-printed with a trailing newline.
 /// `schema/scene.schema.json` in the repository is exactly this text.
 pub fn json_schema() -> String {

@@ -76,6 +76,10 @@ pub struct ConvergeArgs {
     /// `converge.csv`); one line per label. Rows labelled like this run are left out.
     #[arg(long, value_name = "CSV")]
     pub compare: Vec<PathBuf>,
+    /// Changes to the scene (`--set`, `--patch`), as in `lumo render`; `--width`, `--height`
+    /// and `--sampler` are applied after them.
+    #[command(flatten)]
+    pub compose: super::ComposeArgs,
 }
 
 /// A labelled error-against-time series for the plot.
@@ -164,7 +168,11 @@ pub fn run(args: &ConvergeArgs) -> Result<Vec<Rung>, CliError> {
     for path in &args.compare {
         others.extend(read_series(path, &args.label)?);
     }
-    let mut loaded = lumo::load(&args.scene, &LoadOptions::default())?;
+    let options = LoadOptions {
+        composition: args.compose.composition(Vec::new())?,
+        ..LoadOptions::default()
+    };
+    let mut loaded = lumo::load(&args.scene, &options)?;
     if args.sampler.is_some() || args.width.is_some() || args.height.is_some() {
         loaded.edit(|s| {
             if let Some(k) = args.sampler {

@@ -470,7 +470,9 @@ fn convert_cmd(
     }
     if json_out {
         rebase_paths(&mut scene, &base_dir, &out_dir);
+        scene.schema = Some(schema::SCENE_SCHEMA.into());
         write_text_atomically(output, &schema::to_json(&scene))?;
+        write_schema_beside(&out_dir)?;
     } else if legacy_out {
         rebase_paths(&mut scene, &base_dir, &out_dir);
         let text = lumo_converters::legacy::export(&scene, &out_dir)
@@ -490,11 +492,52 @@ fn convert_cmd(
     Ok(())
 }
 
-/// Rewrites the scene's file paths (relative to `from`) to be relative to `to`.
+/// Writes the scene schema ([`schema::SCENE_SCHEMA`]) into `dir`, where a scene written by
+/// `lumo convert` finds it, unless it is there already; an older lumo's schema is brought up
+/// to date, a file of that name that is not lumo's is left alone with a warning.
+fn write_schema_beside(dir: &Path) -> Result<(), CliError> {
+    let path = dir.join(schema::SCENE_SCHEMA);
+    let text = schema::json_schema();
+    match std::fs::read_to_string(&path) {
+        Ok(existing) if existing == text => Ok(()),
+        Ok(existing) => {
+            let title = serde_json::from_str::<serde_json::Value>(&existing)
+                .ok()
+                .and_then(|v| v.get("title")?.as_str().map(str::to_string));
+            if title.as_deref() == Some("lumo scene") {
+                write_text_atomically(&path, &text)?;
+                eprintln!("updated {}", path.display());
+            } else {
+                eprintln!(
+                    "warning: {}: not lumo's scene schema, left as it is (editors will check \
+                     the scene against it; `lumo schema -o FILE` writes lumo's)",
+                    path.display()
+                );
+            }
+            Ok(())
+        }
+        Err(_) => {
+            write_text_atomically(&path, &text)?;
+            eprintln!("wrote {}", path.display());
+            Ok(())
+        }
+    }
+}
+
+/// Rewrites the scene's file paths (relative to `from`) as a file in `to` stores them:
+/// relative when near, absolute otherwise ([`lumo_schema::geometry::paths::portable`]).
 fn rebase_paths(scene: &mut schema::Scene, from: &Path, to: &Path) {
-    let rel = |f: &mut String| *f = lumo_converters::gltf::relative_path(&from.join(&*f), to);
+    use lumo_schema::geometry::paths::portable;
+    let rel = |f: &mut String| {
+        if !Path::new(f.as_str()).is_absolute() {
+            *f = portable(&from.join(&*f), to);
+        }
+    };
     if lumo_converters::gltf::relative_path(from, to) == "." {
         return;
+    }
+    if let Some(image) = &mut scene.background.image {
+        rel(image);
     }
     for t in scene.textures.values_mut() {
         rel(&mut t.file);

@@ -227,6 +227,8 @@ impl Loaded {
         let mut scene = (*d.scene).clone();
         scene.render.spp = 1;
         scene.render.time_budget_s = None;
+        // Where an editor finds the schema is no part of the render.
+        scene.schema = None;
         for t in scene.textures.values_mut() {
             t.file = file_hash(&t.file)?;
         }

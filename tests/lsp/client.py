@@ -1,7 +1,9 @@
 """A small LSP client (standard library only) that drives `lumo lsp` over stdio as an editor
-would, and checks what a user sees: diagnostics at the positions `lumo validate` reports,
-cleared when fixed, completion of material names, hover on a field, go to definition into an
-included fragment.
+would, and checks what a user sees: diagnostics at the positions `lumo validate` reports
+(counted in UTF-16 code units, and in UTF-8 when the client asks for it, with non-ASCII text
+before them on their line), cleared when fixed, none for a JSON file that is not lumo's,
+completion of material names and of the schema's member names, hover on a field, go to
+definition into an included fragment and from an include or asset path to its file.
 
 Usage: client.py LUMO_EXECUTABLE
 """
@@ -28,6 +30,7 @@ class Client:
         )
         self.next_id = 0
         self.messages = queue.Queue()
+        self.seen = []  # every message from the server, in order
         threading.Thread(target=self._read, daemon=True).start()
 
     def _read(self):
@@ -44,7 +47,9 @@ class Client:
                 name, value = line.split(":", 1)
                 headers[name.lower()] = value.strip()
             body = out.read(int(headers["content-length"]))
-            self.messages.put(json.loads(body))
+            message = json.loads(body)
+            self.seen.append(message)
+            self.messages.put(message)
 
     def send(self, message):
         message["jsonrpc"] = "2.0"
@@ -83,9 +88,24 @@ def uri(path):
     return "file://" + quote(str(path))
 
 
+def units(text, encoding):
+    """The length of `text` in the code units of an LSP position encoding."""
+    if encoding == "utf-16":
+        return len(text.encode("utf-16-le")) // 2
+    if encoding == "utf-8":
+        return len(text.encode("utf-8"))
+    return len(text)
+
+
+def character(path, line, column, encoding):
+    """The LSP character of `lumo validate`'s column (which counts characters) on a line."""
+    text = Path(path).read_text(encoding="utf-8").split("\n")[line - 1]
+    return units(text[: column - 1], encoding)
+
+
 def validate(lumo, path):
     """(file, line, column, 'path: message') of every problem `lumo validate` prints."""
-    out = subprocess.run([lumo, "validate", str(path)], capture_output=True, text=True)
+    out = subprocess.run([lumo, "validate", str(path)], capture_output=True, encoding="utf-8")
     found = set()
     for line in out.stderr.splitlines():
         m = re.match(r"^  (.+?):(\d+):(\d+): (.*?)(?: \(help: .*\))?$", line)
@@ -102,9 +122,10 @@ def main():
     fragment = lib / "materials.json"
     fragment_text = (
         '{\n  "$schema": "scene-fragment.schema.json",\n'
-        '  "materials": {\n    "red": {"base_color": [0.8, 0.1, 0.1], "roughness": "low"}\n  }\n}\n'
+        '  "materials": {\n    "🎨 rouge-écarlate": {"base_color": [0.8, 0.0, 0.1]}, '
+        '"red": {"base_color": [0.8, 0.1, 0.1], "roughness": "low"}\n  }\n}\n'
     )
-    fragment.write_text(fragment_text)
+    fragment.write_text(fragment_text, encoding="utf-8")
     scene = tmp / "scene.json"
     broken = (
         '{\n  "format_version": 2,\n'
@@ -113,16 +134,41 @@ def main():
         '  "materials": {"white": {"base_color": [0.8, 0.8, 0.8]}},\n'
         '  "objects": [\n'
         '    {"sphere": {"center": [0, 0, 0], "radius": -1, "material": "red"}},\n'
-        '    {"sphere": {"center": [0, 2, 0], "radius": 1, "material": "whte"}}\n'
+        '    {"sphere": {"center": [0, 2, 0], "radius": 1, "material": "whte"}},\n'
+        '    {"mesh": {"source": {"obj": "tri.obj"}, "material": "white"}}\n'
         "  ]\n}\n"
     )
-    scene.write_text(broken)
-    expected = validate(lumo, scene)
-    assert len(expected) == 3, expected
+    scene.write_text(broken, encoding="utf-8")
+    (tmp / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", encoding="utf-8")
+    reported = validate(lumo, scene)
+    assert len(reported) == 3, reported
+    # lumo validate counts characters; the protocol's default counts UTF-16 code units (the
+    # emoji before the fragment's problem is one character and two code units).
+    expected = {(f, l, character(f, l, col, "utf-16") + 1, m) for f, l, col, m in reported}
+    assert expected != reported, expected
 
     c = Client(lumo, tmp)
-    c.request("initialize", {"processId": os.getpid(), "rootUri": uri(tmp), "capabilities": {}})
+    init = c.request(
+        "initialize", {"processId": os.getpid(), "rootUri": uri(tmp), "capabilities": {}}
+    )
+    assert init["capabilities"]["positionEncoding"] == "utf-16", init
     c.notify("initialized", {})
+    # A JSON file that is not a lumo scene (no lumo "$schema"): opened, it gets no diagnostics,
+    # and no completion or hover.
+    package = tmp / "package.json"
+    package_text = '{\n  "name": "demo",\n  "version": "1.0.0",\n  "objects": 3\n}\n'
+    package.write_text(package_text, encoding="utf-8")
+    c.notify(
+        "textDocument/didOpen",
+        {
+            "textDocument": {
+                "uri": uri(package), "languageId": "json", "version": 1, "text": package_text,
+            }
+        },
+    )
+    at = {"line": 1, "character": 4}
+    for method in ["textDocument/completion", "textDocument/hover"]:
+        assert c.request(method, {"textDocument": {"uri": uri(package)}, "position": at}) is None
     c.notify(
         "textDocument/didOpen",
         {"textDocument": {"uri": uri(scene), "languageId": "json", "version": 1, "text": broken}},
@@ -140,6 +186,9 @@ def main():
             start = d["range"]["start"]
             seen.add((str(file), start["line"] + 1, start["character"] + 1, d["message"]))
     assert seen == expected, "lsp %s\nvalidate %s" % (sorted(seen), sorted(expected))
+    # The range of the fragment's problem covers its value, "low", in UTF-16 code units too.
+    low = [d for d in got[uri(fragment)] if "roughness" in d["message"]][0]["range"]
+    assert low["end"]["character"] - low["start"]["character"] == 5, low
     # Help text as related information.
     typo = [d for d in got[uri(scene)] if "whte" in d["message"]][0]
     assert "white" in typo["relatedInformation"][0]["message"], typo
@@ -159,7 +208,28 @@ def main():
         "textDocument/completion", {"textDocument": {"uri": uri(scene)}, "position": at}
     )
     labels = sorted(i["label"] for i in items)
-    assert labels == ["red", "white"], labels
+    assert labels == ["red", "white", "🎨 rouge-écarlate"], labels
+
+    # Completion of the schema's member names: a sphere's, inside the quotes of one, and the
+    # top level's, where a member may start.
+    line = typing.splitlines()[6]
+    at = {"line": 6, "character": line.index('"radius"') + 1}
+    items = c.request(
+        "textDocument/completion", {"textDocument": {"uri": uri(scene)}, "position": at}
+    )
+    labels = {i["label"] for i in items}
+    schema = json.loads((Path(__file__).parents[2] / "schema/scene.schema.json").read_text(encoding="utf-8"))
+    assert labels == set(schema["$defs"]["Sphere"]["properties"]), labels
+    assert all("insertText" not in i for i in items), items
+    radius = [i for i in items if i["label"] == "radius"][0]
+    assert "scene units" in radius["documentation"]["value"], radius
+    at = {"line": 1, "character": 2}
+    items = c.request(
+        "textDocument/completion", {"textDocument": {"uri": uri(scene)}, "position": at}
+    )
+    labels = {i["label"] for i in items}
+    assert {"camera", "include", "materials", "objects", "textures"} <= labels, labels
+    assert "radius" not in labels, labels
 
     # Hover on a field: its schema documentation.
     line = typing.splitlines()[6]
@@ -175,7 +245,17 @@ def main():
         "textDocument/definition", {"textDocument": {"uri": uri(scene)}, "position": at}
     )
     assert found["uri"] == uri(fragment), found
-    assert found["range"]["start"] == {"line": 3, "character": 4}, found
+    red_at = units(fragment_text.splitlines()[3].split('"red"')[0], "utf-16")
+    assert found["range"]["start"] == {"line": 3, "character": red_at}, found
+
+    # Go to the file an include names, and the OBJ file a mesh reads.
+    for line_no, text in [(3, "lib/materials.json"), (8, "tri.obj")]:
+        line = typing.splitlines()[line_no]
+        at = {"line": line_no, "character": line.index(text) + 3}
+        found = c.request(
+            "textDocument/definition", {"textDocument": {"uri": uri(scene)}, "position": at}
+        )
+        assert found and found["uri"] == uri(tmp / text), (text, found)
 
     # Fix the scene, then the fragment (unsaved, in the editor): every diagnostic is cleared.
     fixed = broken.replace('"radius": -1', '"radius": 1').replace("whte", "white")
@@ -206,6 +286,34 @@ def main():
         cleared[m["params"]["uri"]] = m["params"]["diagnostics"]
     assert cleared == {uri(scene): [], uri(fragment): []}, cleared
 
+    c.request("shutdown", None)
+    c.notify("exit", None)
+    assert c.proc.wait(timeout=TIMEOUT) == 0
+    published = [
+        m["params"]["uri"] for m in c.seen if m.get("method") == "textDocument/publishDiagnostics"
+    ]
+    assert uri(package) not in published, published
+
+    # A client that offers UTF-8 positions gets them: columns count bytes.
+    c = Client(lumo, tmp)
+    init = c.request(
+        "initialize",
+        {
+            "processId": os.getpid(),
+            "rootUri": uri(tmp),
+            "capabilities": {"general": {"positionEncodings": ["utf-8", "utf-16"]}},
+        },
+    )
+    assert init["capabilities"]["positionEncoding"] == "utf-8", init
+    c.notify("initialized", {})
+    c.notify(
+        "textDocument/didOpen",
+        {"textDocument": {"uri": uri(scene), "languageId": "json", "version": 1, "text": broken}},
+    )
+    diags = c.diagnostics(uri(fragment))
+    want = {(l, character(f, l, col, "utf-8")) for f, l, col, _ in reported if f == str(fragment)}
+    have = {(d["range"]["start"]["line"] + 1, d["range"]["start"]["character"]) for d in diags}
+    assert have == want, (have, want)
     c.request("shutdown", None)
     c.notify("exit", None)
     assert c.proc.wait(timeout=TIMEOUT) == 0

@@ -25,7 +25,7 @@ use super::math::{self, Mat4};
 use super::mesh::{read_primitive, MeshData};
 use super::nodes::{camera_node_matrix, camera_values, light_node_matrix};
 use super::pbr::{self, LightValues, Pbr, TexInfo};
-use lumo_schema::geometry::paths::relative;
+use lumo_schema::geometry::paths::portable;
 
 /// Which glTF camera to look through.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -115,7 +115,7 @@ pub(super) fn import_keeping(
     };
     let imp = Importer {
         l: loaded,
-        file_ref: relative(&loaded.file, &scene_dir),
+        file_ref: portable(&loaded.file, &scene_dir),
         scene_dir,
         warnings: Vec::new(),
         ignored: BTreeSet::new(),
@@ -293,7 +293,7 @@ impl Importer<'_> {
                 image: b
                     .image
                     .as_ref()
-                    .map(|f| relative(&self.l.dir().join(f), &self.scene_dir)),
+                    .map(|f| portable(&self.l.dir().join(f), &self.scene_dir)),
                 ..b
             },
             None if self.lights.is_empty() => {
@@ -308,6 +308,8 @@ impl Importer<'_> {
             None => Background::default(),
         };
         let scene = Scene {
+            // The scene file's own, carried through an export (`lumo convert` writes
+            // `lumo_schema::SCENE_SCHEMA` into every JSON scene it writes).
             schema: scene_extras.schema.clone(),
             format_version: FORMAT_VERSION,
             image,
@@ -526,7 +528,7 @@ impl Importer<'_> {
         let rebase = |this: &mut Self, file: &str| -> Option<String> {
             let full = this.l.dir().join(file);
             if full.is_file() {
-                Some(relative(&full, &this.scene_dir))
+                Some(portable(&full, &this.scene_dir))
             } else {
                 this.warnings.push(format!(
                     "{el}: the original mesh file `{file}` is gone; using the glTF file's copy"
@@ -821,7 +823,7 @@ impl Importer<'_> {
         let exact = ex.and_then(|ex| {
             let full = self.l.dir().join(&ex.texture.file);
             full.is_file().then(|| Texture {
-                file: relative(&full, &self.scene_dir),
+                file: portable(&full, &self.scene_dir),
                 ..ex.texture
             })
         });
@@ -839,7 +841,7 @@ impl Importer<'_> {
                                 format!("texture image `{uri}` not found (looked for {}); copy it next to the glTF file", full.display()),
                             ));
                         }
-                        Some(relative(&full, &self.scene_dir))
+                        Some(portable(&full, &self.scene_dir))
                     }
                     gltf::image::Source::Uri { uri, .. } => {
                         if let Some(r) = decode_data_uri(self.file(), &iel, uri) {

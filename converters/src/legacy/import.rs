@@ -16,7 +16,7 @@ use super::lexer::Span;
 use super::material::material;
 use super::math::{self, M4};
 use super::LightsPolicy;
-use lumo_schema::geometry::paths::relative;
+use lumo_schema::geometry::paths::portable;
 use lumo_schema::geometry::transform::to_rows;
 
 /// The framework's default background when the file has none (PA1/PA3 parser).
@@ -145,7 +145,7 @@ pub fn to_scene(doc: &Document, ctx: &mut Context<'_>) -> Result<(Scene, Origins
     }
 
     let mut scene = Scene {
-        schema: None,
+        schema: Some(schema::SCENE_SCHEMA.into()),
         format_version: schema::FORMAT_VERSION,
         image,
         render: schema::RenderSettings::default(),
@@ -407,7 +407,7 @@ pub(super) fn ctx_file(
         return Err(Problem::at(name.span, format!("{what} `{}` not found", name.value))
             .help(format!("looked for {}; paths are relative to the scene's folder (or the folder above `testcases/`)", looked.join(" and "))));
     };
-    Ok((found.clone(), relative(found, &ctx.out_dir)))
+    Ok((found.clone(), portable(found, &ctx.out_dir)))
 }
 
 /// Placement accumulated from the enclosing Transform blocks.

@@ -71,6 +71,31 @@ pub fn relative(target: &Path, base: &Path) -> String {
     }
 }
 
+/// How many folders above the output's folder a path a scene file stores may climb (with
+/// `..`) before [`portable`] writes it absolute.
+pub const MAX_CLIMB: usize = 2;
+
+/// `target` as a scene file in the folder `base` stores it, so that the file reads it wherever
+/// it is used: relative (as [`relative`]) when `target` lies under `base` or under a near
+/// ancestor (at most [`MAX_CLIMB`] `..`), so that the folder moves together with its assets;
+/// otherwise `target`'s absolute path, never a relative one that climbs to the filesystem's
+/// root (`../../work/…` from `/tmp/out`, which breaks as soon as either side moves).
+pub fn portable(target: &Path, base: &Path) -> String {
+    let (t, b) = (absolute(target), absolute(base));
+    let tc: Vec<Component> = t.components().collect();
+    let bc: Vec<Component> = b.components().collect();
+    let common = tc.iter().zip(&bc).take_while(|(x, y)| x == y).count();
+    // The root itself (`/`, or `C:` and `\\`) is no ancestor to share.
+    let roots = bc
+        .iter()
+        .take_while(|c| matches!(c, Component::Prefix(_) | Component::RootDir))
+        .count();
+    if common <= roots || bc.len() - common > MAX_CLIMB {
+        return t.display().to_string();
+    }
+    relative(&t, &b)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -90,6 +115,28 @@ mod tests {
         assert_eq!(relative(&file, &dir.join("new/out")), "../../a/b/m.obj");
         // Through `..` the existing part is resolved.
         assert_eq!(relative(&dir.join("a/../a/b/m.obj"), &dir), "a/b/m.obj");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn portable_paths_are_relative_nearby_and_absolute_far_away() {
+        let dir =
+            absolute(&std::env::temp_dir().join(format!("lumo-portable-{}", std::process::id())));
+        std::fs::create_dir_all(dir.join("a/b/c")).unwrap();
+        let asset = dir.join("assets/t.png");
+        // Under the output's folder, or up to two folders above it: relative.
+        assert_eq!(portable(&asset, &dir), "assets/t.png");
+        assert_eq!(portable(&asset, &dir.join("a")), "../assets/t.png");
+        assert_eq!(portable(&asset, &dir.join("a/b")), "../../assets/t.png");
+        // Further: absolute.
+        assert_eq!(
+            portable(&asset, &dir.join("a/b/c")),
+            asset.display().to_string()
+        );
+        // Sharing only the filesystem's root: absolute, never `../../…` up to it.
+        let far = Path::new("/lumo-nowhere/assets/t.png");
+        assert_eq!(portable(far, &dir), far.display().to_string());
+        assert!(!portable(far, Path::new("/lumo-x")).starts_with(".."));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

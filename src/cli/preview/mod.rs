@@ -211,7 +211,10 @@ pub fn preview_cmd(args: &PreviewArgs) -> Result<(), CliError> {
         .num_threads(args.threads.unwrap_or(0) as usize)
         .build()
         .map_err(|e| CliError::failure(format!("cannot start worker threads: {e}")))?;
-    let watcher = watch::Watcher::start(Arc::clone(&shared), &args.scene)
+    let own_files: Vec<PathBuf> = std::iter::once(args.scene.clone())
+        .chain(args.overrides.compose.patch.clone())
+        .collect();
+    let watcher = watch::Watcher::start(Arc::clone(&shared), &own_files)
         .map_err(|e| CliError::failure(format!("cannot watch files: {e}")))?;
     let address = SocketAddr::new(args.bind, args.port);
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -333,7 +336,11 @@ fn load_and_render(
             return Err(e);
         }
     };
-    if lock(files).set(loaded.files(), loaded_at) {
+    // The scene, its fragments and assets, and the `--patch` file: a change to any of them
+    // renders again.
+    let mut read = loaded.files();
+    read.extend(args.overrides.compose.patch.clone());
+    if lock(files).set(read, loaded_at) {
         // A file changed while it was being read, before its folder was watched.
         return Ok(Outcome::Stale);
     }

@@ -46,7 +46,7 @@ fn key(path: &Path) -> PathBuf {
 }
 
 impl Files {
-    fn new(scene: &Path, output: &Path, watcher: notify::RecommendedWatcher) -> Files {
+    fn new(scene: &[PathBuf], output: &Path, watcher: notify::RecommendedWatcher) -> Files {
         let mut f = Files {
             files: HashSet::new(),
             dirs: HashSet::new(),
@@ -54,7 +54,7 @@ impl Files {
             ignored: HashSet::from([key(output)]),
             watcher,
         };
-        f.set(vec![scene.to_path_buf()], SystemTime::now());
+        f.set(scene.to_vec(), SystemTime::now());
         f
     }
 
@@ -120,8 +120,9 @@ pub(crate) struct Watcher {
 }
 
 impl Watcher {
-    /// Starts watching the scene file (the reload loop adds what the scene reads once loaded).
-    pub(crate) fn start(shared: Arc<Shared>, scene: &Path) -> notify::Result<Watcher> {
+    /// Starts watching the scene's own files (the scene and the `--patch` file; the reload loop
+    /// adds what the scene reads once loaded).
+    pub(crate) fn start(shared: Arc<Shared>, scene: &[PathBuf]) -> notify::Result<Watcher> {
         let (events_tx, events) = channel();
         let watcher = notify::recommended_watcher(move |event| {
             let _ = events_tx.send(event);
