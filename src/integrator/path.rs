@@ -4,6 +4,7 @@
 //! Depth is counted as in Mitsuba 3: the camera ray's hit is vertex 1, emission seen there is a
 //! path of depth 1, light sampled from it a path of depth 2, and so on up to `max_depth`.
 
+use crate::aov::AovSample;
 use crate::bsdf::Bsdf;
 use crate::geometry::SurfaceHit;
 use crate::integrator::direct::{sample_light, Strategy};
@@ -50,6 +51,8 @@ pub struct Path {
     /// its own (its `SPLIT` samples, or the mirror reflection of glass), the path's ray then
     /// only carrying on for the light from further surfaces.
     count_found: bool,
+    /// What the sample sees for the render passes, when they are asked for ([`crate::aov`]).
+    pub aov: Option<Box<AovSample>>,
 }
 
 /// A vertex between its light sample and its BSDF sample: what [`Path::shade`] leaves for
@@ -90,6 +93,7 @@ impl Path {
             medium: None,
             eta_scale: 1.0,
             count_found: true,
+            aov: None,
         }
     }
 
@@ -124,8 +128,16 @@ impl Path {
                         depth == 1,
                     );
             }
+            if let Some(aov) = &mut self.aov {
+                let d = self.ray.d.normalize();
+                let env = scene.escaped(d, None, (self.prev_p, self.prev_n), depth == 1);
+                aov.escaped(self.beta, env);
+            }
             return false;
         };
+        if let (Some(aov), 1) = (&mut self.aov, depth) {
+            aov.camera_hit(scene, hit, &self.ray);
+        }
         if let Some(sigma) = self.medium {
             // Beer–Lambert along the segment travelled inside.
             self.beta *= transmittance(sigma, hit.t * self.ray.d.length());
@@ -144,6 +156,9 @@ impl Path {
         if self.count_found && direct.weight > 0.0 {
             self.l += self.beta * direct.radiance * direct.weight;
         }
+        if let (Some(aov), true) = (&mut self.aov, direct.unlit) {
+            aov.unlit(self.beta, direct.radiance, hit.ns);
+        }
         if direct.unlit || depth == scene.settings.max_depth {
             return false;
         }
@@ -159,6 +174,9 @@ impl Path {
         // Next-event estimation only where a lobe is not a Dirac delta (a vertex that only
         // scatters by delta lobes leaves its point unused).
         let shadow = if bsdf.has_smooth_lobe() {
+            if let Some(aov) = &mut self.aov {
+                aov.smooth_vertex(bsdf.frame.n);
+            }
             self.light_sample(scene, hit, &bsdf, wo, split, u_light)
         } else {
             None
@@ -239,6 +257,9 @@ impl Path {
         let medium = self.medium;
         // Continue the path by sampling the BSDF.
         let sampled = bsdf.sample(wo, u_lobe, u_dir);
+        if let Some(aov) = &mut self.aov {
+            aov.scattered(self.beta, sampled.map(|s| s.weight));
+        }
         if split > 1.0 {
             // Drawn together, so that over a pixel's samples they are one stratified set; each
             // counts 1/SPLIT, whether or not the others succeed. The path goes on with its own
