@@ -25,8 +25,8 @@
 //!   whose rays miss the scene hold 0 in all three (averaged with the samples that hit, at
 //!   silhouettes).
 //! - **object_id** and **material_id** (`object_id.I`, `material_id.I`, unsigned 32-bit): the
-//!   index + 1 of the object in the scene's `objects` and of its material in `materials` (in
-//!   the order the scene lists them) hit by the pixel's *lowest-numbered* sample (sample 0 of
+//!   index + 1 of the object in the scene's `objects` list and of its material among the
+//!   scene's `materials` sorted by name (the order of the table, which is keyed by name) hit by the pixel's *lowest-numbered* sample (sample 0 of
 //!   a whole render), never an average; 0 where that sample's camera ray missed.
 //! - **std_error** (`std_error.R/G/B`): the standard error of each pixel's beauty mean, from the
 //!   film's sums of squares.

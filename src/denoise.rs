@@ -52,6 +52,18 @@ pub enum DenoiseError {
     Size,
 }
 
+impl DenoiseError {
+    /// The error with where the library was looked for in front of its message.
+    fn located(self, place: &str) -> DenoiseError {
+        match self {
+            DenoiseError::NotFound { tried } => DenoiseError::NotFound {
+                tried: format!("{place}: {tried}"),
+            },
+            e => e,
+        }
+    }
+}
+
 type Handle = *mut c_void;
 
 /// The OIDN functions lumo calls.
@@ -167,33 +179,49 @@ fn open(path: &Path) -> Result<Vec<Library>, String> {
 impl Oidn {
     /// Finds and loads OIDN (see the module doc) and creates a CPU device.
     pub fn load() -> Result<Oidn, DenoiseError> {
-        let mut tried = Vec::new();
-        let mut candidates: Vec<(PathBuf, bool)> = Vec::new();
         for var in ["LUMO_OIDN", "OIDN_DIR"] {
-            let Some(value) = std::env::var_os(var).filter(|v| !v.is_empty()) else {
-                continue;
-            };
-            let p = PathBuf::from(value);
-            let found = if p.is_file() {
-                vec![p.clone()]
-            } else {
-                candidates_in(&p)
-            };
-            if found.is_empty() {
-                tried.push(format!(
-                    "{var}={} holds no {}",
-                    p.display(),
-                    library_names()[0]
-                ));
+            if let Some(value) = std::env::var_os(var).filter(|v| !v.is_empty()) {
+                // Pointed somewhere on purpose: no quiet fallback to another copy.
+                return Oidn::load_from(Path::new(&value))
+                    .map_err(|e| e.located(&format!("{var}={}", Path::new(&value).display())));
             }
-            candidates.extend(found.into_iter().map(|f| (f, true)));
         }
-        candidates.extend(library_names().iter().map(|n| (PathBuf::from(n), false)));
-        for (path, _explicit) in candidates {
-            match open(&path) {
-                Ok(libs) => return Oidn::with_libs(libs, path),
+        let mut tried = Vec::new();
+        for name in library_names() {
+            match open(Path::new(name)) {
+                Ok(libs) => return Oidn::with_libs(libs, PathBuf::from(name)),
                 Err(e) => tried.push(e),
             }
+        }
+        Err(DenoiseError::NotFound {
+            tried: format!(
+                "LUMO_OIDN and OIDN_DIR are unset, and the system's loader found none: {}",
+                tried.join("; ")
+            ),
+        })
+    }
+
+    /// Loads OIDN from `path`: the library file, a folder holding it (or `lib/` with it), or
+    /// the `pyoidn` package's folder; and creates a CPU device.
+    pub fn load_from(path: &Path) -> Result<Oidn, DenoiseError> {
+        let found = if path.is_file() {
+            vec![path.to_path_buf()]
+        } else {
+            candidates_in(path)
+        };
+        let mut tried = Vec::new();
+        for candidate in &found {
+            match open(candidate) {
+                Ok(libs) => return Oidn::with_libs(libs, candidate.clone()),
+                Err(e) => tried.push(e),
+            }
+        }
+        if found.is_empty() {
+            tried.push(format!(
+                "{} holds no {}",
+                path.display(),
+                library_names()[0]
+            ));
         }
         Err(DenoiseError::NotFound {
             tried: tried.join("; "),

@@ -691,37 +691,60 @@ impl Finished {
         denoised: Option<&Image>,
     ) -> Result<(), crate::output::ImageIoError> {
         let (w, h, window) = (self.width(), self.height(), self.window());
-        let beauty = match denoised {
-            Some(d) => embed(d, &window, w, h),
-            None => self.full_image(),
-        };
-        let mut passes: Vec<PassImage> = self
-            .passes()
-            .into_iter()
-            .map(|p| embed_pass(&p, &window, w, h))
-            .collect();
-        let exr = crate::output::format_of(path)? == image::ImageFormat::OpenExr;
-        if exr && (!passes.is_empty() || denoised.is_some()) {
-            let mut groups: Vec<ChannelGroup> = Vec::new();
-            if denoised.is_some() {
-                groups.push(ChannelGroup::from_rgb("noisy", &self.full_image()));
-            }
-            groups.extend(passes.iter().map(ChannelGroup::from_pass));
-            return crate::multilayer::write_exr(path, &beauty, &groups);
-        }
-        write_image(&beauty, path, tonemap)?;
-        let ext = lumo_schema::geometry::paths::lowercase_extension(path);
-        let side_ext = if ext == "bmp" { "bmp" } else { "png" };
-        let side =
-            |name: &str| crate::multilayer::sidecar_path(&path.with_extension(side_ext), name);
-        if denoised.is_some() {
-            write_image(&self.full_image(), &side("noisy"), tonemap)?;
-        }
-        for pass in passes.drain(..) {
-            crate::multilayer::write_pass_rgb8(&side(pass.aov.name()), w, h, &pass)?;
-        }
-        Ok(())
+        write_with_passes(
+            path,
+            tonemap,
+            &self.sums,
+            self.aovs,
+            (&window, w, h),
+            denoised,
+        )
     }
+}
+
+/// Writes the image of `film` (a `window` of a `width` × `height` render, placed in it) with
+/// its render passes `aovs` to `path`, atomically; with `denoised` (of the window) as the
+/// beauty, the film's own image then kept as the pass `noisy`. EXR gets one multi-channel part
+/// ([`crate::multilayer`]); PNG and BMP get each pass as a file beside the image
+/// (`OUT.albedo.png`, …), and HDR gets PNG quick looks beside it.
+pub fn write_with_passes(
+    path: &Path,
+    tonemap: ToneMap,
+    film: &Film,
+    aovs: AovSet,
+    (window, width, height): (&Window, u32, u32),
+    denoised: Option<&Image>,
+) -> Result<(), crate::output::ImageIoError> {
+    let noisy = embed(&film.image(), window, width, height);
+    let beauty = match denoised {
+        Some(d) => embed(d, window, width, height),
+        None => noisy.clone(),
+    };
+    let passes: Vec<PassImage> = film
+        .passes(aovs)
+        .into_iter()
+        .map(|p| embed_pass(&p, window, width, height))
+        .collect();
+    let exr = crate::output::format_of(path)? == image::ImageFormat::OpenExr;
+    if exr && (!passes.is_empty() || denoised.is_some()) {
+        let mut groups: Vec<ChannelGroup> = Vec::new();
+        if denoised.is_some() {
+            groups.push(ChannelGroup::from_rgb("noisy", &noisy));
+        }
+        groups.extend(passes.iter().map(ChannelGroup::from_pass));
+        return crate::multilayer::write_exr(path, &beauty, &groups);
+    }
+    write_image(&beauty, path, tonemap)?;
+    let ext = lumo_schema::geometry::paths::lowercase_extension(path);
+    let side_ext = if ext == "bmp" { "bmp" } else { "png" };
+    let side = |name: &str| crate::multilayer::sidecar_path(&path.with_extension(side_ext), name);
+    if denoised.is_some() {
+        write_image(&noisy, &side("noisy"), tonemap)?;
+    }
+    for pass in &passes {
+        crate::multilayer::write_pass_rgb8(&side(pass.aov.name()), width, height, pass)?;
+    }
+    Ok(())
 }
 
 /// A pass of a window placed in a `width` × `height` image (zero outside the window).

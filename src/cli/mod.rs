@@ -160,6 +160,21 @@ pub enum Command {
         #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
         tonemap: ToneMap,
     },
+    /// Denoise an existing image with Intel Open Image Denoise: a multi-channel EXR (a lumo
+    /// render with `--aov albedo,normal`, or a merge of such films), guided by its albedo and
+    /// normal channels when it has them. EXR output keeps every channel and the input's beauty
+    /// as `noisy.R/G/B`.
+    #[command(after_help = "Example:\n  lumo denoise merged.exr -o denoised.exr")]
+    Denoise {
+        /// The image to denoise (.exr, linear).
+        input: PathBuf,
+        /// Output image (.exr keeps the channels; .png, .hdr, .bmp get the beauty).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Tone mapping for 8-bit outputs.
+        #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
+        tonemap: ToneMap,
+    },
     /// Pack a scene (any input kind, with render overrides baked in) and every file it reads into
     /// one zip, for machines that share no filesystem; prints its content hash as JSON.
     #[command(
@@ -433,7 +448,59 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             tonemap,
         ),
         Command::Converge(args) => converge::run(&args).map(|_| ()),
+        Command::Denoise {
+            input,
+            output,
+            tonemap,
+        } => denoise_cmd(&input, &output, tonemap),
     }
+}
+
+/// `lumo denoise`: reads a multi-channel EXR, denoises its beauty guided by its albedo and
+/// normal channels, writes the result (with every channel and the noisy beauty, for EXR).
+fn denoise_cmd(input: &Path, output: &Path, tonemap: ToneMap) -> Result<(), CliError> {
+    use lumo::multilayer::{read_exr, write_exr, ChannelGroup};
+    job::check_image_path(output, "output")?;
+    let mut oidn = lumo::denoise::Oidn::load().map_err(|e| CliError::invalid(e.to_string()))?;
+    if lumo_schema::geometry::paths::lowercase_extension(input) != "exr" {
+        return Err(CliError::invalid(format!(
+            "{}: lumo denoise reads linear OpenEXR images (.exr), such as `lumo render … --aov \
+             albedo,normal -o IN.exr` writes",
+            input.display()
+        )));
+    }
+    let layered = read_exr(input).map_err(|e| CliError::invalid(e.to_string()))?;
+    let (w, h) = (layered.beauty.width, layered.beauty.height);
+    let guide = |name: &str| layered.group(name).and_then(|g| g.to_rgb(w, h));
+    let (albedo, normal) = (guide("albedo"), guide("normal"));
+    if albedo.is_none() {
+        eprintln!(
+            "warning: {}: no albedo.R/G/B channels: denoising the colour alone (render with \
+             --aov albedo,normal for guides that keep texture and edges)",
+            input.display()
+        );
+    }
+    let denoised = oidn
+        .denoise(
+            &layered.beauty,
+            albedo.as_ref(),
+            normal.as_ref(),
+            lumo::denoise::Prefilter::Clean,
+        )
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    let result = if lumo_schema::geometry::paths::lowercase_extension(output) == "exr" {
+        let mut groups: Vec<ChannelGroup> = Vec::new();
+        if layered.group("noisy").is_none() {
+            groups.push(ChannelGroup::from_rgb("noisy", &layered.beauty));
+        }
+        groups.extend(layered.groups.iter().cloned());
+        write_exr(output, &denoised, &groups)
+    } else {
+        write_image(&denoised, output, tonemap)
+    };
+    result.map_err(|e| CliError::failure(e.to_string()))?;
+    eprintln!("denoised {} → {}", input.display(), output.display());
+    Ok(())
 }
 
 fn camera_choice(s: &str) -> lumo_converters::gltf::CameraChoice {
