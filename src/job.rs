@@ -289,6 +289,18 @@ impl RenderJob {
             (None, Some((a, _))) => a,
             (None, None) => 0,
         };
+        // Passes the scene asks for, with the job's.
+        let mut settings = settings;
+        let names: Vec<&str> = loaded
+            .description
+            .scene
+            .render
+            .aov
+            .iter()
+            .map(|p| p.name())
+            .collect();
+        let scene_aovs: AovSet = names.join(",").parse().map_err(JobError::Invalid)?;
+        settings.aovs = settings.aovs.union(scene_aovs);
         let mut job = RenderJob {
             scene,
             settings,

@@ -71,7 +71,7 @@ fn rel_mse(x: &Image, reference: &Image, keep: &[bool]) -> f64 {
 
 fn cornell_job(spp: Option<u32>, time_s: Option<f32>, seed: u64, aovs: AovSet) -> RenderJob {
     let loaded = lumo::load(
-        &common::root().join("scenes/cornell.json"),
+        common::root().join("scenes/cornell.json"),
         &lumo::LoadOptions::default(),
     )
     .expect("scene loads");

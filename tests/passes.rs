@@ -52,7 +52,7 @@ fn scene_file(dir: &std::path::Path) -> std::path::PathBuf {
 fn job(settings: JobSettings) -> RenderJob {
     let dir = tempfile::tempdir().expect("temp dir");
     let loaded =
-        lumo::load(&scene_file(dir.path()), &lumo::LoadOptions::default()).expect("scene loads");
+        lumo::load(scene_file(dir.path()), &lumo::LoadOptions::default()).expect("scene loads");
     RenderJob::new(&loaded, settings).expect("job")
 }
 
@@ -302,4 +302,42 @@ fn split_merge_and_resume_with_passes_are_bit_exact() {
     .clone();
     let err = lumo::partial_film::merge(&[early, other]).expect_err("refused");
     assert!(err.1.contains("render passes differ"), "{}", err.1);
+}
+
+#[test]
+fn a_scene_asks_for_passes_in_its_render_settings() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("asks.json");
+    let text = SCENE.replace(
+        r#""seed": 3}"#,
+        r#""seed": 3, "aov": ["depth", "object_id"]}"#,
+    );
+    assert_ne!(text, SCENE);
+    std::fs::write(&path, text).expect("scene written");
+    let loaded = lumo::load(&path, &lumo::LoadOptions::default()).expect("scene loads");
+    let finished = RenderJob::new(
+        &loaded,
+        JobSettings {
+            aovs: "albedo".parse().expect("names"),
+            spp: Some(1),
+            ..Default::default()
+        },
+    )
+    .expect("job")
+    .run(&Hooks::default())
+    .expect("renders");
+    let names: Vec<Aov> = finished.passes().iter().map(|p| p.aov).collect();
+    assert_eq!(names, [Aov::Albedo, Aov::Depth, Aov::ObjectId]);
+    // A misspelt pass is a located error with the names to choose from.
+    let bad = dir.path().join("bad.json");
+    std::fs::write(
+        &bad,
+        SCENE.replace(r#""seed": 3}"#, r#""seed": 3, "aov": ["albedo", "dept"]}"#),
+    )
+    .expect("scene written");
+    let err = lumo::load(&bad, &lumo::LoadOptions::default())
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(err.contains("render.aov") && err.contains("depth"), "{err}");
 }
