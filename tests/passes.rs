@@ -335,9 +335,9 @@ fn a_scene_asks_for_passes_in_its_render_settings() {
         SCENE.replace(r#""seed": 3}"#, r#""seed": 3, "aov": ["albedo", "dept"]}"#),
     )
     .expect("scene written");
-    let err = lumo::load(&bad, &lumo::LoadOptions::default())
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = match lumo::load(&bad, &lumo::LoadOptions::default()) {
+        Ok(_) => panic!("a misspelt pass was accepted"),
+        Err(e) => e.to_string(),
+    };
     assert!(err.contains("render.aov") && err.contains("depth"), "{err}");
 }
