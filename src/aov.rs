@@ -364,6 +364,16 @@ impl Default for IdRecord {
 /// same samples as its beauty (2³¹ scene units, far beyond any scene).
 pub const MAX_AOV_VALUE: f32 = 2_147_483_648.0;
 
+/// 2⁶⁴: the fixed-point scale of pass sums, that of the film's sums of radiance.
+const FIXED_POINT_SCALE: f64 = 18_446_744_073_709_551_616.0;
+
+/// A pass value (|v| ≤ [`MAX_AOV_VALUE`]) as a fixed-point term: v · 2⁶⁴ rounded half away from
+/// zero, exact in f64 (a power-of-two scaling), the same integer the film adds for radiance.
+#[inline]
+fn fixed_point(v: f32) -> i128 {
+    (f64::from(v) * FIXED_POINT_SCALE).round() as i128
+}
+
 /// The pass sums of a run of pixels (a film's, or a tile's): per pixel,
 /// [`AovSet::summed_channels`] fixed-point sums in the beauty's units (2⁻⁶⁴), and an
 /// [`IdRecord`] when ids are asked for.
@@ -442,7 +452,7 @@ impl AovSums {
                 } else {
                     v.clamp(-MAX_AOV_VALUE, MAX_AOV_VALUE)
                 };
-                *sum += crate::render::fixed_point_sum(v);
+                *sum += fixed_point(v);
             }
         }
         if let Some(id) = self.ids.get_mut(pixel) {
@@ -471,9 +481,8 @@ impl AovSums {
         if samples == 0 {
             return 0.0;
         }
-        (self.sums[pixel * self.stride + channel] as f64
-            / crate::render::FIXED_POINT_SCALE
-            / f64::from(samples)) as f32
+        (self.sums[pixel * self.stride + channel] as f64 / FIXED_POINT_SCALE / f64::from(samples))
+            as f32
     }
 }
 

@@ -27,15 +27,7 @@ use crate::math::Vec3;
 pub const MAX_SAMPLE: f64 = 4_294_967_296.0;
 /// 2⁶⁴: fixed-point scale of the sums.
 const SUM_SCALE: f64 = 18_446_744_073_709_551_616.0;
-/// 2⁶⁴: the fixed-point scale of the film's sums (of radiance and of render passes).
-pub const FIXED_POINT_SCALE: f64 = SUM_SCALE;
 
-/// A value below [`MAX_SAMPLE`] in magnitude as the film's fixed-point sum term, x · 2⁶⁴
-/// rounded half away from zero (the term the beauty's sums add).
-#[inline]
-pub fn fixed_point_sum(x: f32) -> i128 {
-    fixed_point_f32(x.to_bits()).0
-}
 /// 2³²: fixed-point scale of the sums of squares.
 const SQ_SCALE: f64 = 4_294_967_296.0;
 

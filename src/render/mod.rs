@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 use adaptive::{AdaptiveAllocator, ErrorSource};
 pub(crate) use film::Sink;
-pub use film::{fixed_point_sum, ErrorEstimate, Film, PixelSum, FIXED_POINT_SCALE, MAX_SAMPLE};
+pub use film::{ErrorEstimate, Film, PixelSum, MAX_SAMPLE};
 use pass::PassContext;
 pub use pass::TILE;
 use schedule::{NextPass, Plan, Schedule};
