@@ -26,9 +26,12 @@ use std::time::{Duration, Instant};
 
 use lumo_schema as schema;
 
+use crate::aov::{Aov, AovSet, PassImage, PassPixels};
+use crate::denoise::{DenoiseError, Oidn, Prefilter};
 use crate::image::Image;
 use crate::light_sampler::{LightSampler, LightSamplerKind};
 use crate::load::{LoadError, Loaded};
+use crate::multilayer::ChannelGroup;
 use crate::output::{write_image, ToneMap};
 use crate::partial_film::{self, FilmHeader, PartialFilm};
 use crate::render::{render_with_error, Film, RenderOptions, Rendered, Stats, Window};
@@ -87,6 +90,8 @@ pub struct JobSettings {
     /// What checkpoints record as the command that renders this scene
     /// ([`FilmHeader::command`]).
     pub command: Option<Vec<String>>,
+    /// Render passes besides the beauty ([`crate::aov`]).
+    pub aovs: AovSet,
 }
 
 /// Why a job could not be set up or finished.
@@ -181,6 +186,8 @@ pub struct Finished {
     header: FilmHeader,
     /// The partial film, made on first use.
     film: std::sync::OnceLock<PartialFilm>,
+    /// The render passes asked for.
+    aovs: AovSet,
 }
 
 impl RenderJob {
@@ -282,6 +289,18 @@ impl RenderJob {
             (None, Some((a, _))) => a,
             (None, None) => 0,
         };
+        // Passes the scene asks for, with the job's.
+        let mut settings = settings;
+        let names: Vec<&str> = loaded
+            .description
+            .scene
+            .render
+            .aov
+            .iter()
+            .map(|p| p.name())
+            .collect();
+        let scene_aovs: AovSet = names.join(",").parse().map_err(JobError::Invalid)?;
+        settings.aovs = settings.aovs.union(scene_aovs);
         let mut job = RenderJob {
             scene,
             settings,
@@ -419,6 +438,14 @@ impl RenderJob {
             target_spp: Some(self.scene.settings.spp),
             time_left_s,
             command: None,
+            aovs: self
+                .settings
+                .aovs
+                .recorded()
+                .names()
+                .into_iter()
+                .map(String::from)
+                .collect(),
         }
     }
 
@@ -477,6 +504,7 @@ impl RenderJob {
                 || hooks.on_pass.is_some())
             .then_some(&periodic as &(dyn Fn(&Film) + Sync)),
             lane_width: self.settings.lane_width,
+            aovs: self.settings.aovs,
         };
         let rendered = match self.settings.threads {
             None => render_with_error(&self.scene, &options),
@@ -506,6 +534,7 @@ impl RenderJob {
             resumed_spp: self.settings.resume.as_ref().map(|r| r.header.spp()),
             header: self.header_without_build_id(vec![[first, first + taken]], None),
             film: std::sync::OnceLock::new(),
+            aovs: self.settings.aovs,
         })
     }
 }
@@ -593,6 +622,32 @@ impl Finished {
         })
     }
 
+    /// The render passes asked for ([`JobSettings::aovs`]), of the job's window.
+    pub fn passes(&self) -> Vec<PassImage> {
+        self.sums.passes(self.aovs)
+    }
+
+    /// The beauty denoised with Open Image Denoise, guided by the albedo and normal passes
+    /// when the job rendered them ([`Prefilter::Clean`]: final-frame quality), of the job's
+    /// window.
+    pub fn denoised(&self, oidn: &mut Oidn) -> Result<Image, DenoiseError> {
+        let guides = self
+            .sums
+            .passes(AovSet::NONE.with(Aov::Albedo).with(Aov::Normal));
+        let group = |aov: Aov| {
+            guides.iter().find(|p| p.aov == aov).and_then(|p| {
+                ChannelGroup::from_pass(p).to_rgb(self.image.width, self.image.height)
+            })
+        };
+        let (albedo, normal) = (group(Aov::Albedo), group(Aov::Normal));
+        oidn.denoise(
+            &self.image,
+            albedo.as_ref(),
+            normal.as_ref(),
+            Prefilter::Clean,
+        )
+    }
+
     /// Writes the image (at full size) atomically. When it cannot be written, the samples are
     /// kept: as a checkpoint at `keep_at` (default: `OUT.checkpoint.npz` beside the output),
     /// else in the temporary folder, and the error says where.
@@ -602,7 +657,21 @@ impl Finished {
         tonemap: ToneMap,
         keep_at: Option<&Path>,
     ) -> Result<(), JobError> {
-        let Err(e) = write_image(&self.full_image(), path, tonemap) else {
+        self.write_output(path, tonemap, keep_at, None)
+    }
+
+    /// [`write_image`](Self::write_image) with the render passes, and with `denoised` (of the
+    /// job's window) as the beauty when given, the noisy one kept as the pass `noisy`. EXR gets
+    /// one multi-channel part ([`crate::multilayer`]); PNG and BMP get each pass as a file
+    /// beside the image (`OUT.albedo.png`, …; PNG quick looks beside HDR images).
+    pub fn write_output(
+        &self,
+        path: &Path,
+        tonemap: ToneMap,
+        keep_at: Option<&Path>,
+        denoised: Option<&Image>,
+    ) -> Result<(), JobError> {
+        let Err(e) = self.write_all(path, tonemap, denoised) else {
             return Ok(());
         };
         let mut kept = String::new();
@@ -622,6 +691,103 @@ impl Finished {
             }
         }
         Err(JobError::Io(format!("{e}{kept}")))
+    }
+}
+
+impl Finished {
+    /// Writes the beauty and the passes (see [`Finished::write_output`]).
+    fn write_all(
+        &self,
+        path: &Path,
+        tonemap: ToneMap,
+        denoised: Option<&Image>,
+    ) -> Result<(), crate::output::ImageIoError> {
+        let (w, h, window) = (self.width(), self.height(), self.window());
+        write_with_passes(
+            path,
+            tonemap,
+            &self.sums,
+            self.aovs,
+            (&window, w, h),
+            denoised,
+        )
+    }
+}
+
+/// Writes the image of `film` (a `window` of a `width` × `height` render, placed in it) with
+/// its render passes `aovs` to `path`, atomically; with `denoised` (of the window) as the
+/// beauty, the film's own image then kept as the pass `noisy`. EXR gets one multi-channel part
+/// ([`crate::multilayer`]); PNG and BMP get each pass as a file beside the image
+/// (`OUT.albedo.png`, …), and HDR gets PNG quick looks beside it.
+pub fn write_with_passes(
+    path: &Path,
+    tonemap: ToneMap,
+    film: &Film,
+    aovs: AovSet,
+    (window, width, height): (&Window, u32, u32),
+    denoised: Option<&Image>,
+) -> Result<(), crate::output::ImageIoError> {
+    let noisy = embed(&film.image(), window, width, height);
+    let beauty = match denoised {
+        Some(d) => embed(d, window, width, height),
+        None => noisy.clone(),
+    };
+    let passes: Vec<PassImage> = film
+        .passes(aovs)
+        .into_iter()
+        .map(|p| embed_pass(&p, window, width, height))
+        .collect();
+    let exr = crate::output::format_of(path)? == image::ImageFormat::OpenExr;
+    if exr && (!passes.is_empty() || denoised.is_some()) {
+        let mut groups: Vec<ChannelGroup> = Vec::new();
+        if denoised.is_some() {
+            groups.push(ChannelGroup::from_rgb("noisy", &noisy));
+        }
+        groups.extend(passes.iter().map(ChannelGroup::from_pass));
+        return crate::multilayer::write_exr(path, &beauty, &groups);
+    }
+    write_image(&beauty, path, tonemap)?;
+    let ext = lumo_schema::geometry::paths::lowercase_extension(path);
+    let side_ext = if ext == "bmp" { "bmp" } else { "png" };
+    let side = |name: &str| crate::multilayer::sidecar_path(&path.with_extension(side_ext), name);
+    if denoised.is_some() {
+        write_image(&noisy, &side("noisy"), tonemap)?;
+    }
+    for pass in &passes {
+        crate::multilayer::write_pass_rgb8(&side(pass.aov.name()), width, height, pass)?;
+    }
+    Ok(())
+}
+
+/// A pass of a window placed in a `width` × `height` image (zero outside the window).
+fn embed_pass(pass: &PassImage, window: &Window, width: u32, height: u32) -> PassImage {
+    if (window.width(), window.height()) == (width, height) {
+        return pass.clone();
+    }
+    let c = pass.aov.channels().len();
+    fn place<T: Copy + Default>(
+        v: &[T],
+        c: usize,
+        window: &Window,
+        width: u32,
+        height: u32,
+    ) -> Vec<T> {
+        let mut out = vec![T::default(); (width * height) as usize * c];
+        for y in 0..window.height() {
+            for x in 0..window.width() {
+                let from = (y * window.width() + x) as usize * c;
+                let to = ((window.y0 + y) * width + window.x0 + x) as usize * c;
+                out[to..to + c].copy_from_slice(&v[from..from + c]);
+            }
+        }
+        out
+    }
+    PassImage {
+        aov: pass.aov,
+        pixels: match &pass.pixels {
+            PassPixels::Float(v) => PassPixels::Float(place(v, c, window, width, height)),
+            PassPixels::Id(v) => PassPixels::Id(place(v, c, window, width, height)),
+        },
     }
 }
 

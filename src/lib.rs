@@ -22,10 +22,12 @@
 #![warn(missing_docs)]
 
 pub mod alloc;
+pub mod aov;
 pub mod assets;
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
+pub mod denoise;
 pub mod environment;
 pub mod geometry;
 pub mod hash;
@@ -43,6 +45,7 @@ pub mod light_tree;
 pub mod lsp;
 pub mod material;
 pub mod math;
+pub mod multilayer;
 pub mod output;
 pub mod partial_film;
 pub mod phases;

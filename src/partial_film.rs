@@ -26,6 +26,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::aov::{AovSet, AovSums, IdRecord};
 use crate::hash::{hex, sha256};
 use crate::render::{Film, PixelSum, Window};
 
@@ -77,9 +78,18 @@ pub struct FilmHeader {
     /// `lumo render --resume CK.npz -o OUT` needs nothing else. Not part of what must agree.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<Vec<String>>,
+    /// The render passes the film sums besides the beauty ([`crate::aov`]), by name; films of
+    /// different passes do not merge.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub aovs: Vec<String>,
 }
 
 impl FilmHeader {
+    /// The render passes the film sums.
+    pub fn aov_set(&self) -> Result<AovSet, String> {
+        self.aovs.join(",").parse()
+    }
+
     /// The crop window.
     pub fn window(&self) -> Window {
         Window {
@@ -125,6 +135,21 @@ impl FilmHeader {
         }
         if self.build_id != other.build_id {
             return field("lumo's build", &self.build_id, &other.build_id);
+        }
+        if self.aovs != other.aovs {
+            let names = |a: &[String]| {
+                if a.is_empty() {
+                    "none".to_string()
+                } else {
+                    a.join(",")
+                }
+            };
+            return Some(format!(
+                "the render passes differ: {} here, {} in the other (render every part with \
+                 the same --aov)",
+                names(&self.aovs),
+                names(&other.aovs)
+            ));
         }
         if self.scene_hash != other.scene_hash {
             return Some(format!(
@@ -295,7 +320,7 @@ impl PartialFilm {
             dropped.extend_from_slice(&p.bad.to_le_bytes());
         }
         let header = serde_json::to_vec_pretty(&self.header).map_err(|e| fail(&e))?;
-        let members: [(&str, Vec<u8>); 7] = [
+        let mut members: Vec<(&str, Vec<u8>)> = vec![
             ("header.npy", npy("|u1", &[header.len()], &header)),
             ("sum_hi.npy", npy("<i8", &[h, w, 3], &sum_hi)),
             ("sum_lo.npy", npy("<u8", &[h, w, 3], &sum_lo)),
@@ -304,6 +329,28 @@ impl PartialFilm {
             ("finite.npy", npy("<u4", &[h, w], &finite)),
             ("dropped.npy", npy("<u4", &[h, w], &dropped)),
         ];
+        if let Some(aov) = self.film.aov_sums() {
+            let stride = aov.stride();
+            if stride > 0 {
+                let mut hi = Vec::with_capacity(aov.sums().len() * 8);
+                let mut lo = Vec::with_capacity(aov.sums().len() * 8);
+                for v in aov.sums() {
+                    hi.extend_from_slice(&((v >> 64) as i64).to_le_bytes());
+                    lo.extend_from_slice(&(*v as u64).to_le_bytes());
+                }
+                members.push(("aov_sum_hi.npy", npy("<i8", &[h, w, stride], &hi)));
+                members.push(("aov_sum_lo.npy", npy("<u8", &[h, w, stride], &lo)));
+            }
+            if !aov.ids().is_empty() {
+                let mut ids = Vec::with_capacity(aov.ids().len() * 12);
+                for r in aov.ids() {
+                    for v in [r.sample, r.object, r.material] {
+                        ids.extend_from_slice(&v.to_le_bytes());
+                    }
+                }
+                members.push(("aov_ids.npy", npy("<u4", &[h, w, 3], &ids)));
+            }
+        }
         let dir = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
@@ -312,7 +359,10 @@ impl PartialFilm {
         let options = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Deflated)
             .compression_level(Some(1))
-            .large_file(pixels.len() * 24 > u32::MAX as usize / 2);
+            .large_file(
+                pixels.len() * 24.max(8 * self.film.aov_set().summed_channels())
+                    > u32::MAX as usize / 2,
+            );
         for (name, bytes) in &members {
             zip.start_file(*name, options).map_err(|e| fail(&e))?;
             zip.write_all(bytes).map_err(|e| fail(&e))?;
@@ -419,6 +469,36 @@ impl PartialFilm {
             pixels.push(p);
         }
         let film = Film::from_pixels(w as u32, h as u32, pixels).ok_or("inconsistent size")?;
+        let set = header.aov_set()?;
+        let aov = if set.needs_samples() {
+            let stride = set.summed_channels();
+            let mut sums = Vec::new();
+            if stride > 0 {
+                let shape = [h, w, stride];
+                let hi = array(&mut zip, limit * 8, "aov_sum_hi", "<i8", &shape)?;
+                let lo = array(&mut zip, limit * 8, "aov_sum_lo", "<u8", &shape)?;
+                sums = (0..n * stride)
+                    .map(|j| (i128::from(word(&hi, j) as i64) << 64) | i128::from(word(&lo, j)))
+                    .collect();
+            }
+            let mut ids = Vec::new();
+            if set.has_ids() {
+                let raw = array(&mut zip, limit, "aov_ids", "<u4", &[h, w, 3])?;
+                ids = (0..n)
+                    .map(|i| IdRecord {
+                        sample: count(&raw, 3 * i),
+                        object: count(&raw, 3 * i + 1),
+                        material: count(&raw, 3 * i + 2),
+                    })
+                    .collect();
+            }
+            Some(AovSums::from_parts(set, n, sums, ids).ok_or("inconsistent render passes")?)
+        } else {
+            None
+        };
+        let film = film
+            .with_aov_sums(aov)
+            .ok_or("inconsistent render passes")?;
         Ok(PartialFilm { header, film })
     }
 }
@@ -668,13 +748,11 @@ pub fn merge(films: &[PartialFilm]) -> Result<Merged, (usize, String)> {
             pair[0][1], pair[1][0]
         ));
     }
-    let mut film = Film::new(bbox.width(), bbox.height());
+    let mut film = Film::with_aovs(bbox.width(), bbox.height(), first.film.aov_set());
     for (f, w) in films.iter().zip(&windows) {
         for y in 0..w.height() {
             for x in 0..w.width() {
-                let add = *f.film.pixel(x, y);
-                film.pixel_mut(w.x0 - bbox.x0 + x, w.y0 - bbox.y0 + y)
-                    .merge(&add);
+                film.merge_pixel_from((w.x0 - bbox.x0 + x, w.y0 - bbox.y0 + y), &f.film, (x, y));
             }
         }
     }

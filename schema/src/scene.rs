@@ -108,8 +108,46 @@ pub enum SamplerKind {
     Independent,
 }
 
+/// A render pass written besides the beauty (docs/passes.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RenderPass {
+    /// Albedo at the first non-delta hit (`albedo.R/G/B`).
+    Albedo,
+    /// World-space shading normal at the first non-delta hit (`normal.X/Y/Z`).
+    Normal,
+    /// Distance along the camera ray to its first hit (`depth.Z`).
+    Depth,
+    /// World-space position of the camera ray's first hit (`position.X/Y/Z`).
+    Position,
+    /// Texture coordinates there (`uv.U/V`).
+    Uv,
+    /// Index + 1 of the object the pixel's first sample hit (`object_id.I`).
+    ObjectId,
+    /// Index + 1 of its material, materials sorted by name (`material_id.I`).
+    MaterialId,
+    /// Standard error of the beauty (`std_error.R/G/B`).
+    StdError,
+}
+
+impl RenderPass {
+    /// Its name in scene files and on the command line (`object_id`).
+    pub fn name(self) -> &'static str {
+        match self {
+            RenderPass::Albedo => "albedo",
+            RenderPass::Normal => "normal",
+            RenderPass::Depth => "depth",
+            RenderPass::Position => "position",
+            RenderPass::Uv => "uv",
+            RenderPass::ObjectId => "object_id",
+            RenderPass::MaterialId => "material_id",
+            RenderPass::StdError => "std_error",
+        }
+    }
+}
+
 /// How the image is computed.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RenderSettings {
     /// The light-transport algorithm. Default `path`.
@@ -137,6 +175,10 @@ pub struct RenderSettings {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("exclusiveMinimum" = 0))]
     pub time_budget_s: Option<f32>,
+    /// Render passes to write besides the beauty: channels of the EXR's one part, or PNGs
+    /// beside a PNG (`lumo render --aov` adds to them). Default none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub aov: Vec<RenderPass>,
 }
 
 fn is_default_sampler(s: &SamplerKind) -> bool {
@@ -159,6 +201,7 @@ impl Default for RenderSettings {
             max_depth: default_max_depth(),
             seed: 0,
             time_budget_s: None,
+            aov: Vec::new(),
         }
     }
 }

@@ -109,7 +109,7 @@ impl Validator<'_> {
     }
 
     fn render(&mut self, p: &JsonPath) {
-        let r = self.scene.render;
+        let r = self.scene.render.clone();
         if r.spp == 0 || r.spp > MAX_SPP {
             self.err_help(
                 p.key("spp"),

@@ -349,6 +349,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                         max_depth,
                         seed,
                         time_budget_s,
+                        aov: Vec::new(),
                     },
                     camera: Camera {
                         position,

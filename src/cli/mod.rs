@@ -160,6 +160,21 @@ pub enum Command {
         #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
         tonemap: ToneMap,
     },
+    /// Denoise an existing image with Intel Open Image Denoise: a multi-channel EXR (a lumo
+    /// render with `--aov albedo,normal`, or a merge of such films), guided by its albedo and
+    /// normal channels when it has them. EXR output keeps every channel and the input's beauty
+    /// as `noisy.R/G/B`.
+    #[command(after_help = "Example:\n  lumo denoise merged.exr -o denoised.exr")]
+    Denoise {
+        /// The image to denoise (.exr, linear).
+        input: PathBuf,
+        /// Output image (.exr keeps the channels; .png, .hdr, .bmp get the beauty).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Tone mapping for 8-bit outputs.
+        #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
+        tonemap: ToneMap,
+    },
     /// Pack a scene (any input kind, with render overrides baked in) and every file it reads into
     /// one zip, for machines that share no filesystem; prints its content hash as JSON.
     #[command(
@@ -344,9 +359,26 @@ pub struct RenderArgs {
     /// Also write the per-pixel standard-error image (linear, EXR/HDR by extension).
     #[arg(long)]
     pub error_image: Option<PathBuf>,
+    /// Render passes besides the beauty, comma-separated: albedo, normal, depth, position, uv,
+    /// object_id, material_id, std_error. EXR output holds them as channels of one part
+    /// (`albedo.R`, `normal.X`, `depth.Z`, …); PNG output gets each as a file beside the image
+    /// (`OUT.albedo.png`). Definitions: docs/passes.md.
+    #[arg(long, value_name = "PASSES", value_parser = parse_aovs)]
+    pub aov: Option<lumo::aov::AovSet>,
+    /// Denoise the beauty with Intel Open Image Denoise, guided by the albedo and normal passes
+    /// (rendered for it); the noisy beauty is kept as the pass `noisy` (EXR) or `OUT.noisy.png`.
+    /// OIDN is loaded at run time from LUMO_OIDN (see `pip install pyoidn`), OIDN_DIR or the
+    /// system's library path.
+    #[arg(long)]
+    pub denoise: bool,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// Parses `--aov`'s list of passes.
+fn parse_aovs(text: &str) -> Result<lumo::aov::AovSet, String> {
+    text.parse()
 }
 
 /// `--light-sampler`.
@@ -416,7 +448,59 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             tonemap,
         ),
         Command::Converge(args) => converge::run(&args).map(|_| ()),
+        Command::Denoise {
+            input,
+            output,
+            tonemap,
+        } => denoise_cmd(&input, &output, tonemap),
     }
+}
+
+/// `lumo denoise`: reads a multi-channel EXR, denoises its beauty guided by its albedo and
+/// normal channels, writes the result (with every channel and the noisy beauty, for EXR).
+fn denoise_cmd(input: &Path, output: &Path, tonemap: ToneMap) -> Result<(), CliError> {
+    use lumo::multilayer::{read_exr, write_exr, ChannelGroup};
+    job::check_image_path(output, "output")?;
+    let mut oidn = lumo::denoise::Oidn::load().map_err(|e| CliError::invalid(e.to_string()))?;
+    if lumo_schema::geometry::paths::lowercase_extension(input) != "exr" {
+        return Err(CliError::invalid(format!(
+            "{}: lumo denoise reads linear OpenEXR images (.exr), such as `lumo render … --aov \
+             albedo,normal -o IN.exr` writes",
+            input.display()
+        )));
+    }
+    let layered = read_exr(input).map_err(|e| CliError::invalid(e.to_string()))?;
+    let (w, h) = (layered.beauty.width, layered.beauty.height);
+    let guide = |name: &str| layered.group(name).and_then(|g| g.to_rgb(w, h));
+    let (albedo, normal) = (guide("albedo"), guide("normal"));
+    if albedo.is_none() {
+        eprintln!(
+            "warning: {}: no albedo.R/G/B channels: denoising the colour alone (render with \
+             --aov albedo,normal for guides that keep texture and edges)",
+            input.display()
+        );
+    }
+    let denoised = oidn
+        .denoise(
+            &layered.beauty,
+            albedo.as_ref(),
+            normal.as_ref(),
+            lumo::denoise::Prefilter::Clean,
+        )
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    let result = if lumo_schema::geometry::paths::lowercase_extension(output) == "exr" {
+        let mut groups: Vec<ChannelGroup> = Vec::new();
+        if layered.group("noisy").is_none() {
+            groups.push(ChannelGroup::from_rgb("noisy", &layered.beauty));
+        }
+        groups.extend(layered.groups.iter().cloned());
+        write_exr(output, &denoised, &groups)
+    } else {
+        write_image(&denoised, output, tonemap)
+    };
+    result.map_err(|e| CliError::failure(e.to_string()))?;
+    eprintln!("denoised {} → {}", input.display(), output.display());
+    Ok(())
 }
 
 fn camera_choice(s: &str) -> lumo_converters::gltf::CameraChoice {
@@ -772,6 +856,8 @@ fn recorded_command(args: &RenderArgs, scene: &Path) -> Vec<String> {
             .map(|w| format!("{},{},{},{}", w.x0, w.y0, w.x1, w.y1)),
     );
     flag("target-error", args.target_error.map(|v| v.to_string()));
+    let aovs = render_aovs(args);
+    flag("aov", (!aovs.is_empty()).then(|| aovs.to_string()));
     c
 }
 
@@ -845,6 +931,18 @@ fn job_settings(args: &RenderArgs, scene: &Path, resume: Option<PartialFilm>) ->
                 .map_or(Duration::from_secs(300), Duration::from_secs_f32),
         }),
         command: Some(recorded_command(args, scene)),
+        aovs: render_aovs(args),
+    }
+}
+
+/// The passes a render keeps: `--aov`'s, with albedo and normal for `--denoise`.
+fn render_aovs(args: &RenderArgs) -> lumo::aov::AovSet {
+    use lumo::aov::{Aov, AovSet};
+    let asked = args.aov.unwrap_or(AovSet::NONE);
+    if args.denoise {
+        asked.with(Aov::Albedo).with(Aov::Normal)
+    } else {
+        asked
     }
 }
 
@@ -913,6 +1011,17 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     // From here on, Ctrl-C stops the render and keeps what it has (nothing, while loading).
     let signals = split::Signals::install()?;
     let checkpoint = check_render_outputs(args)?;
+    // The denoiser is found before rendering, so a missing library costs no render.
+    let mut oidn = if args.denoise {
+        if args.output.is_none() {
+            return Err(CliError::invalid(
+                "--denoise denoises the output image; give -o OUT",
+            ));
+        }
+        Some(lumo::denoise::Oidn::load().map_err(|e| CliError::invalid(e.to_string()))?)
+    } else {
+        None
+    };
     let resume = match &args.resume {
         Some(p) => Some(split::read_film(p)?),
         None => None,
@@ -994,7 +1103,29 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
     let Some(output) = &args.output else {
         return Ok(());
     };
-    finished.write_image(output, args.tonemap, checkpoint.as_deref())?;
+    let denoised = match &mut oidn {
+        Some(oidn) => {
+            let start = std::time::Instant::now();
+            let image = finished
+                .denoised(oidn)
+                .map_err(|e| CliError::failure(e.to_string()))?;
+            if !args.quiet {
+                eprintln!(
+                    "denoised in {:.3} s with {}",
+                    start.elapsed().as_secs_f64(),
+                    oidn.path.display()
+                );
+            }
+            Some(image)
+        }
+        None => None,
+    };
+    finished.write_output(
+        output,
+        args.tonemap,
+        checkpoint.as_deref(),
+        denoised.as_ref(),
+    )?;
     if let Some(path) = &args.error_image {
         write_image(&finished.std_error, path, ToneMap::Clamp)
             .map_err(|e| CliError::failure(e.to_string()))?;

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use lumo::job;
-use lumo::output::{write_image, ToneMap};
+use lumo::output::ToneMap;
 use lumo::partial_film::{self, PartialFilm};
 use lumo::render::Window;
 
@@ -155,13 +155,23 @@ pub fn merge_cmd(
         eprintln!("wrote {}", f.display());
     }
     if let Some(o) = output {
-        let image = job::embed(
-            &merged.film.image(),
-            &merged.header.window(),
-            merged.header.width,
-            merged.header.height,
-        );
-        write_image(&image, o, tonemap).map_err(|e| CliError::failure(e.to_string()))?;
+        let aovs = merged
+            .header
+            .aov_set()
+            .map_err(|e| CliError::invalid(format!("{}: {e}", parts[0].display())))?;
+        job::write_with_passes(
+            o,
+            tonemap,
+            &merged.film,
+            aovs,
+            (
+                &merged.header.window(),
+                merged.header.width,
+                merged.header.height,
+            ),
+            None,
+        )
+        .map_err(|e| CliError::failure(e.to_string()))?;
         eprintln!(
             "merged {} films ({} samples per pixel{}) → {}",
             films.len(),

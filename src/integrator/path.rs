@@ -6,6 +6,7 @@
 
 use std::f32::consts::FRAC_1_PI;
 
+use crate::aov::AovSample;
 use crate::bsdf::{Bsdf, BsdfSample, LambertLanes, Lobes};
 use crate::geometry::SurfaceHit;
 use crate::integrator::direct::{sample_light, Strategy};
@@ -54,6 +55,8 @@ pub struct Path {
     /// its own (its `SPLIT` samples, or the mirror reflection of glass), the path's ray then
     /// only carrying on for the light from further surfaces.
     count_found: bool,
+    /// What the sample sees for the render passes, when they are asked for ([`crate::aov`]).
+    pub aov: Option<Box<AovSample>>,
 }
 
 /// A vertex between its light sample and its BSDF sample: what [`Path::shade`] leaves for
@@ -96,6 +99,7 @@ impl Path {
             medium: None,
             eta_scale: 1.0,
             count_found: true,
+            aov: None,
         }
     }
 
@@ -129,8 +133,16 @@ impl Path {
                         depth == 1,
                     );
             }
+            if let Some(aov) = &mut self.aov {
+                let d = self.ray.d.normalize();
+                let env = scene.escaped(d, None, (self.prev_p, self.prev_n), depth == 1);
+                aov.escaped(self.beta, env);
+            }
             return false;
         };
+        if let (Some(aov), 1) = (&mut self.aov, depth) {
+            aov.camera_hit(scene, hit, &self.ray);
+        }
         if let Some(sigma) = self.medium {
             // Beer–Lambert along the segment travelled inside.
             self.beta *= transmittance(sigma, hit.t * self.ray.d.length());
@@ -149,6 +161,9 @@ impl Path {
         if self.count_found && direct.weight > 0.0 {
             self.l += self.beta * direct.radiance * direct.weight;
         }
+        if let (Some(aov), true) = (&mut self.aov, direct.unlit) {
+            aov.unlit(self.beta, direct.radiance, hit.ns);
+        }
         if direct.unlit || depth == scene.settings.max_depth {
             return false;
         }
@@ -164,6 +179,9 @@ impl Path {
         // Next-event estimation only where a lobe is not a Dirac delta (a vertex that only
         // scatters by delta lobes leaves its point unused).
         let needs_light = bsdf.has_smooth_lobe();
+        if let (Some(aov), true) = (&mut self.aov, needs_light) {
+            aov.smooth_vertex(bsdf.frame.n);
+        }
         *vertex = Some(Vertex {
             material,
             bsdf,
@@ -369,6 +387,9 @@ impl Path {
             self.l += shadow.radiance;
         }
         let medium = self.medium;
+        if let Some(aov) = &mut self.aov {
+            aov.scattered(self.beta, sampled.map(|s| s.weight));
+        }
         if split > 1.0 {
             // Drawn together, so that over a pixel's samples they are one stratified set; each
             // counts 1/SPLIT, whether or not the others succeed. The path goes on with its own

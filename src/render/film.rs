@@ -19,6 +19,7 @@ use std::time::Duration;
 
 use glam::DVec3;
 
+use crate::aov::{Aov, AovSample, AovSet, AovSums, PassImage, PassPixels};
 use crate::image::{Image, REL_EPSILON};
 use crate::math::Vec3;
 
@@ -26,6 +27,7 @@ use crate::math::Vec3;
 pub const MAX_SAMPLE: f64 = 4_294_967_296.0;
 /// 2⁶⁴: fixed-point scale of the sums.
 const SUM_SCALE: f64 = 18_446_744_073_709_551_616.0;
+
 /// 2³²: fixed-point scale of the sums of squares.
 const SQ_SCALE: f64 = 4_294_967_296.0;
 
@@ -208,6 +210,32 @@ impl PixelSum {
     }
 }
 
+/// Where the render loop puts finished samples: the beauty's sums of a run of pixels and, when
+/// render passes are asked for, theirs.
+pub(crate) struct Sink<'a> {
+    /// The beauty's sums.
+    pub beauty: &'a mut [PixelSum],
+    /// The passes' sums, of as many pixels.
+    pub aov: Option<&'a mut AovSums>,
+}
+
+impl Sink<'_> {
+    /// Whether the paths are to record render passes.
+    pub fn wants_aovs(&self) -> bool {
+        self.aov.is_some()
+    }
+
+    /// Adds sample number `index` of pixel `pixel`: its radiance, and what it saw for the
+    /// passes (all zero when it recorded nothing: ray-cast previews, depth 0).
+    #[inline]
+    pub fn add(&mut self, pixel: usize, index: u32, value: Vec3, aov: Option<&AovSample>) {
+        self.beauty[pixel].add_sample(value);
+        if let Some(sums) = &mut self.aov {
+            sums.add(pixel, index, aov.unwrap_or(&AovSample::default()));
+        }
+    }
+}
+
 /// The image's error as predicted from the per-pixel sample variances.
 #[derive(Debug, Clone, Copy)]
 pub struct ErrorEstimate {
@@ -223,6 +251,8 @@ pub struct Film {
     width: u32,
     height: u32,
     pixels: Vec<PixelSum>,
+    /// The render passes' sums ([`crate::aov`]), when passes are asked for.
+    aov: Option<AovSums>,
 }
 
 impl Film {
@@ -233,7 +263,101 @@ impl Film {
             width,
             height,
             pixels,
+            aov: None,
         })
+    }
+
+    /// The film with these pass sums (of as many pixels), or `None` when their size differs.
+    pub fn with_aov_sums(mut self, aov: Option<AovSums>) -> Option<Film> {
+        if let Some(a) = &aov {
+            if AovSums::new(a.set(), self.pixels.len()).sums().len() != a.sums().len() {
+                return None;
+            }
+        }
+        self.aov = aov;
+        Some(self)
+    }
+
+    /// A film without samples that also sums the render passes `set` (those that need
+    /// per-sample records; none when `set` holds none of them).
+    pub fn with_aovs(width: u32, height: u32, set: AovSet) -> Film {
+        let mut film = Film::new(width, height);
+        if set.needs_samples() {
+            film.aov = Some(AovSums::new(set.recorded(), film.pixels.len()));
+        }
+        film
+    }
+
+    /// The render passes summed in this film ([`AovSet::NONE`] when none).
+    pub fn aov_set(&self) -> AovSet {
+        self.aov.as_ref().map_or(AovSet::NONE, AovSums::set)
+    }
+
+    /// The render passes' sums, if any.
+    pub fn aov_sums(&self) -> Option<&AovSums> {
+        self.aov.as_ref()
+    }
+
+    /// The sums of pixel (x, y) of the beauty and of the passes, to fill in.
+    pub(crate) fn sums_mut(&mut self) -> (&mut [PixelSum], Option<&mut AovSums>) {
+        (&mut self.pixels, self.aov.as_mut())
+    }
+
+    /// Adds pixel (ox, oy) of `other` (with the same passes) into pixel (x, y).
+    pub fn merge_pixel_from(&mut self, (x, y): (u32, u32), other: &Film, (ox, oy): (u32, u32)) {
+        let to = (y * self.width + x) as usize;
+        let from = (oy * other.width + ox) as usize;
+        self.pixels[to].merge(&other.pixels[from]);
+        if let (Some(a), Some(b)) = (&mut self.aov, &other.aov) {
+            a.merge_pixel(to, b, from);
+        }
+    }
+
+    /// The render passes `set` as images of the film's pixels (those of `set` the film holds,
+    /// and `std_error`, which every film can give), in [`Aov::ALL`]'s order.
+    pub fn passes(&self, set: AovSet) -> Vec<PassImage> {
+        let mut out = Vec::new();
+        for aov in set.iter() {
+            let pixels = match (aov, &self.aov) {
+                (Aov::StdError, _) => PassPixels::Float(
+                    self.std_error()
+                        .pixels
+                        .iter()
+                        .flat_map(|p| p.to_array())
+                        .collect(),
+                ),
+                (Aov::ObjectId | Aov::MaterialId, Some(a)) if a.set().contains(aov) => {
+                    PassPixels::Id(
+                        a.ids()
+                            .iter()
+                            .map(|r| {
+                                if aov == Aov::ObjectId {
+                                    r.object
+                                } else {
+                                    r.material
+                                }
+                            })
+                            .collect(),
+                    )
+                }
+                (_, Some(a)) => {
+                    let Some(offset) = a.set().offset(aov) else {
+                        continue;
+                    };
+                    let n = aov.channels().len();
+                    let mut values = Vec::with_capacity(self.pixels.len() * n);
+                    for (i, p) in self.pixels.iter().enumerate() {
+                        for k in 0..n {
+                            values.push(a.mean(i, offset + k, p.taken()));
+                        }
+                    }
+                    PassPixels::Float(values)
+                }
+                (_, None) => continue,
+            };
+            out.push(PassImage { aov, pixels });
+        }
+        out
     }
 
     /// A film without samples.
@@ -242,6 +366,7 @@ impl Film {
             width,
             height,
             pixels: vec![PixelSum::default(); (width * height) as usize],
+            aov: None,
         }
     }
 
@@ -279,6 +404,11 @@ impl Film {
         );
         for (p, add) in self.pixels.iter_mut().zip(&other.pixels) {
             p.merge(add);
+        }
+        if let (Some(a), Some(b)) = (&mut self.aov, &other.aov) {
+            for i in 0..self.pixels.len() {
+                a.merge_pixel(i, b, i);
+            }
         }
     }
 

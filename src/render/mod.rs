@@ -19,12 +19,14 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use adaptive::{AdaptiveAllocator, ErrorSource};
+pub(crate) use film::Sink;
 pub use film::{ErrorEstimate, Film, PixelSum, MAX_SAMPLE};
 use pass::PassContext;
 pub use pass::TILE;
 use schedule::{NextPass, Plan, Schedule};
 use wave::{render_pixels, PixelWork};
 
+use crate::aov::AovSet;
 pub use crate::image::Image;
 use crate::integrator::TraceStats;
 use crate::scene::Scene;
@@ -120,6 +122,9 @@ pub struct RenderOptions<'a> {
     /// [`crate::lanes::default_width`], this CPU's widest or `LUMO_SIMD`). The image is the
     /// same bits at every width; only the speed differs.
     pub lane_width: Option<usize>,
+    /// Render passes to sum besides the beauty ([`crate::aov`]); a film resumed from must sum
+    /// the same ones. They change no bit of the beauty.
+    pub aovs: AovSet,
 }
 
 /// Longest pass, in seconds, of renders that can be interrupted or checkpointed: an interruption
@@ -200,7 +205,7 @@ fn run_passes<F>(
     sample: F,
 ) -> (Film, u64, bool)
 where
-    F: Fn(&[PixelWork], &mut [PixelSum], &mut TraceStats) + Sync,
+    F: Fn(&[PixelWork], &mut Sink, &mut TraceStats) + Sync,
 {
     let mut film = match options.resume {
         Some(f) => {
@@ -209,9 +214,14 @@ where
                 (plan.width, plan.height),
                 "the film resumed from has another size"
             );
+            assert_eq!(
+                f.aov_set(),
+                Film::with_aovs(1, 1, options.aovs).aov_set(),
+                "the film resumed from has other render passes"
+            );
             f.clone()
         }
-        None => Film::new(plan.width, plan.height),
+        None => Film::with_aovs(plan.width, plan.height, options.aovs),
     };
     let mut schedule = Schedule::new(plan, options, film.samples_taken());
     let mut allocator = AdaptiveAllocator::new(plan.seed, plan.budget.is_some(), source);
@@ -223,6 +233,7 @@ where
         timed,
         options.first_sample,
         options.cancel,
+        options.aovs,
     );
     let mut counts = vec![0u32; film.pixels().len()];
     let mut interrupted = false;

@@ -7,8 +7,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::film::{Film, PixelSum};
+use super::film::{Film, PixelSum, Sink};
 use super::wave::PixelWork;
+use crate::aov::{AovSet, AovSums};
 use crate::integrator::TraceStats;
 
 /// Side of the square tiles work is split into.
@@ -20,6 +21,8 @@ pub(super) struct PassContext<'a, F> {
     /// `sample(work, sums, stats)`: the sums of the samples `work` lists (pixels given in the
     /// film's window), one per entry, into `sums`.
     sample: F,
+    /// The render passes the films sum.
+    aovs: AovSet,
     /// Called with the number of samples finished so far.
     progress: Option<&'a (dyn Fn(u64) + Sync)>,
     /// Whether to record the wall time each pixel's samples take.
@@ -33,6 +36,9 @@ pub(super) struct PassContext<'a, F> {
     /// Samples finished so far.
     samples_done: AtomicU64,
 }
+
+/// The new samples' sums of a tile's pixels, row by row: the beauty's and the passes'.
+type TileSums = (Vec<PixelSum>, Option<AovSums>);
 
 /// A tile's pixels: x in `x0..x1`, y in `y0..y1`.
 struct Tile {
@@ -62,7 +68,7 @@ impl Tile {
 
 impl<'a, F> PassContext<'a, F>
 where
-    F: Fn(&[PixelWork], &mut [PixelSum], &mut TraceStats) + Sync,
+    F: Fn(&[PixelWork], &mut Sink, &mut TraceStats) + Sync,
 {
     /// A context whose passes sample pixels with `sample`, report to `progress`, and with
     /// `timed` record the wall time of each pixel's samples.
@@ -72,9 +78,11 @@ where
         timed: bool,
         first_sample: u32,
         cancel: Option<&'a AtomicBool>,
+        aovs: AovSet,
     ) -> PassContext<'a, F> {
         PassContext {
             sample,
+            aovs: aovs.recorded(),
             progress,
             timed,
             first_sample,
@@ -102,7 +110,7 @@ where
         let (w, h) = (film.width(), film.height());
         let tiles_x = w.div_ceil(TILE);
         let tiles_y = h.div_ceil(TILE);
-        let results: Vec<Option<(Tile, Vec<PixelSum>)>> = (0..tiles_x * tiles_y)
+        let results: Vec<Option<(Tile, TileSums)>> = (0..tiles_x * tiles_y)
             .into_par_iter()
             .with_max_len(1)
             .map(|index| {
@@ -117,10 +125,14 @@ where
         if self.cancelled() {
             return None;
         }
-        let mut pass = Film::new(w, h);
-        for (tile, sums) in results.into_iter().flatten() {
-            for ((x, y), sums) in tile.pixels().zip(sums) {
+        let mut pass = Film::with_aovs(w, h, self.aovs);
+        for (tile, (sums, aov)) in results.into_iter().flatten() {
+            for (i, ((x, y), sums)) in tile.pixels().zip(sums).enumerate() {
                 *pass.pixel_mut(x, y) = sums;
+                if let (Some(to), Some(from)) = (pass.sums_mut().1, &aov) {
+                    // The pass film's pass sums start at zero: adding sets them.
+                    to.merge_pixel((y * w + x) as usize, from, i);
+                }
             }
         }
         Some(pass)
@@ -128,7 +140,7 @@ where
 
     /// The new samples of one tile's pixels, row by row: all in one call, or, when timed, a
     /// call per pixel.
-    fn render_tile(&self, film: &Film, counts: &[u32], tile: &Tile) -> Vec<PixelSum> {
+    fn render_tile(&self, film: &Film, counts: &[u32], tile: &Tile) -> TileSums {
         let mut stats = TraceStats::default();
         let work: Vec<PixelWork> = tile
             .pixels()
@@ -143,22 +155,41 @@ where
             })
             .collect();
         let mut sums = vec![PixelSum::default(); work.len()];
+        let mut aov = self
+            .aovs
+            .needs_samples()
+            .then(|| AovSums::new(self.aovs, work.len()));
         if self.timed {
-            for (pixel, sum) in work.iter().zip(&mut sums) {
+            for (i, (pixel, sum)) in work.iter().zip(&mut sums).enumerate() {
                 if pixel.indices.is_empty() {
                     continue;
                 }
+                let mut one = aov.as_ref().map(|_| AovSums::new(self.aovs, 1));
                 let start = Instant::now();
                 (self.sample)(
                     std::slice::from_ref(pixel),
-                    std::slice::from_mut(sum),
+                    &mut Sink {
+                        beauty: std::slice::from_mut(sum),
+                        aov: one.as_mut(),
+                    },
                     &mut stats,
                 );
                 sum.set_time(start.elapsed());
+                if let (Some(to), Some(from)) = (&mut aov, &one) {
+                    to.merge_pixel(i, from, 0);
+                }
             }
         } else {
-            (self.sample)(&work, &mut sums, &mut stats);
+            (self.sample)(
+                &work,
+                &mut Sink {
+                    beauty: &mut sums,
+                    aov: aov.as_mut(),
+                },
+                &mut stats,
+            );
         }
+        let sums = (sums, aov);
         if self.cancelled() {
             // Stopped part-way: the pass is dropped, and its samples were never taken.
             return sums;

@@ -41,9 +41,9 @@ fn synthetic(
 /// stats)`.
 fn per_pixel(
     pixel: impl Fn(u32, u32, std::ops::Range<u32>, &mut TraceStats) -> PixelSum + Sync,
-) -> impl Fn(&[PixelWork], &mut [PixelSum], &mut TraceStats) + Sync {
+) -> impl Fn(&[PixelWork], &mut Sink, &mut TraceStats) + Sync {
     move |work, sums, stats| {
-        for (w, sum) in work.iter().zip(sums) {
+        for (w, sum) in work.iter().zip(sums.beauty.iter_mut()) {
             *sum = pixel(w.x, w.y, w.indices.clone(), stats);
         }
     }
@@ -301,7 +301,10 @@ fn a_cancel_stops_a_wave_within_a_step() {
             (width, Some(&cancel)),
             (0, 0),
             &work,
-            &mut sums,
+            &mut Sink {
+                beauty: &mut sums,
+                aov: None,
+            },
             &mut stats,
         );
         assert_eq!(
@@ -316,7 +319,11 @@ fn a_cancel_stops_a_wave_within_a_step() {
             y: 100,
             indices: 0..8,
         }];
-        render_pixels(&scene, (width, None), (0, 0), &work, &mut sums, &mut stats);
+        let mut sink = Sink {
+            beauty: &mut sums,
+            aov: None,
+        };
+        render_pixels(&scene, (width, None), (0, 0), &work, &mut sink, &mut stats);
         assert_eq!(sums[0].taken(), 8, "W = {width}");
     }
 }

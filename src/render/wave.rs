@@ -13,7 +13,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use super::film::PixelSum;
+use super::film::Sink;
 use crate::geometry::SurfaceHit;
 use crate::integrator::path::{Path, Scratch, Vertex};
 use crate::integrator::{raycast, TraceStats};
@@ -41,7 +41,7 @@ pub(super) fn render_pixels(
     (width, cancel): (usize, Option<&AtomicBool>),
     origin: (u32, u32),
     work: &[PixelWork],
-    sums: &mut [PixelSum],
+    sums: &mut Sink,
     stats: &mut TraceStats,
 ) {
     match width {
@@ -52,11 +52,13 @@ pub(super) fn render_pixels(
     }
 }
 
-/// A lane's path: the path, its sampler, and the entry of the work it is a sample of.
+/// A lane's path: the path, its sampler, the entry of the work it is a sample of, and the
+/// sample's index.
 struct Lane {
     path: Path,
     sampler: Sampler,
     pixel: usize,
+    index: u32,
 }
 
 /// Runs every sample of `work` in a wave of W lanes, refilling lanes as their paths end.
@@ -65,7 +67,7 @@ fn run_wave<const W: usize>(
     cancel: Option<&AtomicBool>,
     origin: (u32, u32),
     work: &[PixelWork],
-    sums: &mut [PixelSum],
+    sums: &mut Sink,
     stats: &mut TraceStats,
 ) {
     let mut queue = work
@@ -148,9 +150,10 @@ fn run_wave<const W: usize>(
 }
 
 /// Adds the lane's finished path to its pixel's sums and frees the lane.
-fn finish(lane: &mut Option<Lane>, sums: &mut [PixelSum]) {
+fn finish(lane: &mut Option<Lane>, sums: &mut Sink) {
     if let Some(lane) = lane.take() {
-        sums[lane.pixel].add_sample(lane.path.radiance());
+        let aov = lane.path.aov.as_deref();
+        sums.add(lane.pixel, lane.index, lane.path.radiance(), aov);
     }
 }
 
@@ -162,22 +165,28 @@ fn next_lane(
     (x0, y0): (u32, u32),
     queue: &mut impl Iterator<Item = (usize, u32)>,
     work: &[PixelWork],
-    sums: &mut [PixelSum],
+    sums: &mut Sink,
     stats: &mut TraceStats,
 ) -> Option<Lane> {
     for (k, index) in queue {
         let (mut sampler, ray) = camera_sample(scene, x0 + work[k].x, y0 + work[k].y, index);
         match scene.settings.integrator {
             IntegratorKind::Path if scene.settings.max_depth > 0 => {
+                let mut path = Path::new(ray);
+                if sums.wants_aovs() {
+                    path.aov = Some(Box::default());
+                }
                 return Some(Lane {
-                    path: Path::new(ray),
+                    path,
                     sampler,
                     pixel: k,
-                })
+                    index,
+                });
             }
-            IntegratorKind::Path => sums[k].add_sample(glam::Vec3::ZERO),
+            IntegratorKind::Path => sums.add(k, index, glam::Vec3::ZERO, None),
             IntegratorKind::Raycast => {
-                sums[k].add_sample(raycast::radiance(scene, ray, &mut sampler, stats))
+                let value = raycast::radiance(scene, ray, &mut sampler, stats);
+                sums.add(k, index, value, None);
             }
         }
     }

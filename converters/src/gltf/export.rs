@@ -554,7 +554,7 @@ impl Builder {
         let sx = SceneExtras {
             schema: scene.schema.clone(),
             image: Some(scene.image),
-            render: Some(scene.render),
+            render: Some(scene.render.clone()),
             background: Some(lumo_schema::Background {
                 image: scene.background.image.as_ref().map(|f| self.rebase(f)),
                 ..scene.background.clone()
