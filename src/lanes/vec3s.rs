@@ -9,7 +9,7 @@
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use super::{F32s, Mask};
-use crate::math::Vec3;
+use glam::Vec3;
 
 /// W lanes of a 3D vector.
 #[derive(Clone, Copy, Debug, Default)]
