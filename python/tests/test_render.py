@@ -183,7 +183,10 @@ def test_an_exception_in_the_callback_stops_the_render(cornell):
 
 CHILD = textwrap.dedent(
     """
-    import sys, time, lumo
+    import signal, sys, time, lumo
+    # Python leaves SIGINT ignored when it starts ignored (a job started in the background by
+    # a shell without job control inherits that); Ctrl-C is what this child is about.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     scene = lumo.load(sys.argv[1], {"image.width": 64, "image.height": 64})
     said = False
     def progress(done, total):
