@@ -271,7 +271,7 @@ impl<const W: usize> LambertLanes<W> {
             FRAC_PI_4 * (oy / ox),
             FRAC_PI_2 - FRAC_PI_4 * (ox / oy),
         );
-        let (sin, cos) = theta.sin_cos();
+        let (sin, cos) = F32s::sin_cos(theta);
         let (dx, dy) = (
             F32s::select(centre, zero, r * cos),
             F32s::select(centre, zero, r * sin),
