@@ -210,7 +210,7 @@ impl Path {
         scratch: &mut Scratch<W>,
     ) {
         let mut picked: [Option<Picked>; W] = [None; W];
-        let mut in_lanes: [Option<&Light>; W] = [None; W];
+        let mut in_lanes: [Option<LaneLight>; W] = [None; W];
         for i in 0..W {
             let (Some(path), Some(hit), Some(vertex)) = (paths[i], &hits[i], &mut vertices[i])
             else {
@@ -230,22 +230,30 @@ impl Path {
                 u: glam::Vec2::new(u_x, u_light[i].y),
             };
             picked[i] = Some(pick);
-            if LANE_KERNELS_FROM <= W
+            let emission = if LANE_KERNELS_FROM <= W
                 && path.medium.is_none()
-                && matches!(vertex.bsdf.lobes, Lobes::Lambert(_))
                 && matches!(light, Light::Triangle { .. })
-                && constant_emission(scene, light).is_some()
             {
-                in_lanes[i] = Some(light);
+                constant_emission(scene, light)
             } else {
-                vertex.shadow = path.light_sample(scene, hit, vertex, pick);
+                None
+            };
+            match (emission, &vertex.bsdf.lobes) {
+                (Some(emission), &Lobes::Lambert(albedo)) => {
+                    in_lanes[i] = Some(LaneLight {
+                        light,
+                        emission,
+                        albedo,
+                    })
+                }
+                _ => vertex.shadow = path.light_sample(scene, hit, vertex, pick),
             }
         }
         if in_lanes.iter().all(Option::is_none) {
             return;
         }
         let input = &mut scratch.lights;
-        input.gather(scene, &paths, hits, vertices, &picked, &in_lanes);
+        input.gather(&paths, hits, vertices, &picked, &in_lanes);
         let out = input.run();
         for i in 0..W {
             let (Some(path), Some(hit), Some(vertex), Some(pick)) =
@@ -498,6 +506,15 @@ struct Picked {
     u: glam::Vec2,
 }
 
+/// A lane of [`Path::sample_lights`] that runs in the vector kernel: its triangle light, that
+/// light's constant emission (see [`constant_emission`]) and the Lambertian albedo of its surface.
+#[derive(Clone, Copy)]
+struct LaneLight<'a> {
+    light: &'a Light,
+    emission: (Rgb, bool),
+    albedo: Rgb,
+}
+
 /// The radiance of an area light's surface when it is the same everywhere (an emissive
 /// material without an emission texture), and whether both faces emit it.
 fn constant_emission(scene: &Scene, light: &Light) -> Option<(Rgb, bool)> {
@@ -563,25 +580,24 @@ impl<const W: usize> LightLanes<W> {
     /// Sets the lanes of `lights` (the others keep what they held, which means nothing).
     fn gather(
         &mut self,
-        scene: &Scene,
         paths: &[Option<&Path>; W],
         hits: &[Option<SurfaceHit>; W],
         vertices: &[Option<Vertex>; W],
         picked: &[Option<Picked>; W],
-        lights: &[Option<&Light>; W],
+        lights: &[Option<LaneLight>; W],
     ) {
         let l = self;
         for i in 0..W {
-            let (Some(path), Some(hit), Some(vertex), Some(pick), Some(light)) =
+            let (Some(path), Some(hit), Some(vertex), Some(pick), Some(lane)) =
                 (paths[i], &hits[i], &vertices[i], picked[i], lights[i])
             else {
                 continue;
             };
-            let (Some((emission, two_sided)), Lobes::Lambert(albedo)) =
-                (constant_emission(scene, light), &vertex.bsdf.lobes)
-            else {
-                continue;
-            };
+            let LaneLight {
+                light,
+                emission: (emission, two_sided),
+                albedo,
+            } = lane;
             l.triangles.set(i, light);
             (l.u.0[i], l.u.1[i], l.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
             l.emission.set(i, emission);
@@ -590,7 +606,7 @@ impl<const W: usize> LightLanes<W> {
             l.ng.set(i, hit.ng);
             l.frame_n.set(i, vertex.bsdf.frame.n);
             l.bsdf_ng.set(i, vertex.bsdf.ng);
-            l.albedo.set(i, *albedo);
+            l.albedo.set(i, albedo);
             l.wo.set(i, vertex.wo);
             l.split[i] = vertex.split;
             l.beta.set(i, path.beta);
