@@ -438,10 +438,11 @@ impl RenderJob {
             target_spp: Some(self.scene.settings.spp),
             time_left_s,
             command: None,
+            // Every pass asked for, `std_error` too (derived from the beauty's sums, it is not
+            // recorded per sample, but a merge of the films writes what the header lists).
             aovs: self
                 .settings
                 .aovs
-                .recorded()
                 .names()
                 .into_iter()
                 .map(String::from)
@@ -620,6 +621,11 @@ impl Finished {
             ck.header.command.clone_from(&self.command);
             ck
         })
+    }
+
+    /// Which render passes the job kept ([`JobSettings::aovs`] and the scene's).
+    pub fn aovs(&self) -> AovSet {
+        self.aovs
     }
 
     /// The render passes asked for ([`JobSettings::aovs`]), of the job's window.

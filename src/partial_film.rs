@@ -469,7 +469,8 @@ impl PartialFilm {
             pixels.push(p);
         }
         let film = Film::from_pixels(w as u32, h as u32, pixels).ok_or("inconsistent size")?;
-        let set = header.aov_set()?;
+        // The header lists every pass asked for; the film sums those recorded per sample.
+        let set = header.aov_set()?.recorded();
         let aov = if set.needs_samples() {
             let stride = set.summed_channels();
             let mut sums = Vec::new();

@@ -430,3 +430,47 @@ fn a_checkpoint_resumes_on_its_own() {
     );
     assert_eq!(std::fs::read(&resumed).expect("image"), reference);
 }
+
+#[test]
+fn an_interrupted_render_writes_its_passes() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (out, ck) = (dir.path().join("out.exr"), dir.path().join("out.ck.npz"));
+    let scene = scene();
+    let mut args = vec![
+        "render",
+        p(&scene),
+        "--spp",
+        "100000",
+        "-q",
+        "--aov",
+        "albedo,depth,object_id",
+        "-o",
+        p(&out),
+        "--checkpoint",
+        p(&ck),
+        "--checkpoint-every",
+        "20ms",
+    ];
+    args.extend(SIZE);
+    let mut child = Guard(
+        lumo()
+            .args(&args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("lumo starts"),
+    );
+    // After a checkpoint: past loading, with samples taken.
+    wait_for_progress(&mut child, &ck, None, &mut Moments(3), 20);
+    child.signal("INT");
+    let (status, err) = child.wait();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(err.contains("wrote"), "{err}");
+    let layered = lumo::multilayer::read_exr(&out).expect("the interrupted image reads");
+    for pass in ["albedo", "depth", "object_id"] {
+        assert!(layered.group(pass).is_some(), "{pass} is missing");
+    }
+    let film = PartialFilm::read(&ck).expect("checkpoint");
+    assert_eq!(film.header.aovs, ["albedo", "depth", "object_id"]);
+}

@@ -224,8 +224,9 @@ fn merged_films_keep_their_passes_and_lumo_denoise_uses_them() {
         ok(cmd);
         film
     };
-    let a = part("a.npz", "0..3", "albedo,normal,depth");
-    let b = part("b.npz", "3..6", "albedo,normal,depth");
+    // std_error is derived from the beauty's sums, and a merge writes it too.
+    let a = part("a.npz", "0..3", "albedo,normal,depth,std_error");
+    let b = part("b.npz", "3..6", "albedo,normal,depth,std_error");
     let c = part("c.npz", "3..6", "depth");
     // Films of other passes are refused, with the reason.
     let mut cmd = lumo();
@@ -248,7 +249,7 @@ fn merged_films_keep_their_passes_and_lumo_denoise_uses_them() {
         "--spp",
         "6",
         "--aov",
-        "albedo,normal,depth",
+        "albedo,normal,depth,std_error",
         "-q",
         "-o",
         p(&whole),
@@ -261,7 +262,7 @@ fn merged_films_keep_their_passes_and_lumo_denoise_uses_them() {
     );
     let layered = lumo::multilayer::read_exr(&merged).expect("reads");
     let names: Vec<&str> = layered.groups.iter().map(|g| g.name.as_str()).collect();
-    assert_eq!(names, ["albedo", "depth", "normal"]);
+    assert_eq!(names, ["albedo", "depth", "normal", "std_error"]);
     // PNG output: the passes beside the image.
     let png = dir.path().join("m.png");
     let mut cmd = lumo();

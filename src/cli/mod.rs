@@ -975,7 +975,9 @@ fn keep_interrupted(
         finished.stats.samples
     );
     if let (Some(o), true) = (&args.output, taken > 0) {
-        if let Err(e) = write_image(&finished.full_image(), o, args.tonemap) {
+        // With its passes, as an uninterrupted render writes it (not denoised: a stopped
+        // render is for a look or a resume, and the noisy beauty is what resumes continue).
+        if let Err(e) = finished.write_output(o, args.tonemap, checkpoint, None) {
             return CliError::failure(e.to_string());
         }
         said += &format!("; wrote {}", o.display());
