@@ -9,6 +9,7 @@ import numpy.typing as npt
 
 _Path = Union[str, os.PathLike[str]]
 _Image = npt.NDArray[np.float32]
+_Pass = Union[npt.NDArray[np.float32], npt.NDArray[np.uint32]]
 _ToneMap = Literal["clamp", "aces"]
 _Lights = Literal["keep", "drop", "auto"]
 
@@ -152,6 +153,9 @@ class Film:
         """Writes the film atomically as a ``.npz`` partial film."""
     def image(self) -> _Image:
         """The mean radiance of the film's window, (h, w, 3) float32."""
+    def passes(self) -> dict[str, _Pass]:
+        """The render passes the film holds, by name (new arrays, shaped as
+        :attr:`RenderResult.passes`)."""
     def std_error(self) -> _Image:
         """The standard error of each pixel's mean, (h, w, 3) float32."""
     def write_image(self, path: _Path, tonemap: _ToneMap = "clamp") -> None:
@@ -201,6 +205,14 @@ class RenderResult:
     def std_error(self) -> _Image:
         """Standard error of each pixel's mean, read-only (H, W, 3) float32, no copy."""
     @property
+    def passes(self) -> dict[str, _Pass]:
+        """The render passes asked for (``aov=`` and the scene's ``render.aov``), read-only:
+        (H, W, 3) float32 for albedo, normal, position, std_error; (H, W, 2) for uv; (H, W)
+        float32 for depth; (H, W) uint32 for object_id and material_id."""
+    def denoised(self) -> _Image:
+        """The beauty denoised with Open Image Denoise (guided by albedo and normal when
+        rendered), a new (H, W, 3) float32 array; ``OSError`` without OIDN."""
+    @property
     def stats(self) -> Stats:
         """Counters."""
     @property
@@ -224,9 +236,10 @@ class RenderResult:
     @property
     def warnings(self) -> list[str]:
         """What the scene build dropped or approximated."""
-    def write(self, path: _Path, tonemap: _ToneMap = "clamp") -> None:
-        """Writes the image (PNG/BMP tone mapped, EXR/HDR linear): the bytes ``lumo render``
-        writes for the same scene and settings."""
+    def write(self, path: _Path, tonemap: _ToneMap = "clamp", denoise: bool = False) -> None:
+        """Writes the image with its passes (PNG/BMP tone mapped, EXR/HDR linear; passes as
+        EXR channels or PNG files beside it), denoised with ``denoise=True``: the bytes
+        ``lumo render`` writes for the same scene and settings."""
     def write_std_error(self, path: _Path) -> None:
         """Writes the per-pixel standard error (EXR/HDR)."""
     def _repr_png_(self) -> bytes:
@@ -255,6 +268,7 @@ def render(
     progress: Optional[Callable[[int, Optional[int]], Optional[bool]]] = None,
     adaptive: bool = False,
     light_sampler: Literal["auto", "power", "tree"] = "auto",
+    aov: Union[str, Sequence[str], None] = None,
 ) -> RenderResult:
     """Renders ``scene`` with the GIL released. ``progress(done, total)`` is called on the
     calling thread; returning False raises :class:`RenderCancelled`; Ctrl-C raises

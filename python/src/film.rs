@@ -10,6 +10,7 @@ use lumo::partial_film::{self, PartialFilm};
 use numpy::PyArray3;
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 use crate::arrays::{array, pixels, Source};
 
@@ -120,6 +121,21 @@ impl Film {
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f32>>> {
         let image = py.detach(|| self.film().film.image());
         array(pixels(py, Source::Owned(image))?.bind(py))
+    }
+
+    /// The render passes the film holds (its render's ``aov``), by name: a new dict of new
+    /// arrays of the film's window, shaped as ``RenderResult.passes``.
+    fn passes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let film = self.film();
+        let set = film.header.aov_set().map_err(PyValueError::new_err)?;
+        let passes = py.detach(|| film.film.passes(set));
+        let width = film.header.window().width();
+        let dict = PyDict::new(py);
+        for pass in passes {
+            let name = pass.aov.name();
+            dict.set_item(name, crate::render::pass_array(py, pass, width)?)?;
+        }
+        Ok(dict)
     }
 
     /// The standard error of each pixel's mean, per channel: an (h, w, 3) float32 array.

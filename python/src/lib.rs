@@ -22,8 +22,8 @@ use pyo3::prelude::*;
 
 use crate::errors::load_error;
 
-/// Renders a scene; returns a ``RenderResult`` (``.color``, ``.std_error``, ``.stats``,
-/// ``.film``, ``.write(path)``).
+/// Renders a scene; returns a ``RenderResult`` (``.color``, ``.std_error``, ``.passes``,
+/// ``.stats``, ``.film``, ``.write(path)``, ``.denoised()``).
 ///
 /// Every argument overrides what the scene says: ``spp`` samples per pixel; ``seed`` the
 /// random seed; ``threads`` worker threads (default: all cores; the image does not depend
@@ -31,7 +31,9 @@ use crate::errors::load_error;
 /// stop at (progressive passes; ``spp`` still caps); ``samples=(a, b)`` exactly sample
 /// indices a..b-1 and ``crop=(x0, y0, x1, y1)`` a window, for films that ``lumo.merge``
 /// adds up; ``adaptive`` spends samples where the estimated error is largest;
-/// ``light_sampler`` is ``"auto"``, ``"power"`` or ``"tree"``.
+/// ``light_sampler`` is ``"auto"``, ``"power"`` or ``"tree"``; ``aov`` the render passes
+/// to keep besides the beauty (``"albedo,normal"`` or a list of names: albedo, normal, depth,
+/// position, uv, object_id, material_id, std_error), added to the scene's ``render.aov``.
 ///
 /// The GIL is released while rendering. ``progress(done, total)`` is called on this thread
 /// as samples finish (``total`` is None for a time or error budget); returning ``False``
@@ -39,7 +41,7 @@ use crate::errors::load_error;
 /// ``e.result``. Ctrl-C does the same with ``KeyboardInterrupt``. The result is the same bits
 /// as ``lumo render`` with the same scene and settings.
 #[pyfunction]
-#[pyo3(name = "render", signature = (scene, spp = None, seed = None, threads = None, time = None, target_error = None, samples = None, crop = None, progress = None, adaptive = false, light_sampler = "auto"))]
+#[pyo3(name = "render", signature = (scene, spp = None, seed = None, threads = None, time = None, target_error = None, samples = None, crop = None, progress = None, adaptive = false, light_sampler = "auto", aov = None))]
 #[allow(clippy::too_many_arguments)]
 fn render_py(
     py: Python<'_>,
@@ -54,6 +56,7 @@ fn render_py(
     progress: Option<Bound<'_, PyAny>>,
     adaptive: bool,
     light_sampler: &str,
+    aov: Option<Bound<'_, PyAny>>,
 ) -> PyResult<render::RenderResult> {
     let request = render::request(
         spp,
@@ -65,6 +68,7 @@ fn render_py(
         crop,
         adaptive,
         light_sampler,
+        render::aov_set(aov.as_ref())?,
     )?;
     let progress = progress.filter(|p| !p.is_none());
     render::render(py, &scene, request, progress)

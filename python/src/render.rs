@@ -8,12 +8,14 @@ use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use lumo::aov::{AovSet, PassImage, PassPixels};
+use lumo::denoise::Oidn;
 use lumo::job::{Finished, Hooks, JobError, JobSettings, LightChoice, RenderJob};
 use lumo::render::Window;
-use numpy::PyArray3;
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use numpy::{IntoPyArray, PyArray3, PyArrayMethods};
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyBytes};
+use pyo3::types::{PyBool, PyBytes, PyDict, PyString};
 
 use crate::arrays::{array, pixels, Pixels, Source, Which};
 use crate::errors::{job_error, LumoWarning, RenderCancelled};
@@ -73,6 +75,8 @@ pub struct RenderResult {
     std_error: Py<Pixels>,
     stats: Py<Stats>,
     film: Py<Film>,
+    /// The render passes as read-only arrays, in `Aov::ALL`'s order.
+    passes: Vec<(&'static str, Py<PyAny>)>,
     warnings: Vec<String>,
 }
 
@@ -95,6 +99,11 @@ impl RenderResult {
             estimated_error: s.estimated_rel_error,
             estimated_rmse: s.estimated_rmse,
         };
+        let passes = finished
+            .passes()
+            .into_iter()
+            .map(|p| Ok((p.aov.name(), pass_array(py, p, finished.image.width)?)))
+            .collect::<PyResult<Vec<_>>>()?;
         let finished = Arc::new(finished);
         Ok(RenderResult {
             color: pixels(py, Source::Finished(Arc::clone(&finished), Which::Color))?,
@@ -102,9 +111,64 @@ impl RenderResult {
             stats: Py::new(py, stats)?,
             film: Py::new(py, Film::of_result(Arc::clone(&finished)))?,
             finished,
+            passes,
             warnings,
         })
     }
+}
+
+/// A pass as a read-only numpy array of the window: (H, W) for one channel (depth, ids),
+/// (H, W, C) otherwise; float32, ids uint32.
+pub fn pass_array(py: Python<'_>, pass: PassImage, width: u32) -> PyResult<Py<PyAny>> {
+    let channels = pass.aov.channels().len();
+    let w = width as usize;
+    let shape = |len: usize| {
+        let h = len / (w * channels).max(1);
+        if channels == 1 {
+            vec![h, w]
+        } else {
+            vec![h, w, channels]
+        }
+    };
+    let array = match pass.pixels {
+        PassPixels::Float(v) => {
+            let s = shape(v.len());
+            v.into_pyarray(py).reshape(s)?.into_any()
+        }
+        PassPixels::Id(v) => {
+            let s = shape(v.len());
+            v.into_pyarray(py).reshape(s)?.into_any()
+        }
+    };
+    // Read-only like `color`: the same arrays are handed out by every `passes` call.
+    array.getattr("flags")?.setattr("writeable", false)?;
+    Ok(array.unbind())
+}
+
+/// The passes of `lumo.render`'s ``aov=``: None, a comma-separated string or a sequence of
+/// names.
+pub fn aov_set(aov: Option<&Bound<'_, PyAny>>) -> PyResult<AovSet> {
+    let Some(aov) = aov.filter(|a| !a.is_none()) else {
+        return Ok(AovSet::NONE);
+    };
+    let text = if aov.is_instance_of::<PyString>() {
+        aov.extract::<String>()?
+    } else {
+        let names: Vec<String> = aov.extract().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(
+                "aov= takes pass names: a string (\"albedo,normal\") or a list of strings",
+            )
+        })?;
+        if let Some(bad) = names.iter().find(|n| n.contains(',')) {
+            return Err(PyValueError::new_err(format!(
+                "aov=: {bad:?} is not one pass name (give a list of names or one \
+                 comma-separated string)"
+            )));
+        }
+        names.join(",")
+    };
+    text.parse::<AovSet>()
+        .map_err(|e| PyValueError::new_err(format!("aov=: {e}")))
 }
 
 #[pymethods]
@@ -122,6 +186,38 @@ impl RenderResult {
     #[getter]
     fn std_error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f32>>> {
         array(self.std_error.bind(py))
+    }
+
+    /// The render passes asked for (``aov=`` and the scene's ``render.aov``), by name: a new
+    /// dict of read-only arrays of the rendered window, (H, W, 3) for albedo, normal, position
+    /// and std_error, (H, W, 2) for uv, (H, W) for depth, and (H, W) uint32 for object_id and
+    /// material_id (index + 1 in the scene, 0 where the first sample hit nothing). The
+    /// definitions are lumo render's (docs/passes.md).
+    #[getter]
+    fn passes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let dict = PyDict::new(py);
+        for (name, array) in &self.passes {
+            dict.set_item(*name, array.bind(py))?;
+        }
+        Ok(dict)
+    }
+
+    /// The beauty denoised with Intel Open Image Denoise, as a new (H, W, 3) float32 array,
+    /// guided by the albedo and normal passes when the render kept them (``aov="albedo,normal"``;
+    /// prefiltered, as for final frames). OIDN is loaded at run time, as for ``lumo render
+    /// --denoise`` (``LUMO_OIDN``, ``OIDN_DIR``, or ``pip install pyoidn``); without it this
+    /// raises ``OSError`` saying how to install it. The GIL is released while denoising.
+    fn denoised<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f32>>> {
+        let finished = Arc::clone(&self.finished);
+        let image = py
+            .detach(move || {
+                let mut oidn = Oidn::load().map_err(|e| e.to_string())?;
+                finished.denoised(&mut oidn).map_err(|e| e.to_string())
+            })
+            .map_err(PyOSError::new_err)?;
+        let (h, w) = (image.height as usize, image.width as usize);
+        let floats: Vec<f32> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
+        floats.into_pyarray(py).reshape([h, w, 3])
     }
 
     /// Counters: samples per pixel, seconds, samples per second, rays, dropped samples,
@@ -176,21 +272,40 @@ impl RenderResult {
         self.warnings.clone()
     }
 
-    /// Writes the image at the render's full size (black outside a crop window), atomically:
-    /// PNG/BMP tone mapped (``"clamp"`` or ``"aces"``) to 8-bit sRGB, EXR/HDR linear; the same
-    /// bytes ``lumo render -o`` writes for the same scene and settings.
-    #[pyo3(signature = (path, tonemap = "clamp"))]
-    fn write(&self, py: Python<'_>, path: PathBuf, tonemap: &str) -> PyResult<()> {
+    /// Writes the image at the render's full size (black outside a crop window) with its render
+    /// passes, atomically: PNG/BMP tone mapped (``"clamp"`` or ``"aces"``) to 8-bit sRGB, EXR/HDR
+    /// linear; the passes as channels of the same EXR (``albedo.R``, …) or as PNG files beside
+    /// the image (``OUT.albedo.png``). With ``denoise=True`` the beauty is denoised (see
+    /// ``denoised()``) and the noisy one kept as the pass ``noisy``. The same bytes ``lumo render
+    /// -o`` (``--aov``, ``--denoise``) writes for the same scene and settings.
+    #[pyo3(signature = (path, tonemap = "clamp", denoise = false))]
+    fn write(&self, py: Python<'_>, path: PathBuf, tonemap: &str, denoise: bool) -> PyResult<()> {
         let tone = self::tonemap(tonemap)?;
-        let f = &self.finished;
-        write_full_image(
-            py,
-            &f.image,
-            &f.window(),
-            (f.width(), f.height()),
-            path,
-            tone,
-        )
+        let finished = Arc::clone(&self.finished);
+        py.detach(move || {
+            let denoised = if denoise {
+                let mut oidn = Oidn::load().map_err(|e| PyOSError::new_err(e.to_string()))?;
+                let image = finished
+                    .denoised(&mut oidn)
+                    .map_err(|e| PyOSError::new_err(e.to_string()))?;
+                Some(image)
+            } else {
+                None
+            };
+            let f = &finished;
+            lumo::job::write_with_passes(
+                &path,
+                tone,
+                &f.sums,
+                f.aovs(),
+                (&f.window(), f.width(), f.height()),
+                denoised.as_ref(),
+            )
+            .map_err(|e| match e {
+                lumo::output::ImageIoError::Format { .. } => PyValueError::new_err(e.to_string()),
+                lumo::output::ImageIoError::Io { .. } => PyOSError::new_err(e.to_string()),
+            })
+        })
     }
 
     /// Writes the per-pixel standard error (linear; ``.exr`` or ``.hdr``), as
@@ -212,7 +327,15 @@ impl RenderResult {
         let dir = tempfile::tempdir()
             .map_err(|e| PyRuntimeError::new_err(format!("cannot make a temporary folder: {e}")))?;
         let path = dir.path().join("image.png");
-        self.write(py, path.clone(), "clamp")?;
+        let f = &self.finished;
+        write_full_image(
+            py,
+            &f.image,
+            &f.window(),
+            (f.width(), f.height()),
+            path.clone(),
+            lumo::output::ToneMap::Clamp,
+        )?;
         let bytes = std::fs::read(&path).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         Ok(PyBytes::new(py, &bytes))
     }
@@ -260,6 +383,7 @@ pub fn request(
     crop: Option<(u32, u32, u32, u32)>,
     adaptive: bool,
     light_sampler: &str,
+    aovs: AovSet,
 ) -> PyResult<Request> {
     let bad = |m: String| Err(PyValueError::new_err(m));
     if spp == Some(0) {
@@ -322,6 +446,7 @@ pub fn request(
             adaptive,
             light_sampler,
             threads,
+            aovs,
             ..JobSettings::default()
         },
         seed,
