@@ -26,13 +26,13 @@
 //!
 //! # The quick pass has no render passes
 //!
-//! The quick ray-cast frame (a quarter of the resolution, one sample, shown for the tens of
-//! milliseconds the path tracer's first pass takes) carries the beauty only: the page says
-//! that the passes come with the first path-traced pass. Filling the cheap ones there would
-//! mean a second, ray-cast definition of albedo and normal (the path tracer takes them at the
-//! first non-delta vertex, from the BSDF sample the path continues with, which the ray-cast
-//! integrator does not draw) for a frame at a quarter of the resolution that is replaced almost
-//! at once.
+//! The quick ray-cast frame (a quarter of the resolution, one sample, shown until the path
+//! tracer's first pass: tens of milliseconds for the Cornell box) carries the beauty only: the
+//! page says that the passes come with the first path-traced pass. Filling the cheap ones there
+//! would mean a second, ray-cast definition of albedo and normal (the path tracer takes them at
+//! the first non-delta vertex, from the BSDF sample the path continues with, which the ray-cast
+//! integrator does not draw), and changes to the render loop, for a frame at a quarter of the
+//! resolution that the first pass replaces.
 
 mod server;
 mod watch;
@@ -130,9 +130,9 @@ pub(crate) struct Status {
     output: String,
     /// The page's initial tone mapping.
     tonemap: &'static str,
-    /// Render passes the path-traced frames carry (`/frame?kind=pass&name=…`), in the order of
-    /// `lumo render --aov`'s list; the standard error, which every frame has (`kind=error`), is
-    /// not listed.
+    /// Render passes the path-traced frames carry (`/frame?kind=pass&name=…`), by their
+    /// `--aov` names in [`Aov::ALL`]'s order; the standard error, which every frame has
+    /// (`kind=error`), is not listed.
     passes: Vec<&'static str>,
     /// The denoised view: `loading` (Open Image Denoise is being looked for), `ready` or
     /// `missing`.
