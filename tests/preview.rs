@@ -1209,3 +1209,35 @@ fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
         "{wrong} of {checked} screen pixels are not their canvas pixel's colour"
     );
 }
+
+#[test]
+fn the_quick_frame_says_the_passes_come_with_the_first_path_traced_pass() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = cornell_copy(dir.path());
+    // Large enough that the path tracer's first pass (2 spp of 512²) takes a second or more
+    // after the quick frame (128², ray cast) is published.
+    let preview = Preview::start(
+        &scene,
+        &[
+            "--width", "512", "--height", "512", "--spp", "4", "--aov", "albedo",
+        ],
+    );
+    let quick = preview.wait_for("the quick frame", |s| s["quick"] == true);
+    let (code, head, body) = preview.request("GET", "/frame?kind=image");
+    assert_eq!(code, 200);
+    assert_eq!(header(&head, "x-lumo-width"), Some("128"));
+    if header(&head, "x-lumo-frame") != Some(&quick["frame"].to_string()) {
+        panic!("the first path-traced pass came too soon to see the quick frame's answers");
+    }
+    assert_eq!(body.len(), 128 * 128 * 12);
+    for target in ["/frame?kind=pass&name=albedo", "/frame?kind=denoised"] {
+        let (code, _, body) = preview.request("GET", target);
+        let body = String::from_utf8_lossy(&body);
+        assert_eq!(code, 409, "GET {target}: {body}");
+        assert!(
+            body.contains("first path-traced pass"),
+            "GET {target}: {body}"
+        );
+    }
+}
