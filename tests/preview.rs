@@ -1,7 +1,7 @@
 //! `lumo preview` end to end: real server processes on 127.0.0.1, a raw HTTP client, the
 //! server-sent event stream awaited for each state (no fixed sleeps where an event can be
 //! awaited), and a real browser (Debian's Chromium driven by playwright-core,
-//! `tests/browser/preview.mjs`).
+//! `tests/browser/preview.mjs` and `passes.mjs`).
 //!
 //! These tests start processes, so they live in their own test binary and run one at a time
 //! (a lock), each bounded in time by a deadline on every wait.
