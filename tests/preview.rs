@@ -1,7 +1,7 @@
 //! `lumo preview` end to end: real server processes on 127.0.0.1, a raw HTTP client, the
 //! server-sent event stream awaited for each state (no fixed sleeps where an event can be
 //! awaited), and a real browser (Debian's Chromium driven by playwright-core,
-//! `tests/browser/preview.mjs`).
+//! `tests/browser/preview.mjs` and `passes.mjs`).
 //!
 //! These tests start processes, so they live in their own test binary and run one at a time
 //! (a lock), each bounded in time by a deadline on every wait.
@@ -48,11 +48,17 @@ impl Drop for Preview {
 impl Preview {
     /// Starts `lumo preview SCENE --port 0 ARGS…` and reads the address it serves on.
     fn start(scene: &Path, args: &[&str]) -> Preview {
+        Preview::start_with(scene, args, &[])
+    }
+
+    /// [`Preview::start`] with environment variables set.
+    fn start_with(scene: &Path, args: &[&str], env: &[(&str, &std::ffi::OsStr)]) -> Preview {
         let mut child = Command::new(env!("CARGO_BIN_EXE_lumo"))
             .arg("preview")
             .arg(scene)
             .args(["--port", "0", "--threads", "2"])
             .args(args)
+            .envs(env.iter().copied())
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
@@ -600,4 +606,638 @@ fn editing_the_patch_or_an_included_fragment_renders_again() {
     write_atomically(&fragment, &spare.replace("0.5, 0.5, 0.5", "0.2, 0.2, 0.2"));
     let again = preview.wait_done(4);
     assert_eq!(again["error"], Value::Null);
+}
+
+// Render passes, the denoised view, and the page as an image viewer.
+
+/// A frame answer decoded by its headers.
+#[derive(Debug)]
+struct Served {
+    width: usize,
+    height: usize,
+    channels: Vec<String>,
+    /// `x-lumo-frame`.
+    frame: u64,
+    /// The values of an `f32` answer.
+    floats: Vec<f32>,
+    /// The values of a `u32` answer (ids).
+    ids: Vec<u32>,
+}
+
+/// The value of header `name` in a response head.
+fn header<'a>(head: &'a str, name: &str) -> Option<&'a str> {
+    head.lines().find_map(|line| {
+        let (key, value) = line.split_once(':')?;
+        key.trim()
+            .eq_ignore_ascii_case(name)
+            .then_some(value.trim())
+    })
+}
+
+impl Preview {
+    /// GETs a frame route that must answer 200, and decodes it by its headers.
+    fn served(&self, target: &str) -> Served {
+        let (code, head, body) = self.request("GET", target);
+        assert_eq!(
+            code,
+            200,
+            "GET {target}: {}",
+            String::from_utf8_lossy(&body)
+        );
+        let get = |name: &str| {
+            header(&head, name).unwrap_or_else(|| panic!("GET {target}: no {name} header"))
+        };
+        let width: usize = get("x-lumo-width").parse().expect("width");
+        let height: usize = get("x-lumo-height").parse().expect("height");
+        let channels: Vec<String> = get("x-lumo-channels")
+            .split(',')
+            .map(String::from)
+            .collect();
+        assert_eq!(
+            body.len(),
+            width * height * channels.len() * 4,
+            "GET {target}: {width}×{height} pixels of {channels:?} in {} bytes",
+            body.len()
+        );
+        let words = body.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]);
+        let (floats, ids) = match get("x-lumo-type") {
+            "f32" => (words.map(f32::from_le_bytes).collect(), Vec::new()),
+            "u32" => (Vec::new(), words.map(u32::from_le_bytes).collect()),
+            other => panic!("GET {target}: x-lumo-type {other}"),
+        };
+        Served {
+            width,
+            height,
+            channels,
+            frame: get("x-lumo-frame").parse().expect("frame"),
+            floats,
+            ids,
+        }
+    }
+
+    /// Waits until the first render is done and the denoiser has been looked for.
+    fn wait_settled(&self) -> Value {
+        self.wait_for("render 1 done and the denoiser looked for", |s| {
+            s["state"] == "done" && s["denoiser"] != "loading"
+        })
+    }
+}
+
+/// The Cornell box's red wall, from the scene file: its object id (index + 1 in `objects`),
+/// its material id (index + 1 among the materials sorted by name) and its base colour.
+fn red_wall(scene: &Path) -> (u32, u32, [f32; 3]) {
+    let v: Value =
+        serde_json::from_str(&std::fs::read_to_string(scene).expect("read")).expect("JSON");
+    let objects = v["objects"].as_array().expect("objects");
+    let object = objects
+        .iter()
+        .position(|o| o["mesh"]["material"] == "red")
+        .expect("a red object");
+    let mut names: Vec<&String> = v["materials"]
+        .as_object()
+        .expect("materials")
+        .keys()
+        .collect();
+    names.sort();
+    let material = names.iter().position(|n| *n == "red").expect("red");
+    let base: Vec<f32> = v["materials"]["red"]["base_color"]
+        .as_array()
+        .expect("base_color")
+        .iter()
+        .map(|c| c.as_f64().expect("a number") as f32)
+        .collect();
+    (
+        object as u32 + 1,
+        material as u32 + 1,
+        [base[0], base[1], base[2]],
+    )
+}
+
+/// Where the tests find Open Image Denoise: `LUMO_OIDN`, else the pyoidn package in
+/// `tests/oidn/.venv` (as tests/denoise.rs). `None` after a loud message when it is missing;
+/// under `LUMO_REQUIRE_OIDN=1` (CI) a missing library fails the test instead.
+fn oidn_dir() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("LUMO_OIDN").filter(|v| !v.is_empty()) {
+        return Some(PathBuf::from(dir));
+    }
+    let lib = common::root().join("tests/oidn/.venv/lib");
+    let found = std::fs::read_dir(&lib).ok().and_then(|entries| {
+        entries
+            .flatten()
+            .map(|e| e.path().join("site-packages/pyoidn"))
+            .find(|p| p.is_dir())
+    });
+    if found.is_none() {
+        if std::env::var_os("LUMO_REQUIRE_OIDN").is_some_and(|v| v == "1") {
+            panic!(
+                "Open Image Denoise not found (LUMO_OIDN unset, no pyoidn in {}) and \
+                 LUMO_REQUIRE_OIDN=1",
+                lib.display()
+            );
+        }
+        eprintln!(
+            "\n=== SKIPPED: Open Image Denoise not found (python3 -m venv tests/oidn/.venv && \
+             tests/oidn/.venv/bin/pip install -r tests/oidn/requirements.txt) ===\n"
+        );
+    }
+    found
+}
+
+const PASSES: &str = "albedo,normal,depth,object_id,material_id,std_error";
+
+#[test]
+fn the_passes_are_served_bit_for_bit_as_lumo_render_writes_them() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = cornell_copy(dir.path());
+    // OIDN pointed at an empty folder: the denoised view must say how to install it.
+    let nowhere = dir.path().join("no-oidn");
+    std::fs::create_dir(&nowhere).expect("mkdir");
+    let preview = Preview::start_with(
+        &scene,
+        &[&SMALL[..], &["--aov", PASSES]].concat(),
+        &[("LUMO_OIDN", nowhere.as_os_str())],
+    );
+    let done = preview.wait_settled();
+    assert_eq!(
+        done["passes"],
+        serde_json::json!(["albedo", "normal", "depth", "object_id", "material_id"]),
+        "the standard error is every frame's, not listed among the passes"
+    );
+    let frame = done["frame"].as_u64().expect("frame");
+    // The same render by `lumo render`, its passes read back from its EXR.
+    let exr = dir.path().join("rendered.exr");
+    let rendered = Command::new(env!("CARGO_BIN_EXE_lumo"))
+        .arg("render")
+        .arg(&scene)
+        .args(SMALL)
+        .args(["--aov", PASSES, "-q", "-o"])
+        .arg(&exr)
+        .status()
+        .expect("lumo render");
+    assert!(rendered.success());
+    let layered = lumo::multilayer::read_exr(&exr).expect("read the EXR");
+    let image = preview.served("/frame?kind=image");
+    assert_eq!((image.width, image.height, image.frame), (48, 48, frame));
+    assert_eq!(image.channels, ["R", "G", "B"]);
+    let beauty: Vec<f32> = layered
+        .beauty
+        .pixels
+        .iter()
+        .flat_map(|p| p.to_array())
+        .collect();
+    assert!(
+        image.floats == beauty,
+        "the beauty differs from lumo render's"
+    );
+    let mut served = std::collections::HashMap::new();
+    for aov in lumo::aov::Aov::ALL {
+        if aov == lumo::aov::Aov::Position || aov == lumo::aov::Aov::Uv {
+            continue;
+        }
+        let pass = preview.served(&format!("/frame?kind=pass&name={aov}"));
+        assert_eq!(
+            (pass.width, pass.height, pass.frame),
+            (48, 48, frame),
+            "{aov}"
+        );
+        assert_eq!(pass.channels, aov.channels(), "{aov}");
+        match &layered
+            .group(aov.name())
+            .expect("the pass in the EXR")
+            .pixels
+        {
+            lumo::aov::PassPixels::Float(v) => assert!(pass.floats == *v, "{aov} differs"),
+            lumo::aov::PassPixels::Id(v) => assert!(pass.ids == *v, "{aov} differs"),
+        }
+        served.insert(aov.name(), pass);
+    }
+    // In closed form: the red wall's albedo is its base colour and its normal +x, wherever a
+    // pixel and its eight neighbours all see the wall.
+    let (object, material, base) = red_wall(&scene);
+    let materials = &served["material_id"].ids;
+    let wall = |x: usize, y: usize| materials[y * 48 + x] == material;
+    let inside: Vec<usize> = (1..47)
+        .flat_map(|y| (1..47).map(move |x| (x, y)))
+        .filter(|&(x, y)| (0..9).all(|k| wall(x + k % 3 - 1, y + k / 3 - 1)))
+        .map(|(x, y)| y * 48 + x)
+        .collect();
+    assert!(
+        inside.len() >= 20,
+        "{} pixels inside the red wall",
+        inside.len()
+    );
+    for &i in &inside {
+        let albedo = &served["albedo"].floats[3 * i..3 * i + 3];
+        let normal = &served["normal"].floats[3 * i..3 * i + 3];
+        for k in 0..3 {
+            assert!(
+                (albedo[k] - base[k]).abs() < 1e-5,
+                "albedo {albedo:?}, base colour {base:?}"
+            );
+            assert!(
+                (normal[k] - [1.0, 0.0, 0.0][k]).abs() < 1e-4,
+                "normal {normal:?}"
+            );
+        }
+        assert_eq!(served["object_id"].ids[i], object);
+        assert!(served["depth"].floats[i] > 1.0);
+    }
+    // The standard error as a pass is the error view.
+    let error = preview.served("/frame?kind=error");
+    assert!(served["std_error"].floats == error.floats);
+    // Refusals say why.
+    for (target, code, says) in [
+        ("/frame?kind=pass&name=uv", 404, "--aov uv"),
+        (
+            "/frame?kind=pass&name=sepia",
+            400,
+            "choose from albedo, normal",
+        ),
+        ("/frame?kind=pass", 400, "name=PASS"),
+        ("/frame?kind=denoised", 503, "pip install pyoidn"),
+        (
+            "/frame?kind=sepia",
+            400,
+            "kind is image, error, denoised, or pass",
+        ),
+    ] {
+        let (got, _, body) = preview.request("GET", target);
+        let body = String::from_utf8_lossy(&body);
+        assert_eq!(got, code, "GET {target}: {body}");
+        assert!(body.contains(says), "GET {target}: {body}");
+    }
+    assert_eq!(done["denoiser"], "missing");
+    let note = done["denoiser_note"].as_str().unwrap_or_default();
+    assert!(note.contains("pip install pyoidn"), "{note}");
+}
+
+#[test]
+fn the_denoised_view_is_oidn_guided_by_the_passes_and_follows_the_frames() {
+    let _serial = serial();
+    let Some(oidn) = oidn_dir() else { return };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = cornell_copy(dir.path());
+    let preview = Preview::start_with(&scene, &SMALL, &[("LUMO_OIDN", oidn.as_os_str())]);
+    let done = preview.wait_settled();
+    assert_eq!(done["denoiser"], "ready", "{done}");
+    let frame = done["frame"].as_u64().expect("frame");
+    let denoised = preview.served("/frame?kind=denoised");
+    assert_eq!((denoised.width, denoised.height), (48, 48));
+    assert_eq!(denoised.frame, frame);
+    assert_eq!(denoised.channels, ["R", "G", "B"]);
+    // Without --aov the passes are not rendered: OIDN filters the colour alone. The same filter
+    // run here on the served beauty gives the served result.
+    let image = |s: &Served| lumo::image::Image {
+        width: s.width as u32,
+        height: s.height as u32,
+        pixels: s
+            .floats
+            .chunks_exact(3)
+            .map(|p| glam::Vec3::new(p[0], p[1], p[2]))
+            .collect(),
+    };
+    let beauty = image(&preview.served("/frame?kind=image"));
+    let mut filter = lumo::denoise::Oidn::load_from(&oidn).expect("OIDN");
+    let expected = filter
+        .denoise(&beauty, None, None, lumo::denoise::Prefilter::None)
+        .expect("denoise");
+    let largest = |a: &lumo::image::Image, b: &lumo::image::Image| {
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(p, q)| (*p - *q).abs().max_element())
+            .fold(0.0f32, f32::max)
+    };
+    let served = image(&denoised);
+    assert!(largest(&served, &expected) < 1e-3);
+    assert!(
+        largest(&served, &beauty) > 0.05,
+        "the denoised view is the beauty"
+    );
+    // A new frame is denoised anew (the cache is per frame): the red wall turned blue.
+    let left_wall = |s: &Served| {
+        let (mut red, mut blue) = (0.0, 0.0);
+        for y in 12..36 {
+            for x in 1..6 {
+                red += s.floats[3 * (y * 48 + x)];
+                blue += s.floats[3 * (y * 48 + x) + 2];
+            }
+        }
+        (red, blue)
+    };
+    let (red, blue) = left_wall(&denoised);
+    assert!(red > 2.0 * blue, "the left wall is not red: {red} {blue}");
+    let text = std::fs::read_to_string(&scene).expect("read");
+    write_atomically(
+        &scene,
+        &text.replace(RED, r#""red": {"base_color": [0.05, 0.1, 0.6]"#),
+    );
+    let again = preview.wait_done(2);
+    let recoloured = preview.served("/frame?kind=denoised");
+    assert_eq!(recoloured.frame, again["frame"].as_u64().expect("frame"));
+    let (red, blue) = left_wall(&recoloured);
+    assert!(
+        blue > 2.0 * red,
+        "the denoised left wall did not turn blue: {red} {blue}"
+    );
+    drop(preview);
+
+    // With albedo and normal rendered, they guide it.
+    let preview = Preview::start_with(
+        &scene,
+        &[&SMALL[..], &["--aov", "albedo,normal"]].concat(),
+        &[("LUMO_OIDN", oidn.as_os_str())],
+    );
+    let done = preview.wait_settled();
+    assert_eq!(done["denoiser"], "ready", "{done}");
+    let beauty = image(&preview.served("/frame?kind=image"));
+    let albedo = image(&preview.served("/frame?kind=pass&name=albedo"));
+    let normal = image(&preview.served("/frame?kind=pass&name=normal"));
+    let served = image(&preview.served("/frame?kind=denoised"));
+    let guided = filter
+        .denoise(
+            &beauty,
+            Some(&albedo),
+            Some(&normal),
+            lumo::denoise::Prefilter::None,
+        )
+        .expect("denoise");
+    let alone = filter
+        .denoise(&beauty, None, None, lumo::denoise::Prefilter::None)
+        .expect("denoise");
+    assert!(largest(&served, &guided) < 1e-3);
+    assert!(
+        largest(&served, &alone) > 1e-2,
+        "the guides made no difference"
+    );
+    // A second request is answered from the cache, with the same values.
+    let (_, head, _) = preview.request("GET", "/frame?kind=denoised");
+    let seconds: f64 = header(&head, "x-lumo-denoise-seconds")
+        .and_then(|s| s.parse().ok())
+        .expect("x-lumo-denoise-seconds");
+    assert!(seconds < 0.005, "a cached answer took {seconds} s");
+}
+
+/// Whether `shown` (the page's parse of a value it printed) is `value` as printed: 4 decimals,
+/// or 4 significant digits in exponent form.
+fn printed_as(shown: &str, value: f32) -> bool {
+    let Ok(v) = shown.parse::<f64>() else {
+        return false;
+    };
+    let value = f64::from(value);
+    (v - value).abs() <= 5.001e-5_f64.max(5.001e-4 * value.abs())
+}
+
+#[test]
+fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
+    let _serial = serial();
+    let Some(script) = browser() else { return };
+    let script = script.with_file_name("passes.mjs");
+    let oidn = oidn_dir();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = cornell_copy(dir.path());
+    let env: Vec<(&str, &std::ffi::OsStr)> = oidn
+        .as_ref()
+        .map(|d| ("LUMO_OIDN", d.as_os_str()))
+        .into_iter()
+        .collect();
+    let aovs = "albedo,normal,depth,object_id,material_id";
+    let preview = Preview::start_with(
+        &scene,
+        &[
+            "--width", "64", "--height", "48", "--spp", "16", "--aov", aovs,
+        ],
+        &env,
+    );
+    let out = dir.path().join("browser");
+    std::fs::create_dir(&out).expect("mkdir");
+    let mut child = Command::new("node")
+        .arg(&script)
+        .arg(format!("http://{}/", preview.addr))
+        .arg(&out)
+        .stdout(Stdio::inherit())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("start node");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break status;
+        }
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("the browser test ran past 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(status.success(), "the browser test failed: {status}");
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report"))
+            .expect("report JSON");
+    let frame = report["status"]["frame"].as_u64().expect("frame");
+
+    // The selector: the beauty, the denoised beauty (disabled without OIDN), the error, and the
+    // passes asked for.
+    let options: Vec<&str> = report["options"]
+        .as_array()
+        .expect("options")
+        .iter()
+        .map(|o| o["value"].as_str().unwrap_or_default())
+        .collect();
+    assert_eq!(
+        options,
+        [
+            "image",
+            "denoised",
+            "error",
+            "albedo",
+            "normal",
+            "depth",
+            "object_id",
+            "material_id"
+        ]
+    );
+    let denoised_disabled = report["options"][1]["disabled"] == true;
+    assert_eq!(
+        denoised_disabled,
+        oidn.is_none(),
+        "{}",
+        report["options"][1]
+    );
+
+    // Every view shows the served values in the colours of lumo's PNG passes.
+    let canvas = |kind: &str| -> Vec<[u8; 3]> {
+        let view = &report["views"][kind];
+        assert_eq!(view["frame"].as_u64(), Some(frame), "{kind}");
+        assert_eq!(
+            (view["width"].as_u64(), view["height"].as_u64()),
+            (Some(64), Some(48))
+        );
+        view["rgba"]
+            .as_array()
+            .expect("rgba")
+            .chunks_exact(4)
+            .map(|p| std::array::from_fn(|k| p[k].as_u64().unwrap_or(999) as u8))
+            .collect()
+    };
+    let compare = |kind: &str, expected: &[[u8; 3]], tolerance: i32| {
+        let shown = canvas(kind);
+        assert_eq!(shown.len(), expected.len());
+        let worst = shown
+            .iter()
+            .zip(expected)
+            .flat_map(|(a, b)| (0..3).map(move |k| (i32::from(a[k]) - i32::from(b[k])).abs()))
+            .max()
+            .unwrap_or(0);
+        assert!(worst <= tolerance, "{kind}: a pixel is off by {worst}");
+    };
+    for aov in [
+        lumo::aov::Aov::Normal,
+        lumo::aov::Aov::Depth,
+        lumo::aov::Aov::ObjectId,
+        lumo::aov::Aov::MaterialId,
+        lumo::aov::Aov::Albedo,
+    ] {
+        let served = preview.served(&format!("/frame?kind=pass&name={aov}"));
+        assert_eq!(served.frame, frame);
+        let pass = lumo::aov::PassImage {
+            aov,
+            pixels: if served.ids.is_empty() {
+                lumo::aov::PassPixels::Float(served.floats)
+            } else {
+                lumo::aov::PassPixels::Id(served.ids)
+            },
+        };
+        // The page's sRGB curve is JavaScript's pow, lumo's its own: one step apart at most.
+        let tolerance = i32::from(aov == lumo::aov::Aov::Albedo);
+        compare(
+            aov.name(),
+            &lumo::multilayer::pass_to_rgb8(&pass),
+            tolerance,
+        );
+    }
+    // Radiance through the clamp tone map and the sRGB curve, as `lumo render`'s PNG.
+    let radiance = |kind: &str| -> Vec<[u8; 3]> {
+        preview
+            .served(&format!("/frame?kind={kind}"))
+            .floats
+            .chunks_exact(3)
+            .map(|p| {
+                std::array::from_fn(|k| (lumo::math::linear_to_srgb(p[k]) * 255.0 + 0.5) as u8)
+            })
+            .collect()
+    };
+    compare("image", &radiance("image"), 1);
+    compare("error", &radiance("error"), 1);
+    if oidn.is_some() {
+        compare("denoised", &radiance("denoised"), 1);
+    } else {
+        let note = report["denoise_note"].as_str().unwrap_or_default();
+        assert!(note.contains("pip install pyoidn"), "{note}");
+    }
+
+    // The readout under the cursor: the served values at that pixel.
+    let kinds = [
+        ("image", "/frame?kind=image"),
+        ("error", "/frame?kind=error"),
+        ("albedo", "/frame?kind=pass&name=albedo"),
+        ("normal", "/frame?kind=pass&name=normal"),
+        ("depth", "/frame?kind=pass&name=depth"),
+        ("object_id", "/frame?kind=pass&name=object_id"),
+        ("material_id", "/frame?kind=pass&name=material_id"),
+    ];
+    let served: Vec<(&str, Served)> = kinds
+        .iter()
+        .map(|(kind, target)| (*kind, preview.served(target)))
+        .collect();
+    for readout in report["readouts"].as_array().expect("readouts") {
+        let (x, y) = (
+            readout["x"].as_u64().expect("x") as usize,
+            readout["y"].as_u64().expect("y") as usize,
+        );
+        let rows = readout["rows"].as_array().expect("rows");
+        let listed: Vec<&str> = rows.iter().filter_map(|r| r["kind"].as_str()).collect();
+        assert_eq!(listed, kinds.map(|k| k.0), "the readout's rows");
+        for (row, (kind, s)) in rows.iter().zip(&served) {
+            for (k, channel) in s.channels.iter().enumerate() {
+                let shown = row["values"][channel.as_str()].as_str().unwrap_or_default();
+                let i = (y * s.width + x) * s.channels.len() + k;
+                if s.ids.is_empty() {
+                    assert!(
+                        printed_as(shown, s.floats[i]),
+                        "({x}, {y}) {kind}.{channel}: the page shows {shown}, the server has {}",
+                        s.floats[i]
+                    );
+                } else {
+                    assert_eq!(shown, s.ids[i].to_string(), "({x}, {y}) {kind}.{channel}");
+                }
+            }
+        }
+    }
+
+    // Magnified, the pixels are drawn nearest-neighbour: every screen pixel of the screenshot
+    // not on a pixel's edge has the colour of the canvas pixel under it.
+    let zoom = &report["zoom"];
+    assert_eq!(zoom["rendering"], "pixelated");
+    let shot = image::open(out.join("zoom.png"))
+        .expect("screenshot")
+        .to_rgb8();
+    let image_view = canvas("image");
+    let [cx, cy, cw, ch] = ["x", "y", "w", "h"].map(|k| zoom["canvas"][k].as_f64().expect("box"));
+    let scale = cw / 64.0;
+    assert!(
+        (ch / 48.0 - scale).abs() < 1e-6 && scale > 8.0,
+        "scale {scale}"
+    );
+    let (mut checked, mut wrong) = (0, 0);
+    for (sx, sy, px) in shot.enumerate_pixels() {
+        let u = (f64::from(sx) + 0.5 - cx) / scale;
+        let v = (f64::from(sy) + 0.5 - cy) / scale;
+        let edge = |t: f64| (t - t.round()).abs() * scale < 1.0;
+        if u < 0.0 || v < 0.0 || u >= 64.0 || v >= 48.0 || edge(u) || edge(v) {
+            continue;
+        }
+        checked += 1;
+        if image_view[v as usize * 64 + u as usize] != px.0 {
+            wrong += 1;
+        }
+    }
+    assert!(checked > 100_000, "{checked} screen pixels checked");
+    assert_eq!(
+        wrong, 0,
+        "{wrong} of {checked} screen pixels are not their canvas pixel's colour"
+    );
+}
+
+#[test]
+fn the_quick_frame_says_the_passes_come_with_the_first_path_traced_pass() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = cornell_copy(dir.path());
+    // Large enough that the path tracer's first pass (2 spp of 512²) takes a second or more
+    // after the quick frame (128², ray cast) is published.
+    let preview = Preview::start(
+        &scene,
+        &[
+            "--width", "512", "--height", "512", "--spp", "4", "--aov", "albedo",
+        ],
+    );
+    let quick = preview.wait_for("the quick frame", |s| s["quick"] == true);
+    let (code, head, body) = preview.request("GET", "/frame?kind=image");
+    assert_eq!(code, 200);
+    assert_eq!(header(&head, "x-lumo-width"), Some("128"));
+    if header(&head, "x-lumo-frame") != Some(&quick["frame"].to_string()) {
+        panic!("the first path-traced pass came too soon to see the quick frame's answers");
+    }
+    assert_eq!(body.len(), 128 * 128 * 12);
+    for target in ["/frame?kind=pass&name=albedo", "/frame?kind=denoised"] {
+        let (code, _, body) = preview.request("GET", target);
+        let body = String::from_utf8_lossy(&body);
+        assert_eq!(code, 409, "GET {target}: {body}");
+        assert!(
+            body.contains("first path-traced pass"),
+            "GET {target}: {body}"
+        );
+    }
 }

@@ -8,7 +8,31 @@
 //! - the **watcher** (`watch.rs`) watches the folders of every file the scene read and, on a
 //!   change, cancels the render at once and triggers a reload once the files are quiet;
 //! - the **server** (`server.rs`) serves the embedded page, a server-sent event stream of the
-//!   status, the latest frame as linear floats, and the save button's POST.
+//!   status, the latest frame as linear floats (the beauty, its standard error, the render
+//!   passes asked for with `--aov`, and the beauty denoised on demand), and the save button's
+//!   POST;
+//! - a short-lived **denoiser loader** finds Open Image Denoise at start (as `lumo render
+//!   --denoise` does) without delaying the first frame; the page's denoised view is enabled
+//!   once it is found, and says how to install it when it is not.
+//!
+//! # Denoising
+//!
+//! The denoised view is computed lazily, when the page asks for it, on a blocking thread of the
+//! server, and cached per frame number: the render threads never wait for it, no work is done
+//! while nobody looks at it, and when passes arrive faster than OIDN filters, the page's fetch
+//! loop asks only for the latest one (the frames in between are never denoised). It uses the
+//! albedo and normal passes as guides when they are rendered (`--aov albedo,normal`), without
+//! prefiltering them ([`Prefilter::None`], OIDN's fast path for previews).
+//!
+//! # The quick pass has no render passes
+//!
+//! The quick ray-cast frame (a quarter of the resolution, one sample, shown until the path
+//! tracer's first pass: tens of milliseconds for the Cornell box) carries the beauty only: the
+//! page says that the passes come with the first path-traced pass. Filling the cheap ones there
+//! would mean a second, ray-cast definition of albedo and normal (the path tracer takes them at
+//! the first non-delta vertex, from the BSDF sample the path continues with, which the ray-cast
+//! integrator does not draw), and changes to the render loop, for a frame at a quarter of the
+//! resolution that the first pass replaces.
 
 mod server;
 mod watch;
@@ -21,7 +45,10 @@ use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
+use lumo::aov::{Aov, AovSet, PassImage};
+use lumo::denoise::{Oidn, Prefilter};
 use lumo::job::{Hooks, JobSettings, RenderJob};
+use lumo::multilayer::ChannelGroup;
 use lumo::output::ToneMap;
 use lumo::render::{Film, Image};
 use serde::Serialize;
@@ -55,6 +82,12 @@ pub struct PreviewArgs {
     /// The page's initial tone mapping (the save button writes what the page shows).
     #[arg(long, value_parser = keyword::<ToneMap>(), default_value = "clamp")]
     pub tonemap: ToneMap,
+    /// Render passes to show besides the beauty, comma-separated, as for `lumo render --aov`
+    /// (albedo, normal, depth, position, uv, object_id, material_id, std_error), with those of
+    /// the scene's `render.aov`. The page's selector switches between them and its readout
+    /// shows each under the cursor; albedo and normal also guide the denoised view.
+    #[arg(long, value_name = "PASSES", value_parser = super::parse_aovs)]
+    pub aov: Option<AovSet>,
 }
 
 /// What the page shows besides the image, pushed to it on every change.
@@ -97,22 +130,83 @@ pub(crate) struct Status {
     output: String,
     /// The page's initial tone mapping.
     tonemap: &'static str,
+    /// Render passes the path-traced frames carry (`/frame?kind=pass&name=…`), by their
+    /// `--aov` names in [`Aov::ALL`]'s order; the standard error, which every frame has
+    /// (`kind=error`), is not listed.
+    passes: Vec<&'static str>,
+    /// The denoised view: `loading` (Open Image Denoise is being looked for), `ready` or
+    /// `missing`.
+    denoiser: &'static str,
+    /// With `ready`, the library's path; with `missing`, why and how to install it.
+    denoiser_note: Option<String>,
 }
 
-/// The latest frame: linear radiance and its per-pixel standard error, RGB floats, row-major.
+/// The latest frame: linear radiance, its per-pixel standard error and the render passes,
+/// row-major.
 pub(crate) struct Frame {
+    /// The frame's number ([`Status::frame`] when it was published).
+    pub number: u64,
     /// Mean radiance per pixel (its size is the frame's).
     pub image: Image,
     /// Standard error of each pixel's mean.
     pub std_error: Image,
+    /// The render passes (none for the quick pass), in [`Aov::ALL`]'s order, without the
+    /// standard error.
+    pub passes: Vec<PassImage>,
     /// Whether this is the quick ray-cast pass (not saved by the save button).
     pub quick: bool,
+}
+
+impl Frame {
+    /// The pass `aov`, when the frame carries it.
+    pub fn pass(&self, aov: Aov) -> Option<&PassImage> {
+        self.passes.iter().find(|p| p.aov == aov)
+    }
+
+    /// The pass `aov` as an RGB image, when the frame carries it with three float channels
+    /// (albedo, normal).
+    fn pass_rgb(&self, aov: Aov) -> Option<Image> {
+        self.pass(aov)
+            .and_then(|p| ChannelGroup::from_pass(p).to_rgb(self.image.width, self.image.height))
+    }
+}
+
+/// Open Image Denoise as the preview finds it at start.
+pub(crate) enum DenoiserState {
+    /// Still being looked for.
+    Loading,
+    /// Found and loaded.
+    Ready(Box<Oidn>),
+    /// Not found: why, and how to install it.
+    Missing(String),
+}
+
+/// The denoiser and the denoised beauty of the last frame asked for.
+pub(crate) struct Denoiser {
+    state: DenoiserState,
+    /// The number of the frame denoised last, and its denoised beauty.
+    cached: Option<(u64, Arc<Image>)>,
+}
+
+/// Why the denoised view of a frame is not available.
+pub(crate) enum NotDenoised {
+    /// OIDN is still being looked for.
+    Loading,
+    /// OIDN was not found (the message says how to install it).
+    Missing(String),
+    /// The frame is the quick ray-cast pass.
+    Quick,
+    /// OIDN failed.
+    Failed(String),
 }
 
 /// State shared by the reload loop, the watcher and the server.
 pub(crate) struct Shared {
     status: Mutex<Status>,
     frame: Mutex<Option<Arc<Frame>>>,
+    /// Locked for the whole of a denoise: one filter at a time, and a second request for the
+    /// same frame finds the first's result.
+    denoiser: Mutex<Denoiser>,
     /// Bumped on every status change; the event streams follow it.
     changed: tokio::sync::watch::Sender<u64>,
     /// Set when a watched file changes: the render stops taking tiles.
@@ -152,17 +246,72 @@ impl Shared {
         self.cancel.store(true, Ordering::SeqCst);
     }
 
-    /// Publishes a frame.
-    fn publish(&self, frame: Frame, stats: impl FnOnce(&mut Status)) {
-        let (width, height, quick) = (frame.image.width, frame.image.height, frame.quick);
-        *lock(&self.frame) = Some(Arc::new(frame));
-        self.update(|s| {
+    /// Publishes a frame (its number is set here).
+    fn publish(&self, mut frame: Frame, stats: impl FnOnce(&mut Status)) {
+        {
+            // The status is locked while the frame is stored, so that a frame's number and the
+            // status that announces it agree.
+            let mut s = lock(&self.status);
             s.frame += 1;
-            s.width = width;
-            s.height = height;
-            s.quick = quick;
-            stats(s);
+            frame.number = s.frame;
+            s.width = frame.image.width;
+            s.height = frame.image.height;
+            s.quick = frame.quick;
+            stats(&mut s);
+            *lock(&self.frame) = Some(Arc::new(frame));
+        }
+        self.changed.send_modify(|n| *n += 1);
+    }
+
+    /// Loads Open Image Denoise (as `lumo render --denoise` finds it) and tells the page.
+    fn load_denoiser(&self) {
+        let (state, name, note) = match Oidn::load() {
+            Ok(oidn) => {
+                let path = oidn.path.display().to_string();
+                (DenoiserState::Ready(Box::new(oidn)), "ready", path)
+            }
+            Err(e) => {
+                let why = e.to_string();
+                (DenoiserState::Missing(why.clone()), "missing", why)
+            }
+        };
+        lock(&self.denoiser).state = state;
+        self.update(|s| {
+            s.denoiser = name;
+            s.denoiser_note = Some(note);
         });
+    }
+
+    /// The beauty of `frame` denoised (guided by its albedo and normal passes when it has
+    /// them), from the cache when it is of this frame; blocks while OIDN filters.
+    pub(crate) fn denoised(&self, frame: &Frame) -> Result<Arc<Image>, NotDenoised> {
+        if frame.quick {
+            return Err(NotDenoised::Quick);
+        }
+        let mut d = lock(&self.denoiser);
+        if let Some((n, image)) = &d.cached {
+            if *n == frame.number {
+                return Ok(Arc::clone(image));
+            }
+        }
+        let oidn = match &mut d.state {
+            DenoiserState::Ready(oidn) => oidn,
+            DenoiserState::Loading => return Err(NotDenoised::Loading),
+            DenoiserState::Missing(why) => return Err(NotDenoised::Missing(why.clone())),
+        };
+        let albedo = frame.pass_rgb(Aov::Albedo);
+        let normal = frame.pass_rgb(Aov::Normal);
+        let image = oidn
+            .denoise(
+                &frame.image,
+                albedo.as_ref(),
+                normal.as_ref(),
+                Prefilter::None,
+            )
+            .map_err(|e| NotDenoised::Failed(e.to_string()))?;
+        let image = Arc::new(image);
+        d.cached = Some((frame.number, Arc::clone(&image)));
+        Ok(image)
     }
 
     /// Where the save button writes.
@@ -200,8 +349,15 @@ pub fn preview_cmd(args: &PreviewArgs) -> Result<(), CliError> {
             warnings: Vec::new(),
             output: output.display().to_string(),
             tonemap: lumo_schema::Keyword::keyword(args.tonemap),
+            passes: args.aov.unwrap_or(AovSet::NONE).recorded().names(),
+            denoiser: "loading",
+            denoiser_note: None,
         }),
         frame: Mutex::new(None),
+        denoiser: Mutex::new(Denoiser {
+            state: DenoiserState::Loading,
+            cached: None,
+        }),
         changed,
         cancel: AtomicBool::new(false),
         changes: AtomicU64::new(0),
@@ -232,6 +388,12 @@ pub fn preview_cmd(args: &PreviewArgs) -> Result<(), CliError> {
         "lumo preview: serving {} on http://{bound}/ (Ctrl-C to stop)",
         args.scene.display()
     );
+    // Loading OIDN (tens to hundreds of milliseconds) does not delay the first frame.
+    let denoiser_shared = Arc::clone(&shared);
+    std::thread::Builder::new()
+        .name("lumo-preview-denoiser".into())
+        .spawn(move || denoiser_shared.load_denoiser())
+        .map_err(|e| CliError::failure(format!("cannot start a thread: {e}")))?;
     let loop_shared = Arc::clone(&shared);
     let triggers = watcher.triggers;
     let files = watcher.files;
@@ -239,6 +401,7 @@ pub fn preview_cmd(args: &PreviewArgs) -> Result<(), CliError> {
         scene: args.scene.clone(),
         spp: args.spp,
         overrides: args.overrides.clone(),
+        aovs: args.aov.unwrap_or(AovSet::NONE),
     };
     std::thread::Builder::new()
         .name("lumo-preview-reload".into())
@@ -254,6 +417,8 @@ struct ReloadArgs {
     scene: PathBuf,
     spp: Option<u32>,
     overrides: SceneOverrides,
+    /// `--aov`'s passes (the scene's own are added per load).
+    aovs: AovSet,
 }
 
 /// How one load and render ended.
@@ -352,7 +517,15 @@ fn load_and_render(
         // A preview refines to a sample count: a time budget would stop it early for no one.
         s.render.time_budget_s = None;
     })?;
-    let mut render_job = RenderJob::new(&loaded, JobSettings::default())?;
+    let mut render_job = RenderJob::new(
+        &loaded,
+        JobSettings {
+            aovs: args.aovs,
+            ..JobSettings::default()
+        },
+    )?;
+    // `--aov`'s passes and the scene's; the standard error is in every frame anyway.
+    let passes = render_job.settings().aovs.recorded();
     let all_warnings: Vec<String> = load_warnings(&loaded, &args.overrides)
         .chain(render_job.warnings())
         .cloned()
@@ -368,6 +541,7 @@ fn load_and_render(
         s.spp = 0;
         s.elapsed_s = 0.0;
         s.samples_per_s = 0.0;
+        s.passes = passes.names();
     });
     let cancelled = || shared.cancel.load(Ordering::SeqCst);
     let quick = render_job.quick_look(Some(&shared.cancel));
@@ -376,8 +550,10 @@ fn load_and_render(
     }
     shared.publish(
         Frame {
+            number: 0,
             image: quick.image,
             std_error: quick.std_error,
+            passes: Vec::new(),
             quick: true,
         },
         |_| {},
@@ -391,8 +567,10 @@ fn load_and_render(
         let elapsed = start.elapsed().as_secs_f64();
         shared.publish(
             Frame {
+                number: 0,
                 image: film.image(),
                 std_error: film.std_error(),
+                passes: film.passes(passes),
                 quick: false,
             },
             |s| {

@@ -5,8 +5,23 @@
 //! - `GET /`: the page (embedded in the binary, no build step);
 //! - `GET /events`: server-sent events, one `status` event (JSON) per change;
 //! - `GET /status`: the same JSON, once;
-//! - `GET /frame?kind=image|error`: the latest frame's radiance or per-pixel standard error as
-//!   little-endian `f32` RGB triples, row-major, its size in `x-lumo-width`/`x-lumo-height`;
+//! - `GET /frame?kind=image|error|denoised`: the latest frame's radiance, per-pixel standard
+//!   error, or radiance denoised by Open Image Denoise (computed on first request and cached
+//!   per frame; `503` while OIDN is being looked for or when it is missing, `409` for the quick
+//!   ray-cast frame), as little-endian `f32` RGB triples;
+//! - `GET /frame?kind=pass&name=PASS`: a render pass of the latest frame (`albedo`, `normal`,
+//!   `depth`, `position`, `uv`, `object_id`, `material_id`, `std_error`, as `lumo render --aov`
+//!   names them), its channels interleaved per pixel: little-endian `f32`, ids as `u32`. `404`
+//!   when the preview does not render that pass, `409` for the quick ray-cast frame (which has
+//!   none), `400` for an unknown name.
+//!
+//! Every frame answer is row-major, top row first, and says in its headers what it holds:
+//! `x-lumo-width` and `x-lumo-height` (the frame's size), `x-lumo-channels` (the channel names
+//! in their order within a pixel: `R,G,B`, `X,Y,Z`, `Z`, `U,V`, `I`), `x-lumo-type` (`f32` or
+//! `u32`), and `x-lumo-frame` (the frame's number, [`super::Status`]'s `frame`: several
+//! answers belong to one frame when their numbers agree). A denoised answer also carries
+//! `x-lumo-denoise-seconds`: how long the request waited for OIDN (about 0 when the frame's
+//! denoised beauty was cached).
 //! - `POST /save?tonemap=clamp|aces&exposure=STOPS`: writes the latest path-traced frame to the
 //!   output path atomically, as `lumo render` would.
 
@@ -22,11 +37,13 @@ use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
 use futures_util::Stream;
+use lumo::aov::{Aov, PassPixels};
 use lumo::output::ToneMap;
+use lumo::render::Image;
 use lumo_schema::Keyword as _;
 use serde::Deserialize;
 
-use super::Shared;
+use super::{Frame, NotDenoised, Shared};
 
 /// The page, embedded.
 const PAGE: &str = include_str!("page.html");
@@ -114,31 +131,157 @@ async fn events(
 #[derive(Deserialize)]
 struct FrameQuery {
     kind: Option<String>,
+    name: Option<String>,
 }
+
+/// Why the quick frame has no passes and no denoised view.
+const QUICK: &str = "the quick ray-cast frame has no render passes and no denoised view: they \
+                     come with the first path-traced pass\n";
 
 async fn frame(State(shared): State<Arc<Shared>>, Query(q): Query<FrameQuery>) -> Response {
     let Some(frame) = shared.frame() else {
         return (StatusCode::NOT_FOUND, "no frame yet\n").into_response();
     };
-    let image = match q.kind.as_deref() {
-        None | Some("image") => &frame.image,
-        Some("error") => &frame.std_error,
-        Some(_) => return (StatusCode::BAD_REQUEST, "kind is image or error\n").into_response(),
+    match q.kind.as_deref() {
+        None | Some("image") => rgb(&frame, &frame.image, None),
+        Some("error") => rgb(&frame, &frame.std_error, None),
+        Some("denoised") => denoised(shared, frame).await,
+        Some("pass") => pass(&frame, q.name.as_deref()),
+        Some(_) => (
+            StatusCode::BAD_REQUEST,
+            "kind is image, error, denoised, or pass (with name=PASS)\n",
+        )
+            .into_response(),
+    }
+}
+
+/// The latest frame's beauty denoised, on a blocking thread (the render is not waited for).
+async fn denoised(shared: Arc<Shared>, frame: Arc<Frame>) -> Response {
+    let done = tokio::task::spawn_blocking(move || {
+        let start = std::time::Instant::now();
+        let cached = shared.denoised(&frame);
+        (frame, cached, start.elapsed().as_secs_f64())
+    })
+    .await;
+    let (frame, result, seconds) = match done {
+        Ok(d) => d,
+        Err(e) => {
+            return (
+                StatusCode::INTERNAL_SERVER_ERROR,
+                format!("internal error (a bug in lumo, please report it): {e}\n"),
+            )
+                .into_response()
+        }
     };
-    let mut bytes = Vec::with_capacity(image.pixels.len() * 12);
-    for p in &image.pixels {
-        for c in p.to_array() {
-            bytes.extend_from_slice(&c.to_le_bytes());
+    match result {
+        Ok(image) => rgb(&frame, &image, Some(seconds)),
+        Err(NotDenoised::Quick) => (StatusCode::CONFLICT, QUICK).into_response(),
+        Err(NotDenoised::Loading) => (
+            StatusCode::SERVICE_UNAVAILABLE,
+            "Open Image Denoise is still being looked for; ask again when the status says \
+             `ready`\n",
+        )
+            .into_response(),
+        Err(NotDenoised::Missing(why)) => {
+            (StatusCode::SERVICE_UNAVAILABLE, format!("{why}\n")).into_response()
+        }
+        Err(NotDenoised::Failed(why)) => {
+            (StatusCode::INTERNAL_SERVER_ERROR, format!("{why}\n")).into_response()
         }
     }
+}
+
+/// A render pass of the latest frame.
+fn pass(frame: &Frame, name: Option<&str>) -> Response {
+    let Some(name) = name else {
+        return (
+            StatusCode::BAD_REQUEST,
+            "kind=pass needs name=PASS (albedo, normal, …)\n",
+        )
+            .into_response();
+    };
+    let Some(aov) = Aov::ALL.into_iter().find(|a| a.name() == name) else {
+        let choices = Aov::ALL.map(Aov::name).join(", ");
+        return (
+            StatusCode::BAD_REQUEST,
+            format!("unknown render pass (choose from {choices})\n"),
+        )
+            .into_response();
+    };
+    if aov == Aov::StdError {
+        return rgb(frame, &frame.std_error, None);
+    }
+    if frame.quick {
+        return (StatusCode::CONFLICT, QUICK).into_response();
+    }
+    let Some(p) = frame.pass(aov) else {
+        return (
+            StatusCode::NOT_FOUND,
+            format!(
+                "this preview renders no {name} pass: add it with --aov {name} (or to the \
+                 scene's render.aov)\n"
+            ),
+        )
+            .into_response();
+    };
+    let (bytes, kind) = match &p.pixels {
+        PassPixels::Float(v) => (le_bytes(v.iter().map(|x| x.to_le_bytes())), "f32"),
+        PassPixels::Id(v) => (le_bytes(v.iter().map(|x| x.to_le_bytes())), "u32"),
+    };
+    let (w, h) = (frame.image.width, frame.image.height);
+    binary(frame, (w, h), &aov.channels().join(","), kind, bytes, None)
+}
+
+/// An RGB image of the frame's size as `f32` triples.
+fn rgb(frame: &Frame, image: &Image, denoise_seconds: Option<f64>) -> Response {
+    let bytes = le_bytes(
+        image
+            .pixels
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(f32::to_le_bytes),
+    );
+    binary(
+        frame,
+        (image.width, image.height),
+        "R,G,B",
+        "f32",
+        bytes,
+        denoise_seconds,
+    )
+}
+
+fn le_bytes(values: impl Iterator<Item = [u8; 4]>) -> Vec<u8> {
+    values.flatten().collect()
+}
+
+/// A frame answer: the bytes and the headers that say what they hold.
+fn binary(
+    frame: &Frame,
+    (width, height): (u32, u32),
+    channels: &str,
+    kind: &'static str,
+    bytes: Vec<u8>,
+    denoise_seconds: Option<f64>,
+) -> Response {
     let mut headers = HeaderMap::new();
     headers.insert(
         header::CONTENT_TYPE,
         HeaderValue::from_static("application/octet-stream"),
     );
     headers.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
-    headers.insert("x-lumo-width", HeaderValue::from(image.width));
-    headers.insert("x-lumo-height", HeaderValue::from(image.height));
+    headers.insert("x-lumo-width", HeaderValue::from(width));
+    headers.insert("x-lumo-height", HeaderValue::from(height));
+    if let Ok(v) = HeaderValue::from_str(channels) {
+        headers.insert("x-lumo-channels", v);
+    }
+    headers.insert("x-lumo-type", HeaderValue::from_static(kind));
+    headers.insert("x-lumo-frame", HeaderValue::from(frame.number));
+    if let Some(s) = denoise_seconds {
+        if let Ok(v) = HeaderValue::from_str(&format!("{s:.4}")) {
+            headers.insert("x-lumo-denoise-seconds", v);
+        }
+    }
     (headers, bytes).into_response()
 }
 
