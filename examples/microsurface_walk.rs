@@ -183,9 +183,9 @@ fn v3(d: DVec3) -> Vec3 {
 /// f(ωo, ωi) cos θi of the white conductor by each model: (lumo total, lumo single, Cycles
 /// total), the single-scattering lobe being the same in both.
 fn models(wo: DVec3, wi: DVec3, alpha: f64) -> (f64, f64, f64) {
-    let rough = (alpha.sqrt()) as f32;
+    let rough = alpha.sqrt() as f32;
     let with = MetallicRoughness::new(Vec3::ONE, 1.0, rough);
-    let mut without = with.clone();
+    let mut without = with;
     without.energy_compensation = false;
     let (o, i) = (v3(wo), v3(wi));
     let lumo = with.eval(o, i).0.x as f64;
