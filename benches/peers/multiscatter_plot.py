@@ -141,8 +141,8 @@ def plot_albedo(rows: list[dict], out: Path) -> None:
 
 def tables(data: dict, albedo_rows: list[dict]) -> str:
     lines = ["| α | θo | E_ss | walk: share of ≥ 2 bounces | L1 total: lumo | L1 total: Cycles "
-             "| L1 multiple: lumo | L1 multiple: Cycles | lost walks |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| L1 multiple: lumo | L1 multiple: Cycles |",
+             "|---|---|---|---|---|---|---|---|"]
     for (a, mu) in sorted(data):
         d = data[(a, mu)]
         omega = 2.0 * (1.0 / N_MU) * (math.pi / N_PHI)
@@ -151,7 +151,7 @@ def tables(data: dict, albedo_rows: list[dict]) -> str:
         lines.append(
             f"| {a:g} | {math.degrees(math.acos(mu)):.1f}° | {ss:.3f} | {ms_share:.3f} "
             f"| {l1(d['lumo'], d['walk']):.3f} | {l1(d['cycles'], d['walk']):.3f} "
-            f"| {l1(d['lumo_ms'], d['walk_ms']):.3f} | {l1(d['cycles_ms'], d['walk_ms']):.3f} | |")
+            f"| {l1(d['lumo_ms'], d['walk_ms']):.3f} | {l1(d['cycles_ms'], d['walk_ms']):.3f} |")
     # The walk's single scattering against the analytic lobe: the check of the walk itself.
     lines.append("")
     lines.append("| α | θo | L1 of the walk's single scattering against GGX (height-correlated G2) |")
@@ -162,7 +162,7 @@ def tables(data: dict, albedo_rows: list[dict]) -> str:
         lines.append(f"| {a:g} | {math.degrees(math.acos(mu)):.1f}° | {l1(d['single'], walk_ss):.4f} |")
     # Reciprocity of the walk: f(ωo → bin of ωi) / μi against f(ωi → bin of ωo) / μo.
     lines.append("")
-    lines.append("| α | μa → μb | f·μb... reciprocity: f(a→b) | f(b→a) | ratio |")
+    lines.append("| α | μa → μb | f(a → b) | f(b → a) | ratio |")
     lines.append("|---|---|---|---|---|")
     mus = sorted({k[1] for k in data})
     for a in sorted({k[0] for k in data}):
