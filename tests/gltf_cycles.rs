@@ -3,7 +3,9 @@
 //! The references in `tests/data/cycles_gltf/` were made by `benches/peers/cycles_gltf.py`
 //! (Blender 5.0.1, 2048 spp, lumo's camera, a constant grey 0.5 world as the only light; see
 //! that folder's README for every setting). Each has a mean image and the per-pixel variance of
-//! that mean, from 8 independent passes.
+//! that mean, from 8 independent passes. The same script's `--env` mode made the references
+//! under HDR maps: `cycles_gltf_env/` (`studio.exr`, every shared model) and `cycles_gltf_sun/`
+//! (`sunrise.exr`, a low sun, six rough metals and clear coats: issue 32).
 //!
 //! lumo renders each model twice with different seeds under the same camera and light
 //! (`max_depth` 8 = Cycles' 6 bounces). With m the mean of the two renders, c the Cycles mean,
@@ -48,7 +50,7 @@ struct Case {
 
 /// Bounds about 1.5 × the values measured on 2026-11-29 (lumo 64 spp × 2 seeds, Cycles 2048 spp).
 const CASES: &[Case] = &[
-    // R = 4.24, 0.08 %: the glTF BRDF (Schlick conductor Fresnel, Kulla-Conty) against Principled (F82 metal Fresnel, random-walk multiscatter GGX): same energy, slightly different lobe shapes.
+    // R = 4.24, 0.08 %: the glTF BRDF (Schlick conductor Fresnel, Kulla-Conty) against Principled (F82 metal Fresnel, multiscatter GGX by albedo scaling): same energy, slightly different lobe shapes.
     Case {
         name: "MetalRoughSpheresNoTextures",
         max_ratio: 6.0,
@@ -97,7 +99,7 @@ const CASES: &[Case] = &[
         max_mean_diff: 0.01,
         without_normal_maps: None,
     },
-    // R = 5.46, 0.24 %: rough glass, Kulla-Conty compensation against Cycles' random walk. (R
+    // R = 5.46, 0.24 %: rough glass, Kulla-Conty compensation against Cycles' albedo scaling. (R
     // was 3.58 until Russian roulette stopped ending most paths inside glass and the lobe choice
     // joined the direction's Sobol point: lumo's noise fell, the difference by design did not,
     // and R measures the difference against the noise; the mean difference is unchanged.)
@@ -162,15 +164,31 @@ fn render_lit(
     background: &lumo_schema::Background,
     flat: bool,
 ) -> Image {
+    render_lit_with(path, camera, seed, background, flat, false)
+}
+
+/// [`render_lit`], or with `world_only` the background alone (every object removed, 16 spp):
+/// what the camera would see without the model.
+fn render_lit_with(
+    path: &std::path::Path,
+    camera: &Value,
+    seed: u64,
+    background: &lumo_schema::Background,
+    flat: bool,
+    world_only: bool,
+) -> Image {
     let mut inp = lumo::load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     inp.edit(|s| {
         s.image.width = SIZE;
         s.image.height = SIZE;
-        s.render.spp = SPP;
+        s.render.spp = if world_only { 16 } else { SPP };
         s.render.seed = seed;
         s.render.max_depth = 8;
         s.background = background.clone();
         s.lights.clear();
+        if world_only {
+            s.objects.clear();
+        }
         if flat {
             for object in &mut s.objects {
                 if let lumo_schema::Object::Mesh(mesh) = object {
@@ -341,26 +359,88 @@ fn gltf_samples_match_cycles() {
 /// same metric and smooth-pixel mask as above.
 #[test]
 fn gltf_samples_under_an_hdr_world_match_cycles() {
-    let Some(shared) = common::shared() else {
+    let Some(models) = compare_under_world(
+        "cycles_gltf_env",
+        "studio.exr",
+        ENV_BOUNDS,
+        Some((ENV_DEFAULT_MAX_RATIO, ENV_DEFAULT_MAX_MEAN_DIFF)),
+        false,
+    ) else {
         return;
     };
-    let folder = common::root().join("tests/data/cycles_gltf_env");
+    assert!(models >= 30, "{models} models");
+}
+
+/// The rough metals and clear coats under a low sun: `sunrise.exr` (default mapping,
+/// strength 1), whose sun, 7.9° above the horizon, brings 60 % of the map's light from 200 of
+/// its pixels, against Cycles' references in `tests/data/cycles_gltf_sun/`. Under the uniform
+/// or soft worlds above, two lobes of the same albedo but different shapes look alike; lit from
+/// one direction they do not (issue 32). Every model there has its own bounds in
+/// [`SUN_BOUNDS`].
+#[test]
+fn gltf_samples_under_a_low_sun_match_cycles() {
+    let Some(models) =
+        compare_under_world("cycles_gltf_sun", "sunrise.exr", SUN_BOUNDS, None, true)
+    else {
+        return;
+    };
+    assert_eq!(
+        models,
+        SUN_BOUNDS.len(),
+        "a reference without bounds or bounds without one"
+    );
+}
+
+/// Renders every model of `tests/data/<folder>/cameras.json` under the shared HDR map `hdri`
+/// and compares it with its reference; a model's bounds come from `bounds` (`None` there: not
+/// compared, with the reason printed) or else from `default` (a model with neither fails).
+/// With `objects_only` the mean difference is taken over the model's pixels alone (where
+/// Cycles' image differs from lumo's render of the background without the model by more than
+/// 5 % in luminance), not diluted by the background around a small object, and edges
+/// included: a finely textured model (Cube) has few locally smooth pixels, and over a whole
+/// model the texture-filtering difference at edges (0.003, see the top) is far below the
+/// differences this measures.
+/// Returns the number of models in the folder, or `None` when `../shared/` is missing (and
+/// allowed to be).
+#[allow(clippy::type_complexity)]
+fn compare_under_world(
+    folder: &str,
+    hdri: &str,
+    bounds: &[(&str, Option<(f64, f64)>, &str)],
+    default: Option<(f64, f64)>,
+    objects_only: bool,
+) -> Option<usize> {
+    let shared = common::shared()?;
+    let dir = common::root().join("tests/data").join(folder);
     let meta: Value =
-        serde_json::from_str(&std::fs::read_to_string(folder.join("cameras.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.join("cameras.json")).unwrap()).unwrap();
     let world = lumo_schema::Background {
         image: Some(
             shared
-                .join("hdri/studio.exr")
+                .join("hdri")
+                .join(hdri)
                 .to_string_lossy()
                 .into_owned(),
         ),
         ..lumo_schema::Background::default()
     };
     let models = meta["models"].as_object().unwrap();
-    assert!(models.len() >= 30, "{} models", models.len());
     let mut failures = Vec::new();
     for (name, model) in models {
+        let (max_ratio, max_mean_diff) = match bounds.iter().find(|b| b.0 == name) {
+            Some((_, Some(b), _)) => *b,
+            Some((_, None, why)) => {
+                eprintln!("{name} under {hdri}: not compared: {why}");
+                continue;
+            }
+            None => match default {
+                Some(b) => b,
+                None => {
+                    failures.push(format!("{name}: no bounds under {hdri}"));
+                    continue;
+                }
+            },
+        };
         let path = shared.join("gltf").join(model["gltf"].as_str().unwrap());
         let flat = model["flat"].as_bool().unwrap_or(false);
         let (a, b) = (
@@ -368,22 +448,40 @@ fn gltf_samples_under_an_hdr_world_match_cycles() {
             render_lit(&path, &model["camera"], 2, &world, flat),
         );
         let (c, vc) = (
-            reference_in("cycles_gltf_env", name, ""),
-            reference_in("cycles_gltf_env", name, ".var"),
+            reference_in(folder, name, ""),
+            reference_in(folder, name, ".var"),
         );
         let keep = smooth_pixels(&c);
-        let (ratio, mean_diff) = compare(&a, &b, &c, &vc, &keep);
-        let (max_ratio, max_mean_diff) = match ENV_BOUNDS.iter().find(|b| b.0 == name) {
-            Some((_, Some(bounds), _)) => *bounds,
-            Some((_, None, why)) => {
-                eprintln!("{name} under studio.exr: R = {ratio:.3}, not compared: {why}");
-                continue;
-            }
-            None => (ENV_DEFAULT_MAX_RATIO, ENV_DEFAULT_MAX_MEAN_DIFF),
-        };
+        let (ratio, mut mean_diff) = compare(&a, &b, &c, &vc, &keep);
+        let mut over = "";
+        if objects_only {
+            let w = render_lit_with(&path, &model["camera"], 3, &world, flat, true);
+            let lum = |p: lumo::math::Vec3| (p.x + p.y + p.z) / 3.0;
+            let object: Vec<bool> = (0..c.pixels.len())
+                .map(|i| {
+                    let (lc, lw) = (lum(c.pixels[i]), lum(w.pixels[i]));
+                    (lc - lw).abs() > 0.05 * lw.max(1e-3)
+                })
+                .collect();
+            let n = object.iter().filter(|o| **o).count();
+            assert!(n >= 100, "{name}: only {n} pixels of the model found");
+            mean_diff = compare(&a, &b, &c, &vc, &object).1;
+            let sum = |img: &Image| -> f64 {
+                (0..img.pixels.len())
+                    .filter(|&i| object[i])
+                    .map(|i| f64::from(lum(img.pixels[i])))
+                    .sum()
+            };
+            let (lumo_sum, cycles_sum) = (0.5 * (sum(&a) + sum(&b)), sum(&c));
+            over = if lumo_sum > cycles_sum {
+                " over the model's pixels (lumo brighter)"
+            } else {
+                " over the model's pixels (lumo darker)"
+            };
+        }
         eprintln!(
-            "{name} under studio.exr: R = {ratio:.3} (bound {max_ratio}), mean difference {:.2} % \
-             (bound {} %)",
+            "{name} under {hdri}: R = {ratio:.3} (bound {max_ratio}), mean difference{over} \
+             {:.2} % (bound {} %)",
             100.0 * mean_diff,
             100.0 * max_mean_diff
         );
@@ -395,6 +493,7 @@ fn gltf_samples_under_an_hdr_world_match_cycles() {
         }
     }
     assert!(failures.is_empty(), "{failures:#?}");
+    Some(models.len())
 }
 
 /// The bounds on R and the relative mean difference for models not listed in [`ENV_BOUNDS`]:
@@ -513,5 +612,48 @@ const ENV_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
         "TwoSidedPlane",
         Some((6.2, 0.01)),
         "R 4.08, 0.5 %: single quad seen at 26.6°",
+    ),
+];
+
+/// Bounds under `sunrise.exr`: about 1.5 × R and the mean difference over the model's pixels
+/// measured on 2026-12-02 (lumo 64 spp × 2 seeds, Cycles 4 × 128 spp), the mean difference at
+/// least 1 %; one per reference in `tests/data/cycles_gltf_sun/`.
+#[allow(clippy::type_complexity)]
+const SUN_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
+    // Not a metal: its metallic-roughness texture (B = 0, G = 0.078) makes it a dielectric of
+    // roughness 0.08 over a diffuse base, seen face-on: lumo 3.4 % brighter. lumo weighs the
+    // base by (1 − a(μo))(1 − a(μi))/(1 − a_avg), Cycles by 1 − a(μo) (docs/gltf.md); with the
+    // view's factor alone (an experiment, not kept) lumo measured R 0.98 and 0.4 %.
+    (
+        "Cube",
+        Some((2.6, 0.051)),
+        "R 1.69, 3.4 %: diffuse base under the specular layer",
+    ),
+    // Red metal of roughness 1, lit from the side: agrees (under studio.exr its rim does not).
+    ("BoxInterleaved", Some((1.6, 0.01)), "R 1.01, 0.4 %"),
+    // Rough metals and dielectrics: with lumo's energy compensation off (an experiment) the
+    // spheres read 8.5 % darker than Cycles' and this bound fails.
+    (
+        "MetalRoughSpheresNoTextures",
+        Some((4.6, 0.013)),
+        "R 3.02, 0.8 %",
+    ),
+    // Mostly rough metal: lumo 4.2 % brighter (3.7 % with lumo's energy compensation off, 3.9 %
+    // with its diffuse base weighted by the view's factor alone).
+    (
+        "DamagedHelmet",
+        Some((2.0, 0.064)),
+        "R 1.29, 4.2 %: mostly rough metal",
+    ),
+    ("ClearCoatTest", Some((1.7, 0.01)), "R 1.12, 0.2 %"),
+    // A smooth coat over red paint (metallic 0.3, roughness 0.4), lit by the sun at grazing
+    // angles: lumo 7.6 % darker. lumo passes min(1 − c E(μo), 1 − c E(μi)) of the light to what
+    // lies under the coat (reciprocal); glTF's KHR_materials_clearcoat and Cycles pass
+    // 1 − c F(μo) / 1 − c E(μo), the view's alone. With the view's alone (an experiment, not
+    // kept) lumo measured R 2.05 and 5.4 % darker; the rest is not explained (docs/gltf.md).
+    (
+        "ClearCoatCarPaint",
+        Some((6.6, 0.114)),
+        "R 4.36, 7.6 %: reciprocal coat layering under a grazing sun",
     ),
 ];

@@ -1352,6 +1352,10 @@ def env_check_summary(models: dict) -> str:
 
 def write_env_readme(out: Path, record: dict, gltf_root: Path) -> None:
     """README.md of an environment-mode folder (--env), generated from ``cameras.json``."""
+    try:
+        out_rel = out.resolve().relative_to(common.REPO_ROOT)
+    except ValueError:
+        out_rel = out
     models = record.get("models", {})
     failed = record.get("failed", {})
     names = sorted(models)
@@ -1418,7 +1422,7 @@ def write_env_readme(out: Path, record: dict, gltf_root: Path) -> None:
     para(f"Cameras came from `{record.get('lumo_version', '?')}`. `--lumo` is any lumo binary whose "
          "`lumo convert MODEL -o x.json` gives the camera; `--models A,B` re-renders only some "
          "models and keeps the others' entries; `--passes K --spp N` change the sample counts; "
-         "`--readme-only --out tests/data/cycles_gltf_env` rewrites this file from `cameras.json`. "
+         f"`--readme-only --out {out_rel}` rewrites this file from `cameras.json`. "
          "Models are read from `../shared/gltf/` (`--gltf-root`), one file per model folder: "
          "`glTF-Binary/*.glb`, else `glTF/*.gltf`, else the folder's own `*.gltf` "
          "(CornellBoxVinc3r). Cycles renders are deterministic for a given seed: a second run "
