@@ -44,10 +44,11 @@ fi
     "OpenEXR==3.5.3" \
     "mitsuba==3.9.1" \
     "bpy==5.0.1" \
-    "embreex==4.4.0.post1"
+    "embreex==4.4.0.post1" \
+    "matplotlib==3.11.2"
 "$VENV/bin/python" - <<'PY'
 import importlib
-for m in ("numpy", "OpenEXR", "mitsuba", "bpy", "embreex"):
+for m in ("numpy", "OpenEXR", "mitsuba", "bpy", "embreex", "matplotlib"):
     mod = importlib.import_module(m)
     version = getattr(mod, "__version__", None) or mod.app.version_string  # bpy has no __version__
     print(f"setup: {m} {version}")
