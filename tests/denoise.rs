@@ -11,7 +11,6 @@
 
 mod common;
 
-use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -23,36 +22,8 @@ use lumo::job::{Hooks, JobSettings, RenderJob};
 /// One test at a time: the equal-time comparison must not share the cores with another test.
 static SERIAL: Mutex<()> = Mutex::new(());
 
-/// The OIDN library's folder for the tests: `LUMO_OIDN`, else the pyoidn of `tests/oidn/.venv`.
-pub fn oidn_dir() -> Option<PathBuf> {
-    if let Some(dir) = std::env::var_os("LUMO_OIDN").filter(|v| !v.is_empty()) {
-        return Some(PathBuf::from(dir));
-    }
-    let lib = common::root().join("tests/oidn/.venv/lib");
-    let found = std::fs::read_dir(&lib).ok().and_then(|entries| {
-        entries
-            .flatten()
-            .map(|e| e.path().join("site-packages/pyoidn"))
-            .find(|p| p.is_dir())
-    });
-    if found.is_none() {
-        if std::env::var_os("LUMO_REQUIRE_OIDN").is_some_and(|v| v == "1") {
-            panic!(
-                "Open Image Denoise not found (LUMO_OIDN unset, no pyoidn in {}) and \
-                 LUMO_REQUIRE_OIDN=1",
-                lib.display()
-            );
-        }
-        eprintln!(
-            "\n=== SKIPPED: Open Image Denoise not found (python3 -m venv tests/oidn/.venv && \
-             tests/oidn/.venv/bin/pip install -r tests/oidn/requirements.txt) ===\n"
-        );
-    }
-    found
-}
-
 fn oidn() -> Option<Oidn> {
-    let dir = oidn_dir()?;
+    let dir = common::oidn_dir()?;
     Some(Oidn::load_from(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())))
 }
 

@@ -70,15 +70,9 @@ fn cornell() -> PathBuf {
 fn oidn_env() -> Option<(PathBuf, PathBuf)> {
     let venv = common::root().join("tests/oidn/.venv");
     let python = venv.join("bin/python");
-    let pyoidn = std::fs::read_dir(venv.join("lib"))
-        .ok()
-        .and_then(|entries| {
-            entries
-                .flatten()
-                .map(|e| e.path().join("site-packages/pyoidn"))
-                .find(|p| p.is_dir())
-        });
-    let oidn = std::env::var_os("LUMO_OIDN").map(PathBuf::from).or(pyoidn);
+    let oidn = std::env::var_os("LUMO_OIDN")
+        .map(PathBuf::from)
+        .or_else(common::test_venv_pyoidn);
     if let (true, Some(oidn)) = (python.is_file(), oidn) {
         return Some((python, oidn));
     }

@@ -487,20 +487,8 @@ fn browser() -> Option<PathBuf> {
     None
 }
 
-#[test]
-fn in_a_browser_the_page_follows_edits_errors_and_fixes() {
-    let _serial = serial();
-    let Some(script) = browser() else { return };
-    let dir = tempfile::tempdir().expect("tempdir");
-    let scene = cornell_copy(dir.path());
-    let preview = Preview::start(&scene, &["--width", "96", "--height", "96", "--spp", "32"]);
-    let mut node = Command::new("node");
-    node.arg(&script)
-        .arg(format!("http://{}/", preview.addr))
-        .arg(&scene);
-    if let Some(shot) = std::env::var_os("LUMO_PREVIEW_SCREENSHOT") {
-        node.arg(shot);
-    }
+/// Runs a browser script (`node …`) to its end, within 120 s, and asserts that it passed.
+fn run_browser_script(node: &mut Command) {
     let mut child = node
         .stdout(Stdio::inherit())
         .stderr(Stdio::inherit())
@@ -518,6 +506,23 @@ fn in_a_browser_the_page_follows_edits_errors_and_fixes() {
         std::thread::sleep(Duration::from_millis(50));
     };
     assert!(status.success(), "the browser test failed: {status}");
+}
+
+#[test]
+fn in_a_browser_the_page_follows_edits_errors_and_fixes() {
+    let _serial = serial();
+    let Some(script) = browser() else { return };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = cornell_copy(dir.path());
+    let preview = Preview::start(&scene, &["--width", "96", "--height", "96", "--spp", "32"]);
+    let mut node = Command::new("node");
+    node.arg(&script)
+        .arg(format!("http://{}/", preview.addr))
+        .arg(&scene);
+    if let Some(shot) = std::env::var_os("LUMO_PREVIEW_SCREENSHOT") {
+        node.arg(shot);
+    }
+    run_browser_script(&mut node);
 }
 
 #[test]
@@ -713,36 +718,6 @@ fn red_wall(scene: &Path) -> (u32, u32, [f32; 3]) {
     )
 }
 
-/// Where the tests find Open Image Denoise: `LUMO_OIDN`, else the pyoidn package in
-/// `tests/oidn/.venv` (as tests/denoise.rs). `None` after a loud message when it is missing;
-/// under `LUMO_REQUIRE_OIDN=1` (CI) a missing library fails the test instead.
-fn oidn_dir() -> Option<PathBuf> {
-    if let Some(dir) = std::env::var_os("LUMO_OIDN").filter(|v| !v.is_empty()) {
-        return Some(PathBuf::from(dir));
-    }
-    let lib = common::root().join("tests/oidn/.venv/lib");
-    let found = std::fs::read_dir(&lib).ok().and_then(|entries| {
-        entries
-            .flatten()
-            .map(|e| e.path().join("site-packages/pyoidn"))
-            .find(|p| p.is_dir())
-    });
-    if found.is_none() {
-        if std::env::var_os("LUMO_REQUIRE_OIDN").is_some_and(|v| v == "1") {
-            panic!(
-                "Open Image Denoise not found (LUMO_OIDN unset, no pyoidn in {}) and \
-                 LUMO_REQUIRE_OIDN=1",
-                lib.display()
-            );
-        }
-        eprintln!(
-            "\n=== SKIPPED: Open Image Denoise not found (python3 -m venv tests/oidn/.venv && \
-             tests/oidn/.venv/bin/pip install -r tests/oidn/requirements.txt) ===\n"
-        );
-    }
-    found
-}
-
 const PASSES: &str = "albedo,normal,depth,object_id,material_id,std_error";
 
 #[test]
@@ -875,7 +850,9 @@ fn the_passes_are_served_bit_for_bit_as_lumo_render_writes_them() {
 #[test]
 fn the_denoised_view_is_oidn_guided_by_the_passes_and_follows_the_frames() {
     let _serial = serial();
-    let Some(oidn) = oidn_dir() else { return };
+    let Some(oidn) = common::oidn_dir() else {
+        return;
+    };
     let dir = tempfile::tempdir().expect("tempdir");
     let scene = cornell_copy(dir.path());
     let preview = Preview::start_with(&scene, &SMALL, &[("LUMO_OIDN", oidn.as_os_str())]);
@@ -994,7 +971,7 @@ fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
     let _serial = serial();
     let Some(script) = browser() else { return };
     let script = script.with_file_name("passes.mjs");
-    let oidn = oidn_dir();
+    let oidn = common::oidn_dir();
     let dir = tempfile::tempdir().expect("tempdir");
     let scene = cornell_copy(dir.path());
     let env: Vec<(&str, &std::ffi::OsStr)> = oidn
@@ -1012,26 +989,12 @@ fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
     );
     let out = dir.path().join("browser");
     std::fs::create_dir(&out).expect("mkdir");
-    let mut child = Command::new("node")
-        .arg(&script)
-        .arg(format!("http://{}/", preview.addr))
-        .arg(&out)
-        .stdout(Stdio::inherit())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("start node");
-    let start = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            break status;
-        }
-        if start.elapsed() > Duration::from_secs(120) {
-            let _ = child.kill();
-            panic!("the browser test ran past 120 s");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    assert!(status.success(), "the browser test failed: {status}");
+    run_browser_script(
+        Command::new("node")
+            .arg(&script)
+            .arg(format!("http://{}/", preview.addr))
+            .arg(&out),
+    );
     let report: Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report"))
             .expect("report JSON");

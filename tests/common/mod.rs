@@ -66,3 +66,39 @@ pub fn cornell(
     desc.render.sampler = sampler;
     build(&desc, &root().join("scenes"))
 }
+
+/// The pyoidn package folder of the test environment `tests/oidn/.venv` (it bundles Open Image
+/// Denoise), if that environment exists.
+pub fn test_venv_pyoidn() -> Option<PathBuf> {
+    let lib = root().join("tests/oidn/.venv/lib");
+    std::fs::read_dir(lib).ok().and_then(|entries| {
+        entries
+            .flatten()
+            .map(|e| e.path().join("site-packages/pyoidn"))
+            .find(|p| p.is_dir())
+    })
+}
+
+/// Where the tests find Open Image Denoise: `LUMO_OIDN`, else [`test_venv_pyoidn`]. `None`
+/// after a loud message when it is missing; under `LUMO_REQUIRE_OIDN=1` (CI) a missing library
+/// fails the test instead.
+pub fn oidn_dir() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("LUMO_OIDN").filter(|v| !v.is_empty()) {
+        return Some(PathBuf::from(dir));
+    }
+    let found = test_venv_pyoidn();
+    if found.is_none() {
+        if std::env::var_os("LUMO_REQUIRE_OIDN").is_some_and(|v| v == "1") {
+            panic!(
+                "Open Image Denoise not found (LUMO_OIDN unset, no pyoidn in {}) and \
+                 LUMO_REQUIRE_OIDN=1",
+                root().join("tests/oidn/.venv/lib").display()
+            );
+        }
+        eprintln!(
+            "\n=== SKIPPED: Open Image Denoise not found (python3 -m venv tests/oidn/.venv && \
+             tests/oidn/.venv/bin/pip install -r tests/oidn/requirements.txt) ===\n"
+        );
+    }
+    found
+}
