@@ -197,9 +197,14 @@ fn albedo_and_normal_guides_are_used() {
 /// reference's own variance is subtracted, so the figure estimates the error against the
 /// converged image.
 ///
-/// At 128² (the Cycles references' size) the denoiser does not pay on this asset: the helmet's
-/// textures change from pixel to pixel there, and denoised 16-spp renders tied with equal-time
-/// ones (relMSE 0.023–0.034 against 0.025–0.031, measured 2026-12-02); at 256² it pays 3×.
+/// What this asserts is narrow, and the margin is thin (a mean ratio of 0.48 against the 0.5
+/// bound in every run on 2026-12-02). relMSE over the helmet is decided by a handful of
+/// pixels: the equal-time render's rare bright samples (one pixel alone carries about 460 of
+/// seed 102's per-pixel errors, whose mean is 0.074), which the filter removes. With the
+/// worst 0.1 % of the helmet's pixels (8) left out, the denoised render is no better than the
+/// equal-time one (0.013–0.014 against 0.013), and its median per-pixel error is 3× higher
+/// (the filter blurs the textures). At 128² (the Cycles references' size) it ties even
+/// with the outliers in (0.023–0.034 against 0.025–0.031). See docs/passes.md.
 #[test]
 fn denoised_textured_asset_beats_equal_time_rendering() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
