@@ -1,9 +1,10 @@
 //! Denoising with Open Image Denoise pays: at equal wall time (render + denoise) the denoised
 //! Cornell box is at least twice as close to Mitsuba's 4096-spp reference as a render that
 //! spent the denoising time on samples (relMSE, the visible lamp masked, three seeds), with the
-//! image mean kept within 1 %; so is a textured glTF asset under an HDR world (DamagedHelmet);
-//! and the albedo and normal guides are used: a textured floor comes out closer to the
-//! reference with them than without.
+//! image mean kept within 1 %; on a textured glTF asset under an HDR world (DamagedHelmet) the
+//! filter takes out most of an 8-spp render's error with the mean kept within 1 %; and the
+//! albedo and normal guides are used: a textured floor comes out closer to the reference with
+//! them than without.
 //!
 //! Needs OIDN (`pip install pyoidn`; see README): from `LUMO_OIDN`, else the test environment
 //! `tests/oidn/.venv`. Without it the tests print a loud SKIPPED message and pass, unless
@@ -190,23 +191,23 @@ fn albedo_and_normal_guides_are_used() {
 }
 
 /// A textured glTF asset under an HDR world: DamagedHelmet (base colour, normal, metal/rough and
-/// emissive textures) lit by `studio.exr`, 256², against lumo's own 1024-spp render of it
+/// emissive textures) lit by `studio.exr`, 256², 8 spp, against lumo's own 1024-spp render of it
 /// (`tests/reference/damaged_helmet_studio_1024.exr`, with its standard error; see that folder's
 /// README). The error is taken over the pixels the helmet covers (the first sample's
 /// `object_id`): the sky around it is noise free and would only dilute the figure. The
 /// reference's own variance is subtracted, so the figure estimates the error against the
 /// converged image.
 ///
-/// What this asserts is narrow, and the margin is thin (a mean ratio of 0.48 against the 0.5
-/// bound in every run on 2026-12-02). relMSE over the helmet is decided by a handful of
-/// pixels: the equal-time render's rare bright samples (one pixel alone carries about 460 of
-/// seed 102's per-pixel errors, whose mean is 0.074), which the filter removes. With the
-/// worst 0.1 % of the helmet's pixels (8) left out, the denoised render is no better than the
-/// equal-time one (0.013–0.014 against 0.013), and its median per-pixel error is 3× higher
-/// (the filter blurs the textures). At 128² (the Cycles references' size) it ties even
-/// with the outliers in (0.023–0.034 against 0.025–0.031). See docs/passes.md.
+/// What it asserts is what holds on any machine: the filter, guided by the albedo and normal,
+/// takes out at least 70 % of the 8-spp render's error over the textured helmet (measured
+/// 80–86 %: 0.102–0.124 → 0.018–0.021) in each of three seeds, and keeps the image's mean
+/// within 1 %. It is not an equal-time comparison, which depends on the machine's load and here
+/// on a few pixels: relMSE over the helmet is decided by the rare bright samples of paths that
+/// find `studio.exr`'s small lamps, which the filter removes, so an equal-time render (15–22
+/// spp) scores anywhere from 0.018 to 0.082 with the same seeds, and with the worst 0.1 % of
+/// pixels left out both score 0.012–0.015. docs/passes.md has the measurements.
 #[test]
-fn denoised_textured_asset_beats_equal_time_rendering() {
+fn denoising_a_textured_asset_removes_most_of_its_error() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let Some(shared) = common::shared() else {
         return;
@@ -224,7 +225,7 @@ fn denoised_textured_asset_beats_equal_time_rendering() {
     let reference = reference.beauty;
     let model = shared.join("gltf/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
     let sky = shared.join("hdri/studio.exr");
-    let job = |spp: Option<u32>, time_s: Option<f32>, seed: u64, aovs: &str| {
+    let job = |spp: Option<u32>, seed: u64, aovs: &str| {
         let mut loaded = lumo::load(&model, &lumo::LoadOptions::default()).expect("loads");
         loaded
             .edit(|s| {
@@ -242,7 +243,6 @@ fn denoised_textured_asset_beats_equal_time_rendering() {
             &loaded,
             JobSettings {
                 spp,
-                time_s,
                 aovs: aovs.parse().expect("names"),
                 ..Default::default()
             },
@@ -265,18 +265,11 @@ fn denoised_textured_asset_beats_equal_time_rendering() {
         }
         sum / n as f64
     };
-    let mut rows = Vec::new();
     for seed in 1..=3u64 {
-        // The clock runs over rendering and denoising: loading the model and building its
-        // scene is the same for both and is left out (a time budget counts rendering alone).
-        let noisy_job = job(Some(SPP), None, seed, "albedo,normal,object_id");
-        let start = Instant::now();
-        let noisy = noisy_job.run(&Hooks::default()).expect("renders");
-        let denoised = noisy.denoised(&mut oidn).expect("denoises");
-        let spent = start.elapsed().as_secs_f32();
-        let equal_time = job(None, Some(spent), seed + 100, "")
+        let noisy = job(Some(SPP), seed, "albedo,normal,object_id")
             .run(&Hooks::default())
             .expect("renders");
+        let denoised = noisy.denoised(&mut oidn).expect("denoises");
         let ids = noisy
             .passes()
             .into_iter()
@@ -290,9 +283,8 @@ fn denoised_textured_asset_beats_equal_time_rendering() {
         assert!(covered > 8000, "the helmet covers {covered} pixels");
         let e_noisy = rel_mse(&noisy.image, &helmet);
         let e_denoised = rel_mse(&denoised, &helmet);
-        let e_equal = rel_mse(&equal_time.image, &helmet);
         // The filter takes out some of the bright outliers' energy: the helmet's mean drops by
-        // 1–2.5 % (measured); the image's mean, as for the Cornell box, stays within 1 %.
+        // 0.6–3.1 % (measured); the image's mean, as for the Cornell box, stays within 1 %.
         let mean_over = |img: &Image| {
             img.pixels
                 .iter()
@@ -304,28 +296,18 @@ fn denoised_textured_asset_beats_equal_time_rendering() {
         };
         let (mh, rh) = (mean_over(&denoised), mean_over(&reference));
         eprintln!(
-            "DamagedHelmet seed {seed}: {SPP} spp relMSE {e_noisy:.5}, denoised {e_denoised:.5} \
-             ({spent:.2} s in all), equal time ({} spp) {e_equal:.5}; helmet mean {:+.2} % \
-             (denoised against reference)",
-            equal_time.stats.spp,
+            "DamagedHelmet seed {seed}: {SPP} spp relMSE {e_noisy:.5}, denoised {e_denoised:.5}; \
+             helmet mean {:+.2} % (denoised against reference)",
             100.0 * ((mh - rh) / rh).element_sum() / 3.0
+        );
+        assert!(
+            e_denoised <= 0.3 * e_noisy,
+            "seed {seed}: denoised relMSE {e_denoised:.5} is not at most 0.3× the noisy {e_noisy:.5}"
         );
         let (m, r) = (denoised.mean(), reference.mean());
         assert!(
             ((m - r) / r).abs().max_element() < 0.01,
             "seed {seed}: denoised mean {m} vs reference {r}"
         );
-        rows.push((e_denoised, e_equal));
     }
-    // Over the three seeds: an equal-time render's error swings by 2× from seed to seed with the
-    // few bright outliers it happens to take (0.013–0.027 at 16 spp), the denoised one's by 2 %.
-    let (d, e): (f64, f64) = rows
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (d, e)| (a + d, b + e));
-    assert!(
-        d <= 0.5 * e,
-        "denoised relMSE {:.5} is not at most half the equal-time renders' {:.5} (mean of 3 seeds)",
-        d / 3.0,
-        e / 3.0
-    );
 }
