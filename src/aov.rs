@@ -504,3 +504,13 @@ pub struct PassImage {
     /// Its values, `aov.channels().len()` per pixel.
     pub pixels: PassPixels,
 }
+
+impl PassImage {
+    /// The `std_error` pass of an image of per-pixel standard errors.
+    pub fn std_error(std_error: &crate::image::Image) -> PassImage {
+        PassImage {
+            aov: Aov::StdError,
+            pixels: PassPixels::Float(std_error.pixels.iter().flat_map(|p| p.to_array()).collect()),
+        }
+    }
+}

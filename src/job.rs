@@ -722,9 +722,7 @@ impl Finished {
 
 /// Writes the image of `film` (a `window` of a `width` × `height` render, placed in it) with
 /// its render passes `aovs` to `path`, atomically; with `denoised` (of the window) as the
-/// beauty, the film's own image then kept as the pass `noisy`. EXR gets one multi-channel part
-/// ([`crate::multilayer`]); PNG and BMP get each pass as a file beside the image
-/// (`OUT.albedo.png`, …), and HDR gets PNG quick looks beside it.
+/// beauty, the film's own image then kept as the pass `noisy`. See [`write_image_with_passes`].
 pub fn write_with_passes(
     path: &Path,
     tonemap: ToneMap,
@@ -734,33 +732,57 @@ pub fn write_with_passes(
     denoised: Option<&Image>,
 ) -> Result<(), crate::output::ImageIoError> {
     let noisy = embed(&film.image(), window, width, height);
-    let beauty = match denoised {
-        Some(d) => embed(d, window, width, height),
-        None => noisy.clone(),
-    };
     let passes: Vec<PassImage> = film
         .passes(aovs)
         .into_iter()
         .map(|p| embed_pass(&p, window, width, height))
         .collect();
+    match denoised {
+        Some(d) => write_image_with_passes(
+            path,
+            tonemap,
+            &embed(d, window, width, height),
+            &passes,
+            Some(&noisy),
+        ),
+        None => write_image_with_passes(path, tonemap, &noisy, &passes, None),
+    }
+}
+
+/// Writes `beauty` with its render passes `passes` (of its size, in [`Aov::ALL`]'s order) to
+/// `path`, atomically, and `noisy`, when the beauty was denoised, as the pass `noisy`. EXR gets
+/// one multi-channel part ([`crate::multilayer`]); PNG and BMP get each pass as a file beside
+/// the image (`OUT.albedo.png`, …), and HDR gets PNG quick looks beside it.
+pub fn write_image_with_passes(
+    path: &Path,
+    tonemap: ToneMap,
+    beauty: &Image,
+    passes: &[PassImage],
+    noisy: Option<&Image>,
+) -> Result<(), crate::output::ImageIoError> {
     let exr = crate::output::format_of(path)? == image::ImageFormat::OpenExr;
-    if exr && (!passes.is_empty() || denoised.is_some()) {
+    if exr && (!passes.is_empty() || noisy.is_some()) {
         let mut groups: Vec<ChannelGroup> = Vec::new();
-        if denoised.is_some() {
-            groups.push(ChannelGroup::from_rgb("noisy", &noisy));
+        if let Some(noisy) = noisy {
+            groups.push(ChannelGroup::from_rgb("noisy", noisy));
         }
         groups.extend(passes.iter().map(ChannelGroup::from_pass));
-        return crate::multilayer::write_exr(path, &beauty, &groups);
+        return crate::multilayer::write_exr(path, beauty, &groups);
     }
-    write_image(&beauty, path, tonemap)?;
+    write_image(beauty, path, tonemap)?;
     let ext = lumo_schema::geometry::paths::lowercase_extension(path);
     let side_ext = if ext == "bmp" { "bmp" } else { "png" };
     let side = |name: &str| crate::multilayer::sidecar_path(&path.with_extension(side_ext), name);
-    if denoised.is_some() {
-        write_image(&noisy, &side("noisy"), tonemap)?;
+    if let Some(noisy) = noisy {
+        write_image(noisy, &side("noisy"), tonemap)?;
     }
-    for pass in &passes {
-        crate::multilayer::write_pass_rgb8(&side(pass.aov.name()), width, height, pass)?;
+    for pass in passes {
+        crate::multilayer::write_pass_rgb8(
+            &side(pass.aov.name()),
+            beauty.width,
+            beauty.height,
+            pass,
+        )?;
     }
     Ok(())
 }

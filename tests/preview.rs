@@ -386,9 +386,11 @@ fn save_writes_what_lumo_render_writes() {
     let dir = tempfile::tempdir().expect("tempdir");
     let scene = cornell_copy(dir.path());
     let saved = dir.path().join("saved.png");
+    // With passes, written beside the image as `lumo render` writes them.
+    const PASSES: [&str; 2] = ["--aov", "albedo,object_id,std_error"];
     let preview = Preview::start(
         &scene,
-        &[&SMALL[..], &["-o", saved.to_str().expect("utf-8")]].concat(),
+        &[&SMALL[..], &PASSES, &["-o", saved.to_str().expect("utf-8")]].concat(),
     );
     preview.wait_done(1);
     let (code, _, body) = preview.request("POST", "/save?tonemap=aces&exposure=0");
@@ -398,16 +400,20 @@ fn save_writes_what_lumo_render_writes() {
         .arg("render")
         .arg(&scene)
         .args(SMALL)
+        .args(PASSES)
         .args(["--tonemap", "aces", "-q", "-o"])
         .arg(&rendered)
         .status()
         .expect("lumo render");
     assert!(status.success());
-    assert_eq!(
-        std::fs::read(&saved).expect("saved"),
-        std::fs::read(&rendered).expect("rendered"),
-        "the saved image differs from lumo render's"
-    );
+    for suffix in ["png", "albedo.png", "object_id.png", "std_error.png"] {
+        let file = |stem: &str| dir.path().join(format!("{stem}.{suffix}"));
+        assert_eq!(
+            std::fs::read(file("saved")).unwrap_or_else(|e| panic!("saved.{suffix}: {e}")),
+            std::fs::read(file("rendered")).unwrap_or_else(|e| panic!("rendered.{suffix}: {e}")),
+            "the saved {suffix} differs from lumo render's"
+        );
+    }
     // No temporary file left beside it.
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())
         .expect("list")

@@ -319,13 +319,10 @@ impl Film {
         let mut out = Vec::new();
         for aov in set.iter() {
             let pixels = match (aov, &self.aov) {
-                (Aov::StdError, _) => PassPixels::Float(
-                    self.std_error()
-                        .pixels
-                        .iter()
-                        .flat_map(|p| p.to_array())
-                        .collect(),
-                ),
+                (Aov::StdError, _) => {
+                    out.push(PassImage::std_error(&self.std_error()));
+                    continue;
+                }
                 (Aov::ObjectId | Aov::MaterialId, Some(a)) if a.set().contains(aov) => {
                     PassPixels::Id(
                         a.ids()

@@ -155,6 +155,9 @@ pub(crate) struct Frame {
     pub passes: Vec<PassImage>,
     /// Whether this is the quick ray-cast pass (not saved by the save button).
     pub quick: bool,
+    /// Every pass asked for, the standard error included: what the save button writes beside
+    /// the image, as `lumo render` would.
+    pub asked: AovSet,
 }
 
 impl Frame {
@@ -525,7 +528,8 @@ fn load_and_render(
         },
     )?;
     // `--aov`'s passes and the scene's; the standard error is in every frame anyway.
-    let passes = render_job.settings().aovs.recorded();
+    let asked = render_job.settings().aovs;
+    let passes = asked.recorded();
     let all_warnings: Vec<String> = load_warnings(&loaded, &args.overrides)
         .chain(render_job.warnings())
         .cloned()
@@ -555,6 +559,7 @@ fn load_and_render(
             std_error: quick.std_error,
             passes: Vec::new(),
             quick: true,
+            asked: AovSet::NONE,
         },
         |_| {},
     );
@@ -572,6 +577,7 @@ fn load_and_render(
                 std_error: film.std_error(),
                 passes: film.passes(passes),
                 quick: false,
+                asked,
             },
             |s| {
                 s.spp = (samples / pixels) as u32;

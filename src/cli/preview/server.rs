@@ -37,7 +37,7 @@ use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
 use futures_util::Stream;
-use lumo::aov::{Aov, PassPixels};
+use lumo::aov::{Aov, PassImage, PassPixels};
 use lumo::output::ToneMap;
 use lumo::render::Image;
 use lumo_schema::Keyword as _;
@@ -291,8 +291,9 @@ struct SaveQuery {
     exposure: Option<f32>,
 }
 
-/// Writes the latest path-traced frame to the output path (atomically, as `lumo render` does):
-/// 8-bit formats get the page's exposure and tone mapping, EXR and HDR stay linear.
+/// Writes the latest path-traced frame to the output path (atomically, as `lumo render` does),
+/// with its render passes as `lumo render` writes them: 8-bit formats get the page's exposure
+/// and tone mapping, EXR and HDR stay linear.
 async fn save(State(shared): State<Arc<Shared>>, Query(q): Query<SaveQuery>) -> Response {
     let tone = match q.tonemap.as_deref() {
         None => ToneMap::Clamp,
@@ -332,7 +333,16 @@ async fn save(State(shared): State<Arc<Shared>>, Query(q): Query<SaveQuery>) -> 
         } else {
             &frame.image
         };
-        lumo::output::write_image(image, &output, tone).map(|()| output)
+        // The passes `lumo render` writes with the same `--aov`: beside a PNG, in the EXR.
+        let passes: Vec<PassImage> = frame
+            .asked
+            .iter()
+            .filter_map(|aov| match aov {
+                Aov::StdError => Some(PassImage::std_error(&frame.std_error)),
+                _ => frame.pass(aov).cloned(),
+            })
+            .collect();
+        lumo::job::write_image_with_passes(&output, tone, image, &passes, None).map(|()| output)
     })
     .await;
     match written {
