@@ -646,14 +646,13 @@ const SUN_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
         "R 1.29, 4.2 %: mostly rough metal",
     ),
     ("ClearCoatTest", Some((1.7, 0.01)), "R 1.12, 0.2 %"),
-    // A smooth coat over red paint (metallic 0.3, roughness 0.4), lit by the sun at grazing
-    // angles: lumo 7.6 % darker. lumo passes min(1 − c E(μo), 1 − c E(μi)) of the light to what
-    // lies under the coat (reciprocal); glTF's KHR_materials_clearcoat and Cycles pass
-    // 1 − c F(μo) / 1 − c E(μo), the view's alone. With the view's alone (an experiment, not
-    // kept) lumo measured R 2.05 and 5.4 % darker; the rest is not explained (docs/gltf.md).
+    // A smooth coat over red paint (metallic 0.3, roughness 0.4) under a low sun: lumo 7.6 %
+    // darker at 64 spp, nearly all of it one pixel, the sun's mirror image in the coat, whose
+    // heavy-tailed estimate lumo's 64 spp rarely sample (converged, both renderers agree there;
+    // over the model lumo's 8192-spp render is 1.5 % darker). docs/gltf.md has the figures.
     (
         "ClearCoatCarPaint",
         Some((6.6, 0.114)),
-        "R 4.36, 7.6 %: reciprocal coat layering under a grazing sun",
+        "R 4.36, 7.6 %: the sun's mirror image in the coat, one pixel",
     ),
 ];
