@@ -465,6 +465,18 @@ fn compare_under_world(
                 .collect();
             let n = object.iter().filter(|o| **o).count();
             assert!(n >= 100, "{name}: only {n} pixels of the model found");
+            // The sun's mirror images: pixels far brighter than the model's mean, whose
+            // estimates are heavy-tailed at this sample count (a smooth coat's image of the sun
+            // is found by a few of 64 samples), are left out of the mean difference; R keeps
+            // them.
+            let model_mean = (0..c.pixels.len())
+                .filter(|&i| object[i])
+                .map(|i| f64::from(lum(c.pixels[i])))
+                .sum::<f64>()
+                / n as f64;
+            let object: Vec<bool> = (0..c.pixels.len())
+                .map(|i| object[i] && f64::from(lum(c.pixels[i])) <= SUN_IMAGE * model_mean)
+                .collect();
             mean_diff = compare(&a, &b, &c, &vc, &object).1;
             let sum = |img: &Image| -> f64 {
                 (0..img.pixels.len())
@@ -481,7 +493,7 @@ fn compare_under_world(
         }
         eprintln!(
             "{name} under {hdri}: R = {ratio:.3} (bound {max_ratio}), mean difference{over} \
-             {:.2} % (bound {} %)",
+             {:.2} % (bound {:.1} %)",
             100.0 * mean_diff,
             100.0 * max_mean_diff
         );
@@ -495,6 +507,10 @@ fn compare_under_world(
     assert!(failures.is_empty(), "{failures:#?}");
     Some(models.len())
 }
+
+/// Pixels brighter than this many times the model's mean luminance (in the reference) are the
+/// sun's mirror images, left out of the sunlit comparison's mean difference.
+const SUN_IMAGE: f64 = 20.0;
 
 /// The bounds on R and the relative mean difference for models not listed in [`ENV_BOUNDS`]:
 /// measured 0.87–1.77 and ≤ 0.6 % for 18 models on 2026-11-29 (AlphaBlendMode 1.15, Box 1.01,
@@ -616,8 +632,9 @@ const ENV_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
 ];
 
 /// Bounds under `sunrise.exr`: about 1.5 × R and the mean difference over the model's pixels
-/// measured on 2026-12-02 (lumo 64 spp × 2 seeds, Cycles 4 × 128 spp), the mean difference at
-/// least 1 %; one per reference in `tests/data/cycles_gltf_sun/`.
+/// (the sun's mirror images left out, see [`SUN_IMAGE`]) measured on 2026-12-02 (lumo 64 spp × 2
+/// seeds, Cycles 4 × 128 spp), the mean difference at least 1 %; one per reference in
+/// `tests/data/cycles_gltf_sun/`.
 #[allow(clippy::type_complexity)]
 const SUN_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
     // Not a metal: its metallic-roughness texture (B = 0, G = 0.078) makes it a dielectric of
@@ -632,27 +649,25 @@ const SUN_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
     // Red metal of roughness 1, lit from the side: agrees (under studio.exr its rim does not).
     ("BoxInterleaved", Some((1.6, 0.01)), "R 1.01, 0.4 %"),
     // Rough metals and dielectrics: with lumo's energy compensation off (an experiment) the
-    // spheres read 8.5 % darker than Cycles' and this bound fails.
+    // spheres read 8.5 % darker than Cycles' (the sun's 4 mirror images included) and this bound
+    // fails. With those images in, lumo read 0.8 % darker: their 64-spp estimates run low.
     (
         "MetalRoughSpheresNoTextures",
-        Some((4.6, 0.013)),
-        "R 3.02, 0.8 %",
+        Some((4.6, 0.02)),
+        "R 3.02, 1.3 %",
     ),
-    // Mostly rough metal: lumo 4.2 % brighter (3.7 % with lumo's energy compensation off, 3.9 %
-    // with its diffuse base weighted by the view's factor alone).
+    // Mostly rough metal: lumo 4.0 % brighter (4.2 % with the sun's 3 mirror images in; 3.7 %
+    // with lumo's energy compensation off, 3.9 % with its diffuse base weighted by the view's
+    // factor alone, both with the images in).
     (
         "DamagedHelmet",
-        Some((2.0, 0.064)),
-        "R 1.29, 4.2 %: mostly rough metal",
+        Some((2.0, 0.06)),
+        "R 1.29, 4.0 %: mostly rough metal",
     ),
     ("ClearCoatTest", Some((1.7, 0.01)), "R 1.12, 0.2 %"),
-    // A smooth coat over red paint (metallic 0.3, roughness 0.4) under a low sun: lumo 7.6 %
-    // darker at 64 spp, nearly all of it one pixel, the sun's mirror image in the coat, whose
-    // heavy-tailed estimate lumo's 64 spp rarely sample (converged, both renderers agree there;
-    // over the model lumo's 8192-spp render is 1.5 % darker). docs/gltf.md has the figures.
-    (
-        "ClearCoatCarPaint",
-        Some((6.6, 0.114)),
-        "R 4.36, 7.6 %: the sun's mirror image in the coat, one pixel",
-    ),
+    // A smooth coat over red paint (metallic 0.3, roughness 0.4) under a low sun: lumo 1.5 %
+    // darker. With the sun's mirror image in the coat (one pixel) it read 7.6 % darker: lumo's
+    // 64 spp rarely sample that image (converged, both renderers agree there, and over the model
+    // lumo's 8192-spp render is 1.5 % darker). docs/gltf.md has the figures.
+    ("ClearCoatCarPaint", Some((6.6, 0.022)), "R 4.36, 1.5 %"),
 ];
