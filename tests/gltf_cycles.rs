@@ -85,10 +85,14 @@ const CASES: &[Case] = &[
         max_mean_diff: 0.01,
         without_normal_maps: None,
     },
-    // R = 1.85, 0.04 %.
+    // R = 3.45, 0.04 %. R was 1.85 before the coat was sampled in proportion to the light it
+    // returns against the base's albedo: lumo's noise here fell about 3× (measured as MSE
+    // against a 2048-spp render under studio.exr), which leaves the coat's per-pixel
+    // departures from Cycles' (docs/gltf.md, "Clear coat over its base") a larger share of R;
+    // against lumo's own 4096-spp render the new sampling's R is 0.31 (0.39 before).
     Case {
         name: "ClearCoatTest",
-        max_ratio: 2.8,
+        max_ratio: 5.2,
         max_mean_diff: 0.01,
         without_normal_maps: None,
     },

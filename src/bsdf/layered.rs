@@ -24,9 +24,10 @@
 //!   2013 that the extension's sample implementation uses; α = sheenRoughness², clamped below at
 //!   [`MIN_SHEEN_ALPHA`]; its albedo E_s(μ, α) tabulated once by quadrature.
 //!
-//! Sampling picks the coat with probability clearcoat·E_c(μo), then the sheen with the sheen's
-//! share of the rest (by its largest channel times E_s(μo)), else the base; the coat by GGX
-//! visible normals, the sheen cosine-weighted. The pdf is the probability-weighted sum, so
+//! Sampling picks each layer in proportion to the light it returns: the coat by clearcoat·E_c(μo),
+//! the sheen by its largest channel times E_s(μo) of what the coat passes, the base by its own
+//! albedo estimate of what both pass; the coat by GGX visible normals, the sheen
+//! cosine-weighted. The pdf is the probability-weighted sum, so
 //! [`Layered::eval`] and [`Layered::sample`] agree.
 
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -231,12 +232,27 @@ impl Layered {
 
     /// Probabilities of sampling (coat, sheen, base) for a view direction.
     fn probabilities(&self, co: f32, bo: f32) -> (f32, f32, f32) {
-        let p_coat = self.clearcoat.map_or(0.0, |c| c.albedo(co).clamp(0.0, 1.0));
-        let rest = 1.0 - p_coat;
-        let p_sheen = self.sheen.map_or(0.0, |s| {
-            (s.color.max_element() * s.unit_albedo(bo).min(1.0)).clamp(0.0, 1.0) * rest
+        // Each layer in proportion to the light it returns: the coat its albedo E_c(μo), the
+        // sheen its largest channel × E_s(μo) of what the coat passes, the base its own albedo
+        // estimate of what both pass. (Picking the base with all that the layers pass, whatever
+        // its colour, starves a smooth coat over a dark base: its mirror image of a small bright
+        // light is then found by few samples with large weights.)
+        let coat = self.clearcoat.map_or(0.0, |c| c.albedo(co).clamp(0.0, 1.0));
+        let sheen_share = self.sheen.map_or(0.0, |s| {
+            (s.color.max_element() * s.unit_albedo(bo).min(1.0)).clamp(0.0, 1.0)
         });
-        (p_coat, p_sheen, rest - p_sheen)
+        let sheen = sheen_share * (1.0 - coat);
+        let base = (1.0 - sheen_share)
+            * (1.0 - coat)
+            * self
+                .base
+                .albedo_estimate(Vec3::new(0.0, 0.0, bo))
+                .clamp(0.0, 1.0);
+        let total = coat + sheen + base;
+        if total <= 0.0 {
+            return (0.0, 0.0, 1.0);
+        }
+        (coat / total, sheen / total, base / total)
     }
 
     /// f·|cos θi| and the pdf of [`sample`](Self::sample), for world directions at a point with

@@ -94,6 +94,10 @@ pub struct Outgoing {
     wo: Vec3,
     /// Probabilities of the specular, cosine and transmission strategies.
     probs: [f32; 3],
+    /// The sum of the three strategies' albedo estimates (mean over the channels, each lobe
+    /// floored at 10⁻³ where present): the BSDF's directional albedo as its sampling sees it
+    /// (NaN for smooth glass that transmits everything, whose terms are skipped).
+    albedo: f32,
     /// (1 − the dielectric layer's albedo at μo), clamped: the diffuse base's μo factor.
     diffuse_o: f32,
     /// The compensation lobes' μo factor ([`compensation_factor`]).
@@ -338,6 +342,7 @@ impl MetallicRoughness {
             return Outgoing {
                 wo,
                 probs: [0.0, 0.0, 1.0],
+                albedo: f32::NAN,
                 diffuse_o: f32::NAN,
                 compensation_o: f32::NAN,
                 shared: Shared {
@@ -396,10 +401,25 @@ impl MetallicRoughness {
         Outgoing {
             wo,
             probs,
+            albedo: total,
             diffuse_o,
             compensation_o: (1.0 - e).max(0.0),
             shared,
         }
+    }
+
+    /// The directional albedo at `wo` (local) as the estimates that choose its sampling
+    /// strategies put it (mean over the channels; see [`Outgoing`]): how much of the light a
+    /// layer over this base should expect it to return, for choosing between them.
+    pub fn albedo_estimate(&self, wo: Vec3) -> f32 {
+        let albedo = self.outgoing(wo).albedo;
+        if albedo.is_nan() {
+            // Smooth glass that transmits everything (not filled in by `outgoing`, which skips
+            // every term for it): what its transmissive strategy would have estimated.
+            let r = fresnel_dielectric(wo.z.abs(), self.eta());
+            return r + (1.0 - r) * mean(self.base_color);
+        }
+        albedo
     }
 
     /// The transmissive part's f·|cos θi| and pdf (scalar), and its η′ for transmission.
