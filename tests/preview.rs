@@ -985,7 +985,7 @@ fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
         .map(|d| ("LUMO_OIDN", d.as_os_str()))
         .into_iter()
         .collect();
-    let aovs = "albedo,normal,depth,object_id,material_id";
+    let aovs = "albedo,normal,depth,position,uv,object_id,material_id";
     let preview = Preview::start_with(
         &scene,
         &[
@@ -1023,6 +1023,8 @@ fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
             "albedo",
             "normal",
             "depth",
+            "position",
+            "uv",
             "object_id",
             "material_id"
         ]
@@ -1064,6 +1066,8 @@ fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
     for aov in [
         lumo::aov::Aov::Normal,
         lumo::aov::Aov::Depth,
+        lumo::aov::Aov::Position,
+        lumo::aov::Aov::Uv,
         lumo::aov::Aov::ObjectId,
         lumo::aov::Aov::MaterialId,
         lumo::aov::Aov::Albedo,
@@ -1113,6 +1117,8 @@ fn in_a_browser_the_page_shows_passes_zooms_and_reads_out_pixels() {
         ("albedo", "/frame?kind=pass&name=albedo"),
         ("normal", "/frame?kind=pass&name=normal"),
         ("depth", "/frame?kind=pass&name=depth"),
+        ("position", "/frame?kind=pass&name=position"),
+        ("uv", "/frame?kind=pass&name=uv"),
         ("object_id", "/frame?kind=pass&name=object_id"),
         ("material_id", "/frame?kind=pass&name=material_id"),
     ];

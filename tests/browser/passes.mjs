@@ -84,7 +84,7 @@ try {
 
   // Each view, once the page shows it for the latest frame: the canvas's pixels.
   const denoise = report.options.some((o) => o.value === "denoised" && !o.disabled);
-  const kinds = ["normal", "depth", "object_id", "material_id", "albedo", "error", "image"];
+  const kinds = ["normal", "depth", "position", "uv", "object_id", "material_id", "albedo", "error", "image"];
   if (denoise) kinds.splice(kinds.length - 1, 0, "denoised");
   for (const kind of kinds) {
     await page.selectOption("#kind", kind);
