@@ -635,10 +635,11 @@ const ENV_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
     ),
 ];
 
-/// Bounds under `sunrise.exr`: about 1.5 × R and the mean difference over the model's pixels
-/// (the sun's mirror images left out, see [`SUN_IMAGE`]) measured on 2026-12-02 (lumo 64 spp × 2
-/// seeds, Cycles 4 × 128 spp), the mean difference at least 1 %; one per reference in
-/// `tests/data/cycles_gltf_sun/`.
+/// Bounds under `sunrise.exr`: about 1.5 × R (at least 1.5) and 1.5 × the mean difference over
+/// the model's pixels (at least 1 %; the sun's mirror images left out, see [`SUN_IMAGE`])
+/// measured on 2026-12-02 (lumo 64 spp × 2 seeds, Cycles 4 × 128 spp); one per reference in
+/// `tests/data/cycles_gltf_sun/` (every shared model), `None` for those Blender imports as
+/// something else than glTF says.
 #[allow(clippy::type_complexity)]
 const SUN_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
     // Not a metal: its metallic-roughness texture (B = 0, G = 0.078) makes it a dielectric of
@@ -674,4 +675,96 @@ const SUN_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
     // 64 spp rarely sample that image (converged, both renderers agree there, and over the model
     // lumo's 8192-spp render is 1.5 % darker). docs/gltf.md has the figures.
     ("ClearCoatCarPaint", Some((6.6, 0.022)), "R 4.36, 1.5 %"),
+    ("AlphaBlendModeTest", Some((3.9, 0.012)), "R 2.57, 0.8 %"),
+    ("Box", Some((1.5, 0.01)), "R 0.99, 0.2 %"),
+    ("BoxTextured", Some((1.5, 0.01)), "R 0.98, 0.2 %"),
+    ("Duck", Some((1.5, 0.01)), "R 0.92, 0.3 %"),
+    ("EmissiveStrengthTest", Some((1.7, 0.01)), "R 1.08, 0.6 %"),
+    (
+        "NormalTangentMirrorTest",
+        Some((2.3, 0.022)),
+        "R 1.51, 1.4 %",
+    ),
+    ("NormalTangentTest", Some((1.5, 0.035)), "R 0.98, 2.3 %"),
+    ("SpecularTest", Some((1.5, 0.034)), "R 0.97, 2.2 %"),
+    ("TextureCoordinateTest", Some((1.6, 0.011)), "R 1.01, 0.7 %"),
+    ("TextureEncodingTest", Some((1.8, 0.01)), "R 1.15, 0.5 %"),
+    ("TextureSettingsTest", Some((1.6, 0.019)), "R 1.05, 1.2 %"),
+    ("TextureTransformTest", Some((1.5, 0.01)), "R 0.90, 0.7 %"),
+    ("UnlitTest", Some((1.5, 0.01)), "R 0.67, 0.0 %"),
+    ("VertexColorTest", Some((1.5, 0.045)), "R 1.00, 2.9 %"),
+    // Transmission without KHR_materials_volume: thin-walled in glTF, refracting in Blender's
+    // importer (docs/gltf.md); lumo 3.9 % darker.
+    (
+        "TransmissionRoughnessTest",
+        Some((1.5, 0.06)),
+        "R 0.93, 3.9 %: transmission without volume",
+    ),
+    (
+        "GlassBrokenWindow",
+        Some((46.0, 0.038)),
+        "R 30.3, 2.5 %: thin-walled glass, which Blender refracts",
+    ),
+    // KHR_materials_volume's absorption: Blender's importer makes the density 1/d with colour
+    // c, glTF says σ = −ln(c)/d (docs/gltf.md); lumo 10.1 % brighter.
+    (
+        "GlassVaseFlowers",
+        Some((1.5, 0.152)),
+        "R 1.00, 10.1 %: volume absorption as Blender imports it",
+    ),
+    // Vertex normals bent far from the walls let Cycles' light sampling reach through them
+    // (docs/gltf.md, "Light from behind the geometric surface"); lumo 7.3 % darker.
+    (
+        "CornellBoxVinc3r",
+        Some((1.6, 0.11)),
+        "R 1.01, 7.3 %: light through walls with bent normals",
+    ),
+    // A textured plane (metallic and roughness from a texture, normal map) under the sun at
+    // 7.9°, seen from 26.6° above it: lumo 13.1 % darker, not explained (under studio.exr it
+    // agrees within 0.5 %).
+    (
+        "TwoSidedPlane",
+        Some((50.0, 0.196)),
+        "R 33.4, 13.1 %: grazing sun on a textured plane, not explained",
+    ),
+    (
+        "BoxVertexColors",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "Cameras",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "MultipleScenes",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "SimpleMeshes",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "SimpleSparseAccessor",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "Triangle",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "TriangleWithoutIndices",
+        None,
+        "no material: Blender's default is not glTF's",
+    ),
+    (
+        "SimpleInstancing",
+        None,
+        "EXT_mesh_gpu_instancing is not implemented",
+    ),
 ];
