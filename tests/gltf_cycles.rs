@@ -762,6 +762,7 @@ const SUN_BOUNDS: &[(&str, Option<(f64, f64)>, &str)] = &[
         None,
         "no material: Blender's default is not glTF's",
     ),
+    // lumo does not import EXT_mesh_gpu_instancing (one cube instead of 125).
     (
         "SimpleInstancing",
         None,
