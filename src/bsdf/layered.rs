@@ -32,7 +32,7 @@
 
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use super::metallic_roughness::{MetallicRoughness, Sampled};
+use super::metallic_roughness::{MetallicRoughness, Outgoing, Sampled};
 use super::microfacet::{ggx_d, ggx_g2, ggx_reflect_pdf, ggx_sample_visible};
 use super::multiple_scattering::{compensation, specular_albedo};
 use super::{fresnel::schlick_f0_f90, BsdfSample, DELTA_ALPHA};
@@ -230,8 +230,9 @@ impl Layered {
         (coat, sheen)
     }
 
-    /// Probabilities of sampling (coat, sheen, base) for a view direction.
-    fn probabilities(&self, co: f32, bo: f32) -> (f32, f32, f32) {
+    /// Probabilities of sampling (coat, sheen, base) for a view direction, given the base's
+    /// albedo estimate there ([`MetallicRoughness::albedo_at`]).
+    fn probabilities(&self, co: f32, bo: f32, base_albedo: f32) -> (f32, f32, f32) {
         // Each layer in proportion to the light it returns: the coat its albedo E_c(μo), the
         // sheen its largest channel × E_s(μo) of what the coat passes, the base its own albedo
         // estimate of what both pass. (Picking the base with all that the layers pass, whatever
@@ -242,12 +243,7 @@ impl Layered {
             (s.color.max_element() * s.unit_albedo(bo).min(1.0)).clamp(0.0, 1.0)
         });
         let sheen = sheen_share * (1.0 - coat);
-        let base = (1.0 - sheen_share)
-            * (1.0 - coat)
-            * self
-                .base
-                .albedo_estimate(Vec3::new(0.0, 0.0, bo))
-                .clamp(0.0, 1.0);
+        let base = (1.0 - sheen_share) * (1.0 - coat) * base_albedo.clamp(0.0, 1.0);
         let total = coat + sheen + base;
         if total <= 0.0 {
             return (0.0, 0.0, 1.0);
@@ -258,14 +254,20 @@ impl Layered {
     /// f·|cos θi| and the pdf of [`sample`](Self::sample), for world directions at a point with
     /// base shading frame `frame` and geometric normal `ng` (same leak rule as the base).
     pub fn eval(&self, frame: &Frame, ng: Vec3, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        self.eval_at(frame, ng, wo, wi, &self.base.outgoing_for(frame, wo))
+    }
+
+    /// [`eval`](Self::eval) with the base's terms for `wo` (`at`) made once by the caller.
+    fn eval_at(&self, frame: &Frame, ng: Vec3, wo: Vec3, wi: Vec3, at: &Outgoing) -> (Rgb, f32) {
         let (bo, bi) = (frame.to_local(wo), frame.to_local(wi));
         let (co, ci) = match &self.clearcoat {
             Some(c) => (c.frame.to_local(wo), c.frame.to_local(wi)),
             None => (bo, bi),
         };
         let (coat_pass, sheen_pass) = self.scalings(co.z, ci.z, bo.z, bi.z);
-        let (p_coat, p_sheen, p_base) = self.probabilities(co.z.abs(), bo.z.abs());
-        let (f_base, pdf_base) = self.base.eval_world(frame, ng, wo, wi);
+        let (p_coat, p_sheen, p_base) =
+            self.probabilities(co.z.abs(), bo.z.abs(), self.base.albedo_at(at));
+        let (f_base, pdf_base) = self.base.eval_world_with(frame, ng, wo, wi, Some(at));
         let mut f = f_base * (coat_pass * sheen_pass);
         let mut pdf = p_base * pdf_base;
         let same_side_geometric = wo.dot(ng) * wi.dot(ng) > 0.0;
@@ -298,7 +300,9 @@ impl Layered {
     ) -> Option<BsdfSample> {
         let bo = frame.to_local(wo);
         let co = self.clearcoat.map_or(bo, |c| c.frame.to_local(wo));
-        let (p_coat, p_sheen, p_base) = self.probabilities(co.z.abs(), bo.z.abs());
+        let at = self.base.outgoing_for(frame, wo);
+        let (p_coat, p_sheen, p_base) =
+            self.probabilities(co.z.abs(), bo.z.abs(), self.base.albedo_at(&at));
         let wi = if u_lobe < p_coat {
             let c = self.clearcoat?;
             let o = upper(co);
@@ -343,7 +347,7 @@ impl Layered {
             // The base's direction, evaluated below with the layers: the base alone may be zero
             // there (a black base under sheen) while the layered BSDF is not.
             let leaks = |i: Vec3, wi: Vec3| (bo.z * i.z > 0.0) != (wo.dot(ng) * wi.dot(ng) > 0.0);
-            match self.base.sample_direction(bo, u_base, u)? {
+            match self.base.sample_direction_at(&at, u_base, u)? {
                 Sampled::Smooth(i) => {
                     let wi = frame.to_world(i);
                     if leaks(i, wi) {
@@ -367,7 +371,7 @@ impl Layered {
                 }
             }
         };
-        let (f, pdf) = self.eval(frame, ng, wo, wi);
+        let (f, pdf) = self.eval_at(frame, ng, wo, wi, &at);
         if pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }

@@ -54,7 +54,7 @@ use super::{BsdfSample, LocalSample, DELTA_ALPHA};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::cosine_hemisphere;
 
-/// A direction drawn by [`MetallicRoughness::sample_direction`].
+/// A direction drawn by [`MetallicRoughness::sample_direction_at`].
 #[derive(Debug, Clone, Copy)]
 pub enum Sampled {
     /// From a delta lobe: the complete sample.
@@ -408,18 +408,17 @@ impl MetallicRoughness {
         }
     }
 
-    /// The directional albedo at `wo` (local) as the estimates that choose its sampling
-    /// strategies put it (mean over the channels; see [`Outgoing`]): how much of the light a
-    /// layer over this base should expect it to return, for choosing between them.
-    pub fn albedo_estimate(&self, wo: Vec3) -> f32 {
-        let albedo = self.outgoing(wo).albedo;
-        if albedo.is_nan() {
+    /// The directional albedo at the `wo` that `at` was made for, as the estimates that choose
+    /// its sampling strategies put it (mean over the channels; see [`Outgoing`]): how much of
+    /// the light a layer over this base should expect it to return, for choosing between them.
+    pub fn albedo_at(&self, at: &Outgoing) -> f32 {
+        if at.albedo.is_nan() {
             // Smooth glass that transmits everything (not filled in by `outgoing`, which skips
             // every term for it): what its transmissive strategy would have estimated.
-            let r = fresnel_dielectric(wo.z.abs(), self.eta());
+            let r = fresnel_dielectric(at.wo.z.abs(), self.eta());
             return r + (1.0 - r) * mean(self.base_color);
         }
-        albedo
+        at.albedo
     }
 
     /// The transmissive part's f·|cos θi| and pdf (scalar), and its η′ for transmission.
@@ -519,18 +518,18 @@ impl MetallicRoughness {
         })
     }
 
-    /// The direction [`sample`](Self::sample) draws, before it is evaluated: a complete
-    /// sample for delta lobes, the direction alone for smooth ones (with the density
-    /// [`pdf`](Self::pdf), whatever the BSDF's value there: a layered BSDF evaluates its own
-    /// sum there).
-    pub fn sample_direction(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Sampled> {
-        if wo.z == 0.0 {
+    /// The direction [`sample`](Self::sample) draws for the `wo` that `at` was made for
+    /// ([`outgoing_for`](Self::outgoing_for)), before it is evaluated: a complete sample for
+    /// delta lobes, the direction alone for smooth ones (with the density [`pdf`](Self::pdf),
+    /// whatever the BSDF's value there: a layered BSDF evaluates its own sum there).
+    pub fn sample_direction_at(&self, at: &Outgoing, u_lobe: f32, u: Vec2) -> Option<Sampled> {
+        if at.wo.z == 0.0 {
             return None;
         }
-        self.sample_direction_with(wo, u_lobe, u, &self.outgoing(wo).probs)
+        self.sample_direction_with(at.wo, u_lobe, u, &at.probs)
     }
 
-    /// [`sample_direction`](Self::sample_direction) given `wo`'s strategy probabilities.
+    /// [`sample_direction_at`](Self::sample_direction_at) given `wo`'s strategy probabilities.
     fn sample_direction_with(
         &self,
         wo: Vec3,
