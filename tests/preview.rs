@@ -387,10 +387,13 @@ fn save_writes_what_lumo_render_writes() {
     let scene = cornell_copy(dir.path());
     let saved = dir.path().join("saved.png");
     // With passes, written beside the image as `lumo render` writes them.
-    const PASSES: [&str; 2] = ["--aov", "albedo,object_id,std_error"];
     let preview = Preview::start(
         &scene,
-        &[&SMALL[..], &PASSES, &["-o", saved.to_str().expect("utf-8")]].concat(),
+        &[
+            &SMALL[..],
+            &["--aov", PASSES, "-o", saved.to_str().expect("utf-8")],
+        ]
+        .concat(),
     );
     preview.wait_done(1);
     let (code, _, body) = preview.request("POST", "/save?tonemap=aces&exposure=0");
@@ -400,13 +403,13 @@ fn save_writes_what_lumo_render_writes() {
         .arg("render")
         .arg(&scene)
         .args(SMALL)
-        .args(PASSES)
-        .args(["--tonemap", "aces", "-q", "-o"])
+        .args(["--aov", PASSES, "--tonemap", "aces", "-q", "-o"])
         .arg(&rendered)
         .status()
         .expect("lumo render");
     assert!(status.success());
-    for suffix in ["png", "albedo.png", "object_id.png", "std_error.png"] {
+    let passes = PASSES.split(',').map(|p| format!("{p}.png"));
+    for suffix in std::iter::once("png".to_string()).chain(passes) {
         let file = |stem: &str| dir.path().join(format!("{stem}.{suffix}"));
         assert_eq!(
             std::fs::read(file("saved")).unwrap_or_else(|e| panic!("saved.{suffix}: {e}")),
