@@ -297,6 +297,40 @@ def import_model(bpy, path: Path) -> tuple[list[str], list[str]]:
     return log, notable
 
 
+def give_default_material(bpy, gltf_json: dict) -> int:
+    """Gives every mesh of a file without materials the glTF default material (base colour 1,
+    metallic 1, roughness 1; glTF 2.0 section 3.9.6), times COLOR_0 where the mesh has it.
+    Blender's importer does not build that material: without COLOR_0 it leaves the slot empty
+    (Cycles then renders its own grey diffuse surface), with COLOR_0 it makes a Principled BSDF
+    of the vertex colour with metallic 0 and roughness 0.5. Returns the number of meshes
+    changed; raises when a file with materials has a mesh without one (not handled here)."""
+    meshes = {o.data for o in bpy.data.objects if o.type == "MESH"}
+    if gltf_json.get("materials"):
+        bare = sorted(m.name for m in meshes if not any(m.materials))
+        if bare:
+            raise RuntimeError(f"meshes without a material in a file with materials: {bare}")
+        return 0
+    default = None
+    for mesh in meshes:
+        if not any(mesh.materials):
+            if default is None:
+                # Blender 5 gives a new material a node tree with a Principled BSDF.
+                default = bpy.data.materials.new("glTF default")
+            mesh.materials.clear()
+            mesh.materials.append(default)
+        for mat in mesh.materials:
+            principled = [n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED"]
+            if len(principled) != 1:
+                raise RuntimeError(f"{mat.name}: expected one Principled BSDF")
+            bsdf = principled[0]
+            if not bsdf.inputs["Base Color"].is_linked:
+                bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+            bsdf.inputs["Metallic"].default_value = 1.0
+            bsdf.inputs["Roughness"].default_value = 1.0
+            bsdf.inputs["IOR"].default_value = 1.5
+    return len(meshes)
+
+
 def remove_lights_and_cameras(bpy) -> tuple[int, int]:
     lights = cams = 0
     for obj in list(bpy.data.objects):
@@ -697,6 +731,9 @@ def prepare_job(bpy, job: str, args, managed_ext: list[str], width: int = WIDTH,
     if unsupported:
         print(f"  importer: extensions used by the file but not handled (ignored silently): "
               f"{', '.join(unsupported)}")
+    defaulted = give_default_material(bpy, read_gltf_json(model_file))
+    if defaulted:
+        print(f"  gave {defaulted} mesh(es) without a material glTF's default material")
     lights, cams = remove_lights_and_cameras(bpy)
     if lights:
         print(f"  note: removed {lights} light(s) the file brought")
@@ -1252,10 +1289,10 @@ ENV_GENERAL_NOTES = """\
 - **Primitives without a material** (BoxVertexColors, Cameras, MultipleScenes, SimpleInstancing,
   SimpleMeshes, SimpleSparseAccessor, Triangle, TriangleWithoutIndices): the glTF default
   material is white, metallic 1, roughness 1. The importer does not build it: without COLOR_0 it
-  leaves the material slot empty, and Cycles renders an empty slot with its own default
-  surface, a grey (0.8) diffuse BSDF; with COLOR_0 it creates a default Principled BSDF (base
-  colour = the vertex colour, metallic 0, roughness 0.5, IOR 1.5). Both differ from the spec's
-  default material, so these images are not a reference for it.
+  leaves the material slot empty (Cycles would render its own grey diffuse surface); with
+  COLOR_0 it creates a Principled BSDF of the vertex colour with metallic 0 and roughness 0.5.
+  This script gives such files the spec's default (`give_default_material`): a Principled BSDF
+  of base colour 1 (or the importer's COLOR_0 link), metallic 1, roughness 1, IOR 1.5.
 - **Missing normals** (NORMAL absent): flat shading (face normals), as the spec says.
 - **KHR_materials_unlit** (UnlitTest): an Emission shader of the base colour (strength 1) for
   camera rays, mixed with a Transparent BSDF for every other ray (Blender's "light path trick"):
@@ -1264,8 +1301,7 @@ ENV_GENERAL_NOTES = """\
 - **KHR_texture_transform**: a Mapping node on the UVs (offset, rotation, scale; `texCoord`
   override honoured).
 - **EXT_mesh_gpu_instancing** (SimpleInstancing): the importer instances the mesh at every
-  TRANSLATION / ROTATION / SCALE; lumo 0.1.0 does not read the extension ("not imported") and
-  frames its single mesh.
+  TRANSLATION / ROTATION / SCALE, as lumo does.
 - **Several scenes** (MultipleScenes): the importer imports every scene as a collection and
   excludes all but the default one (`scene`) from the view layer, so the default scene is
   rendered, as lumo does.
@@ -1276,29 +1312,24 @@ ENV_GENERAL_NOTES = """\
 
 #: Per-model environment-mode notes (besides MODEL_NOTES), written from the renders.
 ENV_MODEL_NOTES: dict[str, str] = {
-    "SimpleInstancing": "**The image is black (exactly 0) and is no reference.** lumo does not "
-        "read EXT_mesh_gpu_instancing, so its automatic camera frames the single unit cube of the "
-        "node, from (0.5, 0.5, 2.99). Blender instances the cube 125 times (translations 0..10, "
-        "scales 1..2), and that camera position lies inside the instance at translation "
-        "(0, 0, 2.5), scale (1, 1, 1.25): every pixel sees the inside of a closed cube that no "
-        "light reaches (no background pixel, so no environment check). Also the slowest render: "
-        "every path bounces inside the cube up to the bounce limit.",
+    "SimpleInstancing": "EXT_mesh_gpu_instancing: Blender and lumo both draw the cube 125 times "
+        "(translations 0..10, scales 1..2, rotations about the axes); no material, so glTF's "
+        "default material (see above).",
     "BoxInterleaved": "No metallicFactor, so metallic 1 (the spec's default): a red metal, "
         "unlike Box (metallicFactor 0), which is why the two images differ.",
-    "BoxVertexColors": "No material, with COLOR_0: the importer's default Principled BSDF (base "
-        "colour = COLOR_0, metallic 0, roughness 0.5), not the spec's default material "
-        "(metallic 1, roughness 1) times COLOR_0.",
+    "BoxVertexColors": "No material, with COLOR_0: the importer's Principled BSDF of base colour "
+        "COLOR_0 made metallic 1 and roughness 1 (glTF's default material times COLOR_0).",
     "Cameras": "lumo's camera is the file's first camera (perspective, yfov 0.7 rad = 40.1 deg); "
-        "the orthographic one is ignored by lumo and deleted here. No material (Cycles' grey "
-        "diffuse) and no normals (flat).",
+        "the orthographic one is ignored by lumo and deleted here. No material (glTF's default) "
+        "and no normals (flat).",
     "Duck": "lumo's camera is the file's camera (yfov 37.8 deg, up vector not +y): the duck covers "
         "only about 1300 pixels, off centre.",
     "MultipleScenes": "The default scene (`scene`: 1) is rendered, as in lumo; scene 0's "
         "collection is excluded. No material, no normals.",
-    "SimpleMeshes": "No material: Cycles' grey diffuse.",
-    "SimpleSparseAccessor": "No material (Cycles' grey diffuse), no normals (flat).",
-    "Triangle": "No material (Cycles' grey diffuse), no normals (flat).",
-    "TriangleWithoutIndices": "No material (Cycles' grey diffuse), no normals (flat); the same "
+    "SimpleMeshes": "No material: glTF's default.",
+    "SimpleSparseAccessor": "No material (glTF's default), no normals (flat).",
+    "Triangle": "No material (glTF's default), no normals (flat).",
+    "TriangleWithoutIndices": "No material (glTF's default), no normals (flat); the same "
         "image as Triangle.",
     "GlassBrokenWindow": "The glass is a single quad with KHR_materials_transmission "
         "(transmissionFactor 1, roughness 0.05 x texture) and alphaMode MASK (the broken hole). "

@@ -397,3 +397,83 @@ proptest! {
         let _ = import_bytes(Path::new("fuzz.glb"), &d, &ImportOptions::default());
     }
 }
+
+/// Broken `EXT_mesh_gpu_instancing` attributes give located errors: an accessor index out of
+/// range, attributes of different counts, the wrong accessor type, a zero quaternion.
+#[test]
+fn broken_gpu_instancing() {
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
+    let bytes = std::fs::read(
+        shared
+            .join("gltf")
+            .join("SimpleInstancing/glTF-Binary/SimpleInstancing.glb"),
+    )
+    .unwrap();
+    let (json, rest) = common::split_glb(&bytes);
+    let doc: serde_json::Value = serde_json::from_slice(json).unwrap();
+    let attributes = "nodes[0].extensions.EXT_mesh_gpu_instancing.attributes";
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(&str, Edit, &str); 5] = [
+        (
+            "TRANSLATION",
+            |v| v["attributes"]["TRANSLATION"] = 99.into(),
+            "not an index",
+        ),
+        (
+            "SCALE",
+            |v| v["attributes"]["SCALE"] = 1.into(),
+            "same count",
+        ),
+        (
+            "TRANSLATION",
+            |v| v["attributes"]["TRANSLATION"] = 4.into(),
+            "VEC3",
+        ),
+        (
+            "",
+            |v| v["attributes"] = serde_json::json!([3, 4]),
+            "must be an object",
+        ),
+        (
+            "ROTATION",
+            |v| v["attributes"]["ROTATION"] = 1.into(),
+            "VEC4",
+        ),
+    ];
+    for (key, edit, says) in cases {
+        let mut d = doc.clone();
+        edit(&mut d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]);
+        let glb = common::join_glb(&serde_json::to_string(&d).unwrap(), rest);
+        let file = Path::new("instancing.glb");
+        let msg = match import_bytes(file, &glb, &ImportOptions::default()) {
+            Ok(_) => panic!("{key}: imported without error"),
+            Err(e) => e.to_string(),
+        };
+        let element = if key.is_empty() {
+            attributes.to_string()
+        } else {
+            format!("{attributes}.{key}")
+        };
+        assert_names(&msg, file, &element);
+        assert!(msg.contains(says), "{msg}");
+    }
+    // A zero quaternion: the ROTATION accessor's first value set to (0, 0, 0, 0) in the binary
+    // chunk (the accessor's bytes start at its bufferView's offset).
+    let acc = &doc["accessors"][4];
+    let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
+    let at = 8
+        + view["byteOffset"].as_u64().unwrap_or(0) as usize
+        + acc["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let mut zeroed = rest.to_vec();
+    zeroed[at..at + 16].fill(0);
+    let glb = common::join_glb(std::str::from_utf8(json).unwrap().trim_end(), &zeroed);
+    let file = Path::new("instancing.glb");
+    let msg = import_bytes(file, &glb, &ImportOptions::default())
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert_names(&msg, file, &format!("{attributes}.ROTATION"));
+    assert!(msg.contains("instance 0") && msg.contains("zero"), "{msg}");
+}

@@ -382,3 +382,66 @@ fn punctual_lights_use_683_lumens_per_watt() {
     // −90° about x turns −z into −y: the sun shines straight down.
     assert!((d.direction[1] + 1.0).abs() < 1e-6, "{:?}", d.direction);
 }
+
+/// `EXT_mesh_gpu_instancing`: SimpleInstancing's one node draws its cube 125 times, each
+/// instance at the translation, rotation and scale of its row in the extension's accessors
+/// (read here straight from the GLB's binary chunk), relative to the node.
+#[test]
+fn gpu_instances_become_objects_with_their_own_transforms() {
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
+    let f = sample(&shared, "SimpleInstancing/glTF-Binary/SimpleInstancing.glb");
+    let imp = import(&f, &ImportOptions::default()).unwrap();
+    assert!(
+        !imp.warnings
+            .iter()
+            .any(|w| w.contains("EXT_mesh_gpu_instancing")),
+        "{:?}",
+        imp.warnings
+    );
+    let bytes = std::fs::read(&f).unwrap();
+    let (json, rest) = common::split_glb(&bytes);
+    let doc: serde_json::Value = serde_json::from_slice(json).unwrap();
+    let bin = &rest[8..];
+    let attributes = &doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"];
+    let column = |key: &str, width: usize| -> Vec<Vec<f64>> {
+        let acc = &doc["accessors"][attributes[key].as_u64().unwrap() as usize];
+        let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
+        let start = view["byteOffset"].as_u64().unwrap_or(0) as usize
+            + acc["byteOffset"].as_u64().unwrap_or(0) as usize;
+        (0..acc["count"].as_u64().unwrap() as usize)
+            .map(|i| {
+                (0..width)
+                    .map(|c| {
+                        let at = start + 4 * (width * i + c);
+                        f64::from(f32::from_le_bytes(bin[at..at + 4].try_into().unwrap()))
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let (t, r, s) = (
+        column("TRANSLATION", 3),
+        column("ROTATION", 4),
+        column("SCALE", 3),
+    );
+    assert_eq!(imp.scene.objects.len(), 125);
+    assert_eq!(t.len(), 125);
+    for (i, o) in imp.scene.objects.iter().enumerate() {
+        let Object::Mesh(m) = o else {
+            panic!("object {i} is a {}", o.kind())
+        };
+        let matrix = lumo_schema::geometry::transform::ops_matrix(&m.transform);
+        // The cube's corner (1, 1, 1): rotate (x, y, z, w) its scaled position, then translate.
+        let p = lumo_schema::geometry::glam::DVec3::from_slice(&s[i]);
+        let q = lumo_schema::geometry::glam::DQuat::from_xyzw(r[i][0], r[i][1], r[i][2], r[i][3])
+            .normalize();
+        let expected = q * p + lumo_schema::geometry::glam::DVec3::from_slice(&t[i]);
+        let got = matrix.transform_point3(lumo_schema::geometry::glam::DVec3::ONE);
+        assert!(
+            (got - expected).length() < 1e-5,
+            "instance {i}: {got} where the file says {expected}"
+        );
+    }
+}

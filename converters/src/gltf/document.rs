@@ -130,7 +130,11 @@ pub const HANDLED_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_unlit",
     "KHR_texture_transform",
+    INSTANCING,
 ];
+
+/// The extension that gives a node's mesh many instances, each with its own transform.
+pub const INSTANCING: &str = "EXT_mesh_gpu_instancing";
 
 /// Whether every validation error is an `extensionsRequired` entry the gltf crate does not
 /// support but lumo does.

@@ -15,8 +15,8 @@ use lumo_schema::{
 };
 use serde::de::DeserializeOwned;
 
-use super::document::HANDLED_EXTENSIONS;
 use super::document::{decode_data_uri, Loaded};
+use super::document::{HANDLED_EXTENSIONS, INSTANCING};
 use super::error::GltfError;
 use super::extras::{
     CameraExtras, LightExtras, MaterialExtras, NodeExtras, SceneExtras, TextureExtras, EXTRAS_KEY,
@@ -386,31 +386,166 @@ impl Importer<'_> {
         if node.skin().is_some() || node.weights().is_some() || mesh.weights().is_some() {
             self.ignored.insert("skinning and morph weights".into());
         }
-        let singular = math::det3(&math::from_f32(&wf)) == 0.0;
+        let Some(instances) = self.instances(node, &el)? else {
+            return self.mesh_objects(node, &mesh, world, &wf, &el, None);
+        };
+        for (i, local) in instances.iter().enumerate() {
+            let instance_world = math::mul(world, local);
+            let iwf = math::to_f32(&instance_world);
+            if iwf.iter().flatten().any(|x| !x.is_finite()) {
+                return Err(GltfError::invalid(
+                    self.file(),
+                    format!("{el}.extensions.{INSTANCING}"),
+                    format!("instance {i}'s world transform overflows (NaN or infinity)"),
+                ));
+            }
+            self.mesh_objects(node, &mesh, &instance_world, &iwf, &el, Some(i))?;
+        }
+        Ok(())
+    }
+
+    /// The transforms, relative to the node, of the instances `EXT_mesh_gpu_instancing` gives
+    /// a node's mesh (translation · rotation · scale per instance, each attribute defaulting to
+    /// the identity's); `None` without the extension.
+    fn instances(&self, node: &gltf::Node, el: &str) -> Result<Option<Vec<Mat4>>, GltfError> {
+        let Some(ext) = node.extension_value(INSTANCING) else {
+            return Ok(None);
+        };
+        let el = format!("{el}.extensions.{INSTANCING}.attributes");
+        let Some(attributes) = ext.get("attributes").and_then(serde_json::Value::as_object) else {
+            return Err(GltfError::invalid(
+                self.file(),
+                el,
+                "must be an object mapping TRANSLATION, ROTATION or SCALE to accessor indices",
+            ));
+        };
+        let mut columns: [Option<Vec<f64>>; 3] = [None, None, None];
+        let mut count = None;
+        for (k, (key, width)) in [("TRANSLATION", 3), ("ROTATION", 4), ("SCALE", 3)]
+            .into_iter()
+            .enumerate()
+        {
+            let Some(index) = attributes.get(key) else {
+                continue;
+            };
+            let ael = format!("{el}.{key}");
+            let acc = index
+                .as_u64()
+                .and_then(|i| self.l.doc.accessors().nth(usize::try_from(i).ok()?));
+            let Some(acc) = acc else {
+                return Err(GltfError::invalid(
+                    self.file(),
+                    ael,
+                    format!(
+                        "is {index}, which is not an index into the file's {} accessors",
+                        self.l.doc.accessors().len()
+                    ),
+                ));
+            };
+            let values = self.l.read_accessor(&acc, &ael)?;
+            if values.len() != acc.count() * width {
+                return Err(GltfError::invalid(
+                    self.file(),
+                    format!("{ael} (accessors[{}])", acc.index()),
+                    format!("must be a VEC{width} accessor"),
+                ));
+            }
+            if let Some(j) = values.iter().position(|x| !x.is_finite()) {
+                return Err(GltfError::invalid(
+                    self.file(),
+                    format!("{ael} (accessors[{}])", acc.index()),
+                    format!("instance {}: the value is not finite", j / width),
+                ));
+            }
+            match count {
+                Some(n) if n != acc.count() => {
+                    return Err(GltfError::invalid(
+                        self.file(),
+                        format!("{ael} (accessors[{}])", acc.index()),
+                        format!(
+                            "has {} instances where the other attributes have {n}; all must have the same count",
+                            acc.count()
+                        ),
+                    ));
+                }
+                _ => count = Some(acc.count()),
+            }
+            columns[k] = Some(values);
+        }
+        let [translation, rotation, scale] = &columns;
+        let n = count.unwrap_or(0);
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n {
+            let t = translation
+                .as_ref()
+                .map_or([0.0; 3], |v| std::array::from_fn(|c| v[3 * i + c] as f32));
+            let mut q = rotation.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |v| {
+                std::array::from_fn(|c| v[4 * i + c])
+            });
+            // Normalized integer quaternions are unit only to within their quantisation.
+            let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm == 0.0 {
+                return Err(GltfError::invalid(
+                    self.file(),
+                    format!("{el}.ROTATION"),
+                    format!(
+                        "instance {i}: the quaternion is zero; rotations must be unit quaternions"
+                    ),
+                ));
+            }
+            q = q.map(|x| x / norm);
+            let s = scale
+                .as_ref()
+                .map_or([1.0; 3], |v| std::array::from_fn(|c| v[3 * i + c] as f32));
+            out.push(math::trs(t, q.map(|x| x as f32), s));
+        }
+        Ok(Some(out))
+    }
+
+    /// The objects of a node's mesh with the given world transform: one per triangle
+    /// primitive, or the node's exact shape from lumo's extras. `instance` numbers an
+    /// `EXT_mesh_gpu_instancing` instance (named `NAME@i`; lumo's own node extras apply to
+    /// a node without instances alone).
+    fn mesh_objects(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        world: &Mat4,
+        wf: &[[f32; 4]; 4],
+        el: &str,
+        instance: Option<usize>,
+    ) -> Result<(), GltfError> {
+        let singular = math::det3(&math::from_f32(wf)) == 0.0;
         if singular {
             self.warnings.push(format!(
                 "{el}: skipped: its world transform is singular (scaled to zero)"
             ));
             return Ok(());
         }
-        let ex: NodeExtras = self.extras(node.extras(), &el).unwrap_or_default();
-        let world_ops = math::ops_of_world(&wf);
+        let ex: NodeExtras = match instance {
+            None => self.extras(node.extras(), el).unwrap_or_default(),
+            Some(_) => NodeExtras::default(),
+        };
+        let world_ops = math::ops_of_world(wf);
         let transform: Transform = match ex.transform.clone() {
-            Some(ops) if !ex.baked && math::to_f32(&math::ops_matrix(&ops)) == wf => ops,
-            Some(ops) if ex.baked && math::from_f32(&wf) == math::IDENTITY => ops,
+            Some(ops) if !ex.baked && math::to_f32(&math::ops_matrix(&ops)) == *wf => ops,
+            Some(ops) if ex.baked && math::from_f32(wf) == math::IDENTITY => ops,
             Some(mut ops) if ex.baked => {
                 ops.extend(world_ops);
                 ops
             }
             _ => world_ops,
         };
-        let base_name = node.name().or(mesh.name()).map(str::to_string);
+        let base_name = node.name().or(mesh.name()).map(|n| match instance {
+            Some(i) => format!("{n}@{i}"),
+            None => n.to_string(),
+        });
         let prims: Vec<gltf::Primitive> = mesh.primitives().collect();
         let tri_count = prims.iter().filter(|p| p.mode() == Mode::Triangles).count();
         for p in &prims {
             self.extend_bounds(p, world);
         }
-        let shape = self.shape_object(&ex, &el, base_name.clone(), &transform, prims.first());
+        let shape = self.shape_object(&ex, el, base_name.clone(), &transform, prims.first());
         if let Some(obj) = shape {
             self.objects.push(obj);
             return Ok(());
@@ -444,7 +579,7 @@ impl Importer<'_> {
                 primitive: j as u32,
             });
             let source = match (&ex.source, prims.len()) {
-                (Some(src), 1) => self.extras_source(src, &el).unwrap_or(own),
+                (Some(src), 1) => self.extras_source(src, el).unwrap_or(own),
                 _ => own,
             };
             let smooth = p.get(&Semantic::Normals).is_some();
