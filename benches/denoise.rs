@@ -1,0 +1,163 @@
+//! Denoising at equal time on a textured asset: DamagedHelmet under `studio.exr` at 256², the
+//! issue's metric (docs/passes.md, "Does it pay?").
+//!
+//! ```sh
+//! LUMO_OIDN=$(ls -d tests/oidn/.venv/lib/python*/site-packages/pyoidn) cargo bench --bench denoise [-- SPP SEEDS]
+//! ```
+//!
+//! For each seed: an SPP-sample render with the albedo and normal passes, denoised, timed from
+//! the job's start to the denoised image; then a render without denoising given that time
+//! (`JobSettings::time_s`). Both are compared with the committed 1024-spp reference
+//! (`tests/reference/damaged_helmet_studio_1024.exr`, its variance subtracted from the error)
+//! by relMSE over the helmet's pixels (its object id), with the pixels that emit left out (the
+//! helmet's emissive texture, found by a render of depth 1: above 10⁻³), as the Cornell box's
+//! comparison leaves out its lamp. Printed per seed: the two errors and their ratio, over all
+//! those pixels and with the worst 0.1 % left out (the rare bright samples that find the
+//! studio's small lamps decide the first), and on the emitting pixels alone.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use lumo::aov::{Aov, PassPixels};
+use lumo::denoise::Oidn;
+use lumo::image::{Image, REL_EPSILON};
+use lumo::job::{Hooks, JobSettings, RenderJob};
+
+#[path = "common/mod.rs"]
+mod common;
+
+/// The relMSE of `x` over `keep` against `reference` less its own variance (`ref_error`²), over
+/// all kept pixels and with the worst 0.1 % left out.
+fn rel_mse(x: &Image, reference: &Image, ref_error: &Image, keep: &[bool]) -> (f64, f64) {
+    let mut per_pixel: Vec<f64> = (0..x.pixels.len())
+        .filter(|&i| keep[i])
+        .map(|i| {
+            let (p, r, s) = (
+                x.pixels[i].as_dvec3(),
+                reference.pixels[i].as_dvec3(),
+                ref_error.pixels[i].as_dvec3(),
+            );
+            let d = p - r;
+            ((d * d - s * s) / (r * r + DVec3::splat(REL_EPSILON))).element_sum() / 3.0
+        })
+        .collect();
+    let n = per_pixel.len();
+    let all = per_pixel.iter().sum::<f64>() / n as f64;
+    per_pixel.sort_by(f64::total_cmp);
+    let kept = n - n / 1000;
+    (all, per_pixel[..kept].iter().sum::<f64>() / kept as f64)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let spp: u32 = args.first().and_then(|a| a.parse().ok()).unwrap_or(8);
+    let seeds: u64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(3);
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
+    let Some(oidn_dir) = std::env::var_os("LUMO_OIDN") else {
+        eprintln!("SKIPPED: set LUMO_OIDN to Open Image Denoise (docs/passes.md)");
+        return;
+    };
+    let mut oidn = Oidn::load_from(std::path::Path::new(&oidn_dir)).expect("OIDN loads");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let reference =
+        lumo::multilayer::read_exr(&root.join("tests/reference/damaged_helmet_studio_1024.exr"))
+            .expect("the reference");
+    let ref_error = reference
+        .group("std_error")
+        .and_then(|g| g.to_rgb(reference.beauty.width, reference.beauty.height))
+        .expect("the reference's standard error");
+    let reference = reference.beauty;
+    let model = shared.join("gltf/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
+    let sky = shared.join("hdri/studio.exr");
+    let job = |spp: Option<u32>, time_s: Option<f32>, seed: u64, aovs: &str, depth: u32| {
+        let mut loaded = lumo::load(&model, &lumo::LoadOptions::default()).expect("loads");
+        loaded
+            .edit(|s| {
+                s.image.width = reference.width;
+                s.image.height = reference.height;
+                s.render.seed = seed;
+                s.render.max_depth = depth;
+                s.background = lumo_schema::Background {
+                    image: Some(sky.to_string_lossy().into_owned()),
+                    ..Default::default()
+                };
+            })
+            .expect("edits");
+        RenderJob::new(
+            &loaded,
+            JobSettings {
+                spp,
+                time_s,
+                aovs: aovs.parse().expect("pass names"),
+                ..Default::default()
+            },
+        )
+        .expect("job")
+    };
+    let emission = job(Some(16), None, 5, "", 1)
+        .run(&Hooks::default())
+        .expect("renders")
+        .image;
+    let load = || {
+        std::fs::read_to_string("/proc/loadavg")
+            .ok()
+            .and_then(|s| s.split_whitespace().next().map(str::to_string))
+            .unwrap_or_else(|| "?".into())
+    };
+    println!(
+        "DamagedHelmet, studio.exr, 256², {spp} spp denoised against equal time; relMSE over the \
+         helmet's non-emitting pixels (all | worst 0.1 % left out), then its emitting pixels"
+    );
+    println!("seed | s | equal-time spp | denoised | equal time | ratio | ratio, 0.1 % out | emitting: denoised, equal time | load");
+    for seed in 1..=seeds {
+        let noisy_job = job(Some(spp), None, seed, "albedo,normal,object_id", 8);
+        let start = Instant::now();
+        let noisy = noisy_job.run(&Hooks::default()).expect("renders");
+        let denoised = noisy.denoised(&mut oidn).expect("denoises");
+        let spent = start.elapsed().as_secs_f32();
+        let equal = job(None, Some(spent), seed + 100, "", 8)
+            .run(&Hooks::default())
+            .expect("renders");
+        let ids = noisy
+            .passes()
+            .into_iter()
+            .find(|p| p.aov == Aov::ObjectId)
+            .expect("the object-id pass");
+        let PassPixels::Id(ids) = ids.pixels else {
+            panic!("object ids are integers")
+        };
+        let emits: Vec<bool> = emission
+            .pixels
+            .iter()
+            .zip(&ids)
+            .map(|(e, &id)| id != 0 && e.max_element() > 1e-3)
+            .collect();
+        let rest: Vec<bool> = ids
+            .iter()
+            .zip(&emits)
+            .map(|(&id, &e)| id != 0 && !e)
+            .collect();
+        let d = rel_mse(&denoised, &reference, &ref_error, &rest);
+        let e = rel_mse(&equal.image, &reference, &ref_error, &rest);
+        let de = rel_mse(&denoised, &reference, &ref_error, &emits);
+        let ee = rel_mse(&equal.image, &reference, &ref_error, &emits);
+        println!(
+            "{seed} | {spent:.2} | {} | {:.4} {:.4} | {:.4} {:.4} | {:.2} | {:.2} | {:.4}, {:.4} | {}",
+            equal.stats.spp,
+            d.0,
+            d.1,
+            e.0,
+            e.1,
+            d.0 / e.0,
+            d.1 / e.1,
+            de.0,
+            ee.0,
+            load()
+        );
+    }
+}
