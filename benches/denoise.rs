@@ -13,15 +13,18 @@
 //! helmet's emissive texture, found by a render of depth 1: above 10⁻³), as the Cornell box's
 //! comparison leaves out its lamp. Printed per seed: the two errors and their ratio, over all
 //! those pixels and with the worst 0.1 % left out (the rare bright samples that find the
-//! studio's small lamps decide the first), and on the emitting pixels alone.
+//! studio's small lamps decide the first), and on the emitting pixels alone. Then the same
+//! SPP-sample render denoised with other guide recipes (no timing involved): the guides as
+//! rendered (the preview's recipe, no prefiltering), the albedo alone, and no guides.
 
 use std::time::Instant;
 
 use glam::DVec3;
 use lumo::aov::{Aov, PassPixels};
-use lumo::denoise::Oidn;
+use lumo::denoise::{Oidn, Prefilter};
 use lumo::image::{Image, REL_EPSILON};
 use lumo::job::{Hooks, JobSettings, RenderJob};
+use lumo::multilayer::ChannelGroup;
 
 #[path = "common/mod.rs"]
 mod common;
@@ -114,6 +117,7 @@ fn main() {
          helmet's non-emitting pixels (all | worst 0.1 % left out), then its emitting pixels"
     );
     println!("seed | s | equal-time spp | denoised | equal time | ratio | ratio, 0.1 % out | emitting: denoised, equal time | load");
+    let mut recipes = Vec::new();
     for seed in 1..=seeds {
         let noisy_job = job(Some(spp), None, seed, "albedo,normal,object_id", 8);
         let start = Instant::now();
@@ -144,6 +148,27 @@ fn main() {
             .collect();
         let d = rel_mse(&denoised, &reference, &ref_error, &rest);
         let e = rel_mse(&equal.image, &reference, &ref_error, &rest);
+        let guide =
+            |aov: Aov| {
+                noisy.passes().iter().find(|p| p.aov == aov).and_then(|p| {
+                    ChannelGroup::from_pass(p).to_rgb(reference.width, reference.height)
+                })
+            };
+        let (albedo, normal) = (guide(Aov::Albedo), guide(Aov::Normal));
+        let mut recipe = |albedo: Option<&Image>, normal: Option<&Image>| {
+            let out = oidn
+                .denoise(&noisy.image, albedo, normal, Prefilter::None)
+                .expect("denoises");
+            rel_mse(&out, &reference, &ref_error, &rest)
+        };
+        recipes.push((
+            seed,
+            d,
+            recipe(albedo.as_ref(), normal.as_ref()),
+            recipe(albedo.as_ref(), None),
+            recipe(None, None),
+            rel_mse(&noisy.image, &reference, &ref_error, &rest),
+        ));
         let de = rel_mse(&denoised, &reference, &ref_error, &emits);
         let ee = rel_mse(&equal.image, &reference, &ref_error, &emits);
         println!(
@@ -158,6 +183,16 @@ fn main() {
             de.0,
             ee.0,
             load()
+        );
+    }
+    println!(
+        "\n{spp} spp, relMSE over the same pixels (all | worst 0.1 % left out), by guide recipe"
+    );
+    println!("seed | prefiltered albedo + normal | albedo + normal as rendered | albedo alone | no guides | not denoised");
+    for (seed, clean, raw, albedo, none, noisy) in recipes {
+        println!(
+            "{seed} | {:.4} {:.4} | {:.4} {:.4} | {:.4} {:.4} | {:.4} {:.4} | {:.4} {:.4}",
+            clean.0, clean.1, raw.0, raw.1, albedo.0, albedo.1, none.0, none.1, noisy.0, noisy.1
         );
     }
 }
