@@ -2,8 +2,11 @@
 //! issue's metric (docs/passes.md, "Does it pay?").
 //!
 //! ```sh
-//! LUMO_OIDN=$(ls -d tests/oidn/.venv/lib/python*/site-packages/pyoidn) cargo bench --bench denoise [-- SPP SEEDS]
+//! LUMO_OIDN=$(ls -d tests/oidn/.venv/lib/python*/site-packages/pyoidn) cargo bench --bench denoise [-- SPP SEEDS [REFERENCE.exr]]
 //! ```
+//!
+//! The renders take the reference's size; another reference (say 512²) is made as
+//! `tests/reference/README.md` makes the committed one, with `--width`/`--height` changed.
 //!
 //! For each seed: an SPP-sample render with the albedo and normal passes, denoised, timed from
 //! the job's start to the denoised image; then a render without denoising given that time
@@ -67,9 +70,11 @@ fn main() {
     };
     let mut oidn = Oidn::load_from(std::path::Path::new(&oidn_dir)).expect("OIDN loads");
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let reference =
-        lumo::multilayer::read_exr(&root.join("tests/reference/damaged_helmet_studio_1024.exr"))
-            .expect("the reference");
+    let reference_file = args.get(2).map_or_else(
+        || root.join("tests/reference/damaged_helmet_studio_1024.exr"),
+        std::path::PathBuf::from,
+    );
+    let reference = lumo::multilayer::read_exr(&reference_file).expect("the reference");
     let ref_error = reference
         .group("std_error")
         .and_then(|g| g.to_rgb(reference.beauty.width, reference.beauty.height))
@@ -113,8 +118,9 @@ fn main() {
             .unwrap_or_else(|| "?".into())
     };
     println!(
-        "DamagedHelmet, studio.exr, 256², {spp} spp denoised against equal time; relMSE over the \
-         helmet's non-emitting pixels (all | worst 0.1 % left out), then its emitting pixels"
+        "DamagedHelmet, studio.exr, {}², {spp} spp denoised against equal time; relMSE over the \
+         helmet's non-emitting pixels (all | worst 0.1 % left out), then its emitting pixels",
+        reference.width
     );
     println!("seed | s | equal-time spp | denoised | equal time | ratio | ratio, 0.1 % out | emitting: denoised, equal time | load");
     let mut recipes = Vec::new();
