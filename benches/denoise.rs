@@ -22,31 +22,22 @@
 
 use std::time::Instant;
 
-use glam::DVec3;
 use lumo::aov::{Aov, PassPixels};
 use lumo::denoise::{Oidn, Prefilter};
-use lumo::image::{Image, REL_EPSILON};
-use lumo::job::{Hooks, JobSettings, RenderJob};
+use lumo::image::Image;
+use lumo::job::Hooks;
 use lumo::multilayer::ChannelGroup;
 
 #[path = "common/mod.rs"]
 mod common;
+#[path = "../tests/support/helmet.rs"]
+mod helmet;
 
-/// The relMSE of `x` over `keep` against `reference` less its own variance (`ref_error`²), over
-/// all kept pixels and with the worst 0.1 % left out.
-fn rel_mse(x: &Image, reference: &Image, ref_error: &Image, keep: &[bool]) -> (f64, f64) {
-    let mut per_pixel: Vec<f64> = (0..x.pixels.len())
-        .filter(|&i| keep[i])
-        .map(|i| {
-            let (p, r, s) = (
-                x.pixels[i].as_dvec3(),
-                reference.pixels[i].as_dvec3(),
-                ref_error.pixels[i].as_dvec3(),
-            );
-            let d = p - r;
-            ((d * d - s * s) / (r * r + DVec3::splat(REL_EPSILON))).element_sum() / 3.0
-        })
-        .collect();
+use helmet::Helmet;
+
+/// relMSE over `keep`, all kept pixels and with the worst 0.1 % left out.
+fn rel_mse(helmet: &Helmet, x: &Image, keep: &[bool]) -> (f64, f64) {
+    let mut per_pixel = helmet.rel_errors(x, keep);
     let n = per_pixel.len();
     let all = per_pixel.iter().sum::<f64>() / n as f64;
     per_pixel.sort_by(f64::total_cmp);
@@ -74,39 +65,9 @@ fn main() {
         || root.join("tests/reference/damaged_helmet_studio_1024.exr"),
         std::path::PathBuf::from,
     );
-    let reference = lumo::multilayer::read_exr(&reference_file).expect("the reference");
-    let ref_error = reference
-        .group("std_error")
-        .and_then(|g| g.to_rgb(reference.beauty.width, reference.beauty.height))
-        .expect("the reference's standard error");
-    let reference = reference.beauty;
-    let model = shared.join("gltf/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
-    let sky = shared.join("hdri/studio.exr");
-    let job = |spp: Option<u32>, time_s: Option<f32>, seed: u64, aovs: &str, depth: u32| {
-        let mut loaded = lumo::load(&model, &lumo::LoadOptions::default()).expect("loads");
-        loaded
-            .edit(|s| {
-                s.image.width = reference.width;
-                s.image.height = reference.height;
-                s.render.seed = seed;
-                s.render.max_depth = depth;
-                s.background = lumo_schema::Background {
-                    image: Some(sky.to_string_lossy().into_owned()),
-                    ..Default::default()
-                };
-            })
-            .expect("edits");
-        RenderJob::new(
-            &loaded,
-            JobSettings {
-                spp,
-                time_s,
-                aovs: aovs.parse().expect("pass names"),
-                ..Default::default()
-            },
-        )
-        .expect("job")
-    };
+    let helmet = Helmet::new(&shared, &reference_file);
+    let reference = &helmet.reference;
+    let job = |spp, time_s, seed, aovs: &str, depth| helmet.job(spp, time_s, seed, aovs, depth);
     let emission = job(Some(16), None, 5, "", 1)
         .run(&Hooks::default())
         .expect("renders")
@@ -152,8 +113,8 @@ fn main() {
             .zip(&emits)
             .map(|(&id, &e)| id != 0 && !e)
             .collect();
-        let d = rel_mse(&denoised, &reference, &ref_error, &rest);
-        let e = rel_mse(&equal.image, &reference, &ref_error, &rest);
+        let d = rel_mse(&helmet, &denoised, &rest);
+        let e = rel_mse(&helmet, &equal.image, &rest);
         let guide =
             |aov: Aov| {
                 noisy.passes().iter().find(|p| p.aov == aov).and_then(|p| {
@@ -165,7 +126,7 @@ fn main() {
             let out = oidn
                 .denoise(&noisy.image, albedo, normal, Prefilter::None)
                 .expect("denoises");
-            rel_mse(&out, &reference, &ref_error, &rest)
+            rel_mse(&helmet, &out, &rest)
         };
         recipes.push((
             seed,
@@ -173,10 +134,10 @@ fn main() {
             recipe(albedo.as_ref(), normal.as_ref()),
             recipe(albedo.as_ref(), None),
             recipe(None, None),
-            rel_mse(&noisy.image, &reference, &ref_error, &rest),
+            rel_mse(&helmet, &noisy.image, &rest),
         ));
-        let de = rel_mse(&denoised, &reference, &ref_error, &emits);
-        let ee = rel_mse(&equal.image, &reference, &ref_error, &emits);
+        let de = rel_mse(&helmet, &denoised, &emits);
+        let ee = rel_mse(&helmet, &equal.image, &emits);
         println!(
             "{seed} | {spent:.2} | {} | {:.4} {:.4} | {:.4} {:.4} | {:.2} | {:.2} | {:.4}, {:.4} | {}",
             equal.stats.spp,

@@ -11,6 +11,8 @@
 //! `LUMO_REQUIRE_OIDN=1` (CI), which makes them fail.
 
 mod common;
+#[path = "support/helmet.rs"]
+mod helmet;
 
 use std::sync::Mutex;
 use std::time::Instant;
@@ -19,6 +21,8 @@ use lumo::aov::AovSet;
 use lumo::denoise::{Oidn, Prefilter};
 use lumo::image::Image;
 use lumo::job::{Hooks, JobSettings, RenderJob};
+
+use helmet::Helmet;
 
 /// One test at a time: the equal-time comparison must not share the cores with another test.
 static SERIAL: Mutex<()> = Mutex::new(());
@@ -214,59 +218,14 @@ fn denoising_a_textured_asset_removes_most_of_its_error() {
     };
     let Some(mut oidn) = oidn() else { return };
     const SPP: u32 = 8;
-    let reference = lumo::multilayer::read_exr(
+    let helmet_scene = Helmet::new(
+        &shared,
         &common::root().join("tests/reference/damaged_helmet_studio_1024.exr"),
-    )
-    .expect("reference");
-    let ref_error = reference
-        .group("std_error")
-        .and_then(|g| g.to_rgb(reference.beauty.width, reference.beauty.height))
-        .expect("the reference's standard error");
-    let reference = reference.beauty;
-    let model = shared.join("gltf/DamagedHelmet/glTF-Binary/DamagedHelmet.glb");
-    let sky = shared.join("hdri/studio.exr");
-    let job = |spp: Option<u32>, seed: u64, aovs: &str| {
-        let mut loaded = lumo::load(&model, &lumo::LoadOptions::default()).expect("loads");
-        loaded
-            .edit(|s| {
-                s.image.width = reference.width;
-                s.image.height = reference.height;
-                s.render.seed = seed;
-                s.render.max_depth = 8;
-                s.background = lumo_schema::Background {
-                    image: Some(sky.to_string_lossy().into_owned()),
-                    ..Default::default()
-                };
-            })
-            .expect("edits");
-        RenderJob::new(
-            &loaded,
-            JobSettings {
-                spp,
-                aovs: aovs.parse().expect("names"),
-                ..Default::default()
-            },
-        )
-        .expect("job")
-    };
-    // relMSE over `keep`, less the reference's own share (its variance, per channel).
-    let rel_mse = |x: &Image, keep: &[bool]| {
-        let (mut sum, mut n) = (0.0f64, 0usize);
-        for i in (0..x.pixels.len()).filter(|&i| keep[i]) {
-            let (p, r, s) = (
-                x.pixels[i].as_dvec3(),
-                reference.pixels[i].as_dvec3(),
-                ref_error.pixels[i].as_dvec3(),
-            );
-            let d = p - r;
-            sum += ((d * d - s * s) / (r * r + glam::DVec3::splat(lumo::image::REL_EPSILON)))
-                .element_sum();
-            n += 3;
-        }
-        sum / n as f64
-    };
+    );
+    let reference = &helmet_scene.reference;
     for seed in 1..=3u64 {
-        let noisy = job(Some(SPP), seed, "albedo,normal,object_id")
+        let noisy = helmet_scene
+            .job(Some(SPP), None, seed, "albedo,normal,object_id", 8)
             .run(&Hooks::default())
             .expect("renders");
         let denoised = noisy.denoised(&mut oidn).expect("denoises");
@@ -281,8 +240,8 @@ fn denoising_a_textured_asset_removes_most_of_its_error() {
         let helmet: Vec<bool> = ids.iter().map(|&id| id != 0).collect();
         let covered = helmet.iter().filter(|&&h| h).count();
         assert!(covered > 8000, "the helmet covers {covered} pixels");
-        let e_noisy = rel_mse(&noisy.image, &helmet);
-        let e_denoised = rel_mse(&denoised, &helmet);
+        let e_noisy = helmet_scene.rel_mse(&noisy.image, &helmet);
+        let e_denoised = helmet_scene.rel_mse(&denoised, &helmet);
         // The filter takes out some of the bright outliers' energy: the helmet's mean drops by
         // 0.6–3.1 % (measured); the image's mean, as for the Cornell box, stays within 1 %.
         let mean_over = |img: &Image| {
@@ -294,7 +253,7 @@ fn denoising_a_textured_asset_removes_most_of_its_error() {
                 .sum::<glam::DVec3>()
                 / covered as f64
         };
-        let (mh, rh) = (mean_over(&denoised), mean_over(&reference));
+        let (mh, rh) = (mean_over(&denoised), mean_over(reference));
         eprintln!(
             "DamagedHelmet seed {seed}: {SPP} spp relMSE {e_noisy:.5}, denoised {e_denoised:.5}; \
              helmet mean {:+.2} % (denoised against reference)",
