@@ -495,18 +495,18 @@ impl Geometry {
         flat: impl FnOnce(&TriangleBvh, &TriRay, f32, &mut S) -> Option<([u32; 2], TriHit)>,
         shape: impl Fn(&Instance, u32, f32, &mut S) -> Option<RawHit>,
     ) -> Option<(u32, RawHit)> {
+        // After a hit at t the bound is a little beyond t, so that hits as near reach `keep`,
+        // which breaks the tie by (instance, primitive), whatever the order they are met in.
         let mut best: Option<(u32, RawHit)> = None;
         let mut t_max = t_max;
         if !self.flat.is_empty() {
             if let Some((id, h)) = flat(&self.flat, &TriRay::new(ray.o, ray.d), t_max, state) {
-                t_max = h.t;
-                best = Some((id[0], RawHit::of_triangle(id, &h)));
+                keep(&mut best, &mut t_max, id[0], RawHit::of_triangle(id, &h));
             }
         }
         for &k in &self.unbounded {
             if let Some(h) = shape(&self.instances[k as usize], k, t_max, state) {
-                t_max = h.t;
-                best = Some((k, h));
+                keep(&mut best, &mut t_max, k, h);
             }
         }
         if !self.top_instances.is_empty() {
@@ -517,8 +517,7 @@ impl Geometry {
                 |slot, t_max| {
                     let k = self.top_instances[self.top.prims[slot as usize] as usize];
                     if let Some(h) = shape(&self.instances[k as usize], k, *t_max, state) {
-                        *t_max = h.t;
-                        best = Some((k, h));
+                        keep(&mut best, t_max, k, h);
                     }
                     false
                 },
@@ -635,14 +634,29 @@ impl Accel for Geometry {
 /// Tests every instance for every ray: slow, obviously right, the oracle for [`Geometry`].
 pub struct BruteForce<'a>(pub &'a [Instance]);
 
+/// Makes hit `h` on instance `k` the closest one when it comes before `best`: nearer, or as
+/// near on a lower (instance, primitive). Equally near hits are thereby ordered by the scene
+/// alone, never by the order a traversal meets them, so an image does not depend on how the
+/// trees are built or walked. `t_max` becomes [`triangle_bvh::tie_bound`] of the best distance,
+/// so that later queries still report hits as near.
+#[inline(always)]
+fn keep(best: &mut Option<(u32, RawHit)>, t_max: &mut f32, k: u32, h: RawHit) {
+    let precedes = best
+        .as_ref()
+        .is_none_or(|(bk, bh)| h.t < bh.t || (h.t == bh.t && (k, h.prim) < (*bk, bh.prim)));
+    if precedes {
+        *t_max = triangle_bvh::tie_bound(h.t);
+        *best = Some((k, h));
+    }
+}
+
 impl Accel for BruteForce<'_> {
     fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         let mut best: Option<(u32, RawHit)> = None;
         let mut t_max = t_max;
         for (k, inst) in self.0.iter().enumerate() {
             if let Some(h) = inst.intersect(ray, t_min, t_max) {
-                t_max = h.t;
-                best = Some((k as u32, h));
+                keep(&mut best, &mut t_max, k as u32, h);
             }
         }
         best.map(|(k, h)| self.0[k as usize].surface(ray, &h, k))
@@ -814,6 +828,69 @@ mod tests {
                     "faces point outwards"
                 );
             }
+        }
+    }
+
+    /// Equally near hits go to the lowest (instance, primitive), whatever the order the trees
+    /// meet them in: a quad repeated in eight coincident instances (flattened to world space,
+    /// several leaf packets) and, in a ninth, instanced mesh, one triangle repeated five times,
+    /// all hit by rays from every side. Traversal order alone (front to back by box, lanes in
+    /// build order) would give various winners.
+    #[test]
+    fn ties_go_to_the_lowest_instance_and_primitive() {
+        let quad = |z: f32| {
+            let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+            Mesh::from_triangles(
+                corners.iter().map(|&(x, y)| Vec3::new(x, y, z)).collect(),
+                vec![[0, 1, 2], [0, 2, 3]],
+            )
+            .0
+        };
+        let mut instances: Vec<Instance> = (0..8)
+            .map(|_| Instance::new(Shape::Mesh(Arc::new(quad(0.0))), Affine3A::IDENTITY, 0))
+            .collect();
+        let repeated = Mesh::from_triangles(
+            vec![
+                Vec3::new(-1.0, -1.0, 5.0),
+                Vec3::new(1.0, -1.0, 5.0),
+                Vec3::new(0.0, 1.0, 5.0),
+            ],
+            vec![[0, 1, 2]; 5],
+        )
+        .0;
+        assert_eq!(repeated.data.triangles.len(), 5);
+        let shared = Arc::new(repeated);
+        // Shared by two instances (the second far away), so it stays instanced.
+        instances.push(Instance::new(
+            Shape::Mesh(shared.clone()),
+            Affine3A::IDENTITY,
+            0,
+        ));
+        instances.push(Instance::new(
+            Shape::Mesh(shared),
+            Affine3A::from_translation(Vec3::new(100.0, 0.0, 0.0)),
+            0,
+        ));
+        let geo = Geometry::new(instances.clone());
+        let brute = BruteForce(&instances);
+        let mut s = 5u64;
+        for i in 0..2000 {
+            let (z, plane) = if i % 2 == 0 { (0.0, 0) } else { (5.0, 8) };
+            // Inside the quad, and inside the triangle (0, 1) … (±1, −1) too.
+            let target = Vec3::new(lcg(&mut s) * 0.8 - 0.4, lcg(&mut s) * 0.8 - 0.8, z);
+            let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5);
+            let d = Vec3::new(d.x, d.y, d.z.signum() * (d.z.abs() + 0.2)).normalize();
+            let ray = Ray::new(target - d * 3.0, d);
+            let hit = geo.intersect(&ray, 0.0, f32::INFINITY);
+            let hit = hit.unwrap_or_else(|| panic!("ray {i} misses"));
+            assert_eq!(hit.instance, plane, "ray {i}");
+            if plane == 8 {
+                assert_eq!(hit.prim, 0, "ray {i}");
+            }
+            let oracle = brute
+                .intersect(&ray, 0.0, f32::INFINITY)
+                .map(|h| (h.instance, h.prim));
+            assert_eq!(oracle, Some((hit.instance, hit.prim)), "ray {i}");
         }
     }
 }

@@ -243,11 +243,33 @@ trait Leaf {
     fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool;
 }
 
-/// Closest-hit queries: keeps the nearest hit (its triangle's id and the hit).
+/// The culling bound after a closest hit at `t`: a little beyond t, so that boxes and shapes
+/// holding hits at exactly t are still visited and their hits compared with the best one
+/// (ties go to the lowest id), even where a box's computed entry distance rounds a few ulps
+/// above the triangle's computed t. Hits in the slack are found and rejected as farther.
+#[inline(always)]
+pub(crate) fn tie_bound(t: f32) -> f32 {
+    /// 2⁻¹⁶: far above the rounding of either distance, far below any real gap to matter.
+    const SLACK: f32 = 1.0 / 65536.0;
+    (t * (1.0 + SLACK)).max(t.next_up())
+}
+
+/// Closest-hit queries: keeps the nearest hit (its triangle's id and the hit). Of hits at the
+/// same distance (a ray through coincident triangles) the lowest id wins, so the answer does
+/// not depend on the order the traversal meets them in: after a hit at t the bound becomes
+/// [`tie_bound`]`(t)`, which lets later hits at t through to the comparison.
 struct Closest<'a> {
     ray: &'a TriRay,
     t_min: f32,
     best: Option<([u32; 2], TriHit)>,
+}
+
+/// Whether a hit at `t` on triangle `id` comes before `best`: nearer, or as near with a lower
+/// id.
+#[inline(always)]
+fn precedes(t: f32, id: [u32; 2], best: &Option<([u32; 2], TriHit)>) -> bool {
+    best.as_ref()
+        .is_none_or(|(b, bh)| t < bh.t || (t == bh.t && id < *b))
 }
 
 impl Leaf for Closest<'_> {
@@ -256,19 +278,30 @@ impl Leaf for Closest<'_> {
         let h = p.hits(self.ray, self.t_min, *t_max);
         if h.mask != 0 {
             let nearest = h.t.min_element();
-            let lane =
-                (h.t.cmpeq(Vec4::splat(nearest)).bitmask() & h.mask).trailing_zeros() as usize;
-            *t_max = nearest;
-            self.best = Some((p.ids[lane], h.hit(lane)));
+            let mut ties = h.t.cmpeq(Vec4::splat(nearest)).bitmask() & h.mask;
+            let mut lane = ties.trailing_zeros() as usize;
+            ties &= ties - 1;
+            while ties != 0 {
+                let l = ties.trailing_zeros() as usize;
+                ties &= ties - 1;
+                if p.ids[l] < p.ids[lane] {
+                    lane = l;
+                }
+            }
+            if precedes(nearest, p.ids[lane], &self.best) {
+                self.best = Some((p.ids[lane], h.hit(lane)));
+            }
+            *t_max = tie_bound(self.best.as_ref().map_or(nearest, |b| b.1.t));
         }
         false
     }
 }
 
 /// Closest-hit queries that keep only the hits `accept` takes (given the triangle's id and the
-/// hit): the nearest accepted hit. Within a packet the hits are offered nearest first (lane
-/// order breaking ties, as [`Closest`]) until one is accepted; each triangle is offered once
-/// per packet (the lanes repeating lane 0 are left out).
+/// hit): the nearest accepted hit, ties to the lowest id as in [`Closest`]. Within a packet the
+/// hits are offered nearest first (the lower id first at equal distances) until one is
+/// accepted; each triangle is offered once per packet (the lanes repeating lane 0 are left
+/// out), and none that could not replace the best hit so far.
 struct ClosestAccepted<'a> {
     ray: &'a TriRay,
     t_min: f32,
@@ -287,14 +320,18 @@ impl Leaf for ClosestAccepted<'_> {
             while rest != 0 {
                 let l = rest.trailing_zeros() as usize;
                 rest &= rest - 1;
-                if h.t[l] < h.t[lane] {
+                if h.t[l] < h.t[lane] || (h.t[l] == h.t[lane] && p.ids[l] < p.ids[lane]) {
                     lane = l;
                 }
             }
-            let hit = h.hit(lane);
             let id = p.ids[lane];
+            if !precedes(h.t[lane], id, &self.best) {
+                // Offered in order: no later lane of this packet precedes the best either.
+                break;
+            }
+            let hit = h.hit(lane);
             if (self.accept)(id, &hit) {
-                *t_max = hit.t;
+                *t_max = tie_bound(hit.t);
                 self.best = Some((id, hit));
                 break;
             }
