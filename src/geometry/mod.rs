@@ -643,7 +643,7 @@ pub struct BruteForce<'a>(pub &'a [Instance]);
 fn keep(best: &mut Option<(u32, RawHit)>, t_max: &mut f32, k: u32, h: RawHit) {
     let precedes = best
         .as_ref()
-        .is_none_or(|(bk, bh)| h.t < bh.t || (h.t == bh.t && (k, h.prim) < (*bk, bh.prim)));
+        .is_none_or(|(bk, bh)| triangle_bvh::comes_before(h.t, (k, h.prim), bh.t, (*bk, bh.prim)));
     if precedes {
         *t_max = triangle_bvh::tie_bound(h.t);
         *best = Some((k, h));

@@ -264,12 +264,19 @@ struct Closest<'a> {
     best: Option<([u32; 2], TriHit)>,
 }
 
-/// Whether a hit at `t` on triangle `id` comes before `best`: nearer, or as near with a lower
-/// id.
+/// Whether a hit at distance `t` on the primitive named `key` comes before one at `other_t` on
+/// `other`: nearer, or as near with a lower key. The one order of closest hits, here and over
+/// a scene's instances (`geometry::keep`).
+#[inline(always)]
+pub(crate) fn comes_before<K: PartialOrd>(t: f32, key: K, other_t: f32, other: K) -> bool {
+    t < other_t || (t == other_t && key < other)
+}
+
+/// Whether a hit at `t` on triangle `id` comes before `best` (any hit comes before none).
 #[inline(always)]
 fn precedes(t: f32, id: [u32; 2], best: &Option<([u32; 2], TriHit)>) -> bool {
     best.as_ref()
-        .is_none_or(|(b, bh)| t < bh.t || (t == bh.t && id < *b))
+        .is_none_or(|(b, bh)| comes_before(t, id, bh.t, *b))
 }
 
 impl Leaf for Closest<'_> {
@@ -288,10 +295,11 @@ impl Leaf for Closest<'_> {
                     lane = l;
                 }
             }
+            // A hit in the slack beyond the best one leaves both it and the bound as they are.
             if precedes(nearest, p.ids[lane], &self.best) {
                 self.best = Some((p.ids[lane], h.hit(lane)));
+                *t_max = tie_bound(nearest);
             }
-            *t_max = tie_bound(self.best.as_ref().map_or(nearest, |b| b.1.t));
         }
         false
     }
@@ -320,7 +328,7 @@ impl Leaf for ClosestAccepted<'_> {
             while rest != 0 {
                 let l = rest.trailing_zeros() as usize;
                 rest &= rest - 1;
-                if h.t[l] < h.t[lane] || (h.t[l] == h.t[lane] && p.ids[l] < p.ids[lane]) {
+                if comes_before(h.t[l], p.ids[l], h.t[lane], p.ids[lane]) {
                     lane = l;
                 }
             }
