@@ -67,8 +67,8 @@ fn main() {
     );
     let helmet = Helmet::new(&shared, &reference_file);
     let reference = &helmet.reference;
-    let job = |spp, time_s, seed, aovs: &str, depth| helmet.job(spp, time_s, seed, aovs, depth);
-    let emission = job(Some(16), None, 5, "", 1)
+    let emission = helmet
+        .job(Some(16), None, 5, "", 1)
         .run(&Hooks::default())
         .expect("renders")
         .image;
@@ -86,26 +86,25 @@ fn main() {
     println!("seed | s | equal-time spp | denoised | equal time | ratio | ratio, 0.1 % out | emitting: denoised, equal time | load");
     let mut recipes = Vec::new();
     for seed in 1..=seeds {
-        let noisy_job = job(Some(spp), None, seed, "albedo,normal,object_id", 8);
+        let noisy_job = helmet.job(Some(spp), None, seed, "albedo,normal,object_id", 8);
         let start = Instant::now();
         let noisy = noisy_job.run(&Hooks::default()).expect("renders");
         let denoised = noisy.denoised(&mut oidn).expect("denoises");
         let spent = start.elapsed().as_secs_f32();
-        let equal = job(None, Some(spent), seed + 100, "", 8)
+        let equal = helmet
+            .job(None, Some(spent), seed + 100, "", 8)
             .run(&Hooks::default())
             .expect("renders");
-        let ids = noisy
-            .passes()
-            .into_iter()
-            .find(|p| p.aov == Aov::ObjectId)
-            .expect("the object-id pass");
-        let PassPixels::Id(ids) = ids.pixels else {
+        let passes = noisy.passes();
+        let pass = |aov: Aov| passes.iter().find(|p| p.aov == aov);
+        let ids = pass(Aov::ObjectId).expect("the object-id pass");
+        let PassPixels::Id(ids) = &ids.pixels else {
             panic!("object ids are integers")
         };
         let emits: Vec<bool> = emission
             .pixels
             .iter()
-            .zip(&ids)
+            .zip(ids)
             .map(|(e, &id)| id != 0 && e.max_element() > 1e-3)
             .collect();
         let rest: Vec<bool> = ids
@@ -115,12 +114,10 @@ fn main() {
             .collect();
         let d = rel_mse(&helmet, &denoised, &rest);
         let e = rel_mse(&helmet, &equal.image, &rest);
-        let guide =
-            |aov: Aov| {
-                noisy.passes().iter().find(|p| p.aov == aov).and_then(|p| {
-                    ChannelGroup::from_pass(p).to_rgb(reference.width, reference.height)
-                })
-            };
+        let guide = |aov: Aov| {
+            pass(aov)
+                .and_then(|p| ChannelGroup::from_pass(p).to_rgb(reference.width, reference.height))
+        };
         let (albedo, normal) = (guide(Aov::Albedo), guide(Aov::Normal));
         let mut recipe = |albedo: Option<&Image>, normal: Option<&Image>| {
             let out = oidn

@@ -460,12 +460,8 @@ fn broken_gpu_instancing() {
         assert!(msg.contains(says), "{msg}");
     }
     // A zero quaternion: the ROTATION accessor's first value set to (0, 0, 0, 0) in the binary
-    // chunk (the accessor's bytes start at its bufferView's offset).
-    let acc = &doc["accessors"][4];
-    let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
-    let at = 8
-        + view["byteOffset"].as_u64().unwrap_or(0) as usize
-        + acc["byteOffset"].as_u64().unwrap_or(0) as usize;
+    // chunk (after the chunk's 8-byte header).
+    let at = 8 + common::accessor_start(&doc, 4);
     let mut zeroed = rest.to_vec();
     zeroed[at..at + 16].fill(0);
     let glb = common::join_glb(std::str::from_utf8(json).unwrap().trim_end(), &zeroed);

@@ -406,10 +406,9 @@ fn gpu_instances_become_objects_with_their_own_transforms() {
     let bin = &rest[8..];
     let attributes = &doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"];
     let column = |key: &str, width: usize| -> Vec<Vec<f64>> {
-        let acc = &doc["accessors"][attributes[key].as_u64().unwrap() as usize];
-        let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
-        let start = view["byteOffset"].as_u64().unwrap_or(0) as usize
-            + acc["byteOffset"].as_u64().unwrap_or(0) as usize;
+        let index = attributes[key].as_u64().unwrap() as usize;
+        let acc = &doc["accessors"][index];
+        let start = common::accessor_start(&doc, index);
         (0..acc["count"].as_u64().unwrap() as usize)
             .map(|i| {
                 (0..width)

@@ -119,6 +119,15 @@ pub fn split_glb(glb: &[u8]) -> (&[u8], &[u8]) {
     (&glb[20..20 + json_len], &glb[20 + json_len..])
 }
 
+/// Where accessor `index`'s first element starts in the buffer (its bufferView's offset plus
+/// its own), read from the glTF JSON `doc`.
+pub fn accessor_start(doc: &serde_json::Value, index: usize) -> usize {
+    let acc = &doc["accessors"][index];
+    let view = &doc["bufferViews"][acc["bufferView"].as_u64().expect("a bufferView") as usize];
+    view["byteOffset"].as_u64().unwrap_or(0) as usize
+        + acc["byteOffset"].as_u64().unwrap_or(0) as usize
+}
+
 /// A binary glTF with the JSON chunk `json` (padded with spaces to 4 bytes) followed by `rest`
 /// as [`split_glb`] returned it.
 pub fn join_glb(json: &str, rest: &[u8]) -> Vec<u8> {
