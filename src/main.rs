@@ -4,6 +4,9 @@ use clap::Parser;
 
 mod cli;
 
+#[global_allocator]
+static ALLOCATOR: lumo::alloc::HugePageAlloc = lumo::alloc::HugePageAlloc;
+
 fn main() {
     lumo::alloc::return_big_frees_to_os();
     let cli = cli::Cli::parse();

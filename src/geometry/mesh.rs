@@ -5,7 +5,7 @@ use std::sync::{Arc, OnceLock};
 use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 
-use crate::geometry::triangle_bvh::{TriRay, TriangleBvh};
+use crate::geometry::triangle_bvh::{prefetch_line, Prefetch, TriRay, TriangleBvh};
 use crate::geometry::RawHit;
 use crate::math::{Aabb, Vec2, Vec3};
 
@@ -153,8 +153,26 @@ impl Mesh {
                 self.data.triangles.len(),
                 |p| self.corners(p as u32).map(Vec3A::from),
                 |p| [0, p as u32],
+                |p, stage| self.prefetch_corners(p as u32, stage),
             )
         })
+    }
+
+    /// Asks the memory system for what [`corners`](Self::corners) of `prim` reads: its index
+    /// triple, or (once that has arrived) its three positions.
+    #[inline]
+    pub fn prefetch_corners(&self, prim: u32, stage: Prefetch) {
+        let d = &self.data;
+        match stage {
+            Prefetch::Indices => prefetch_line(d.triangles.as_ptr().wrapping_add(prim as usize)),
+            Prefetch::Corners => {
+                if let Some(tri) = d.triangles.get(prim as usize) {
+                    for &i in tri {
+                        prefetch_line(d.positions.as_ptr().wrapping_add(i as usize));
+                    }
+                }
+            }
+        }
     }
 
     /// The three corners of triangle `prim`.

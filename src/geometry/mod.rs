@@ -450,6 +450,10 @@ impl Geometry {
                 let (k, prim, _) = locate(i);
                 [k as u32, prim]
             },
+            |i, stage| {
+                let (_, prim, mesh) = locate(i);
+                mesh.prefetch_corners(prim, stage);
+            },
         );
         drop(flat);
         Geometry {

@@ -661,11 +661,20 @@ fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
             ));
         }
     }
-    // Parse errors are reported by the validating parse that follows.
-    let Ok(raw) = gltf::Gltf::from_slice_without_validation(bytes) else {
+    // Parse errors are reported by the validating parse that follows. Only the JSON is read
+    // here: the GLB's binary chunk (most of a big file) is left where it is, not copied.
+    let json = if bytes.starts_with(b"glTF") {
+        match gltf::Glb::from_slice(bytes) {
+            Ok(glb) => glb.json,
+            Err(_) => return Ok(()),
+        }
+    } else {
+        std::borrow::Cow::Borrowed(bytes)
+    };
+    let Ok(root) = gltf::json::Root::from_slice(&json) else {
         return Ok(());
     };
-    let root = raw.document.as_json();
+    let root = &root;
     let n = root.accessors.len();
     for (i, m) in root.meshes.iter().enumerate() {
         for (j, p) in m.primitives.iter().enumerate() {
