@@ -908,29 +908,24 @@ impl TriangleBvh {
     /// its cache lines.
     #[inline(always)]
     fn prefetch(&self, reference: u32) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let (p, lines) = if reference & LEAF != 0 {
-                let p = self
-                    .packets
-                    .as_ptr()
-                    .wrapping_add((reference & !LEAF) as usize);
-                (p.cast::<i8>(), std::mem::size_of::<Packet>().div_ceil(64))
-            } else if reference & NARROW != 0 {
-                let p = self
-                    .narrow
-                    .as_ptr()
-                    .wrapping_add((reference & !NARROW) as usize);
-                (p.cast::<i8>(), std::mem::size_of::<Node4>() / 64)
-            } else {
-                let p = self.nodes.as_ptr().wrapping_add(reference as usize);
-                (p.cast::<i8>(), std::mem::size_of::<Node8>() / 64)
-            };
-            for line in 0..lines {
-                // SAFETY: a prefetch is only a hint; it never faults, whatever the address.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
-            }
+        let (p, lines) = if reference & LEAF != 0 {
+            let p = self
+                .packets
+                .as_ptr()
+                .wrapping_add((reference & !LEAF) as usize);
+            (p.cast::<u8>(), std::mem::size_of::<Packet>().div_ceil(64))
+        } else if reference & NARROW != 0 {
+            let p = self
+                .narrow
+                .as_ptr()
+                .wrapping_add((reference & !NARROW) as usize);
+            (p.cast::<u8>(), std::mem::size_of::<Node4>() / 64)
+        } else {
+            let p = self.nodes.as_ptr().wrapping_add(reference as usize);
+            (p.cast::<u8>(), std::mem::size_of::<Node8>() / 64)
+        };
+        for line in 0..lines {
+            prefetch_line(p.wrapping_add(64 * line));
         }
     }
 
