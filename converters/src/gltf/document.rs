@@ -674,7 +674,6 @@ fn precheck(file: &Path, bytes: &[u8]) -> Result<(), GltfError> {
     let Ok(root) = gltf::json::Root::from_slice(&json) else {
         return Ok(());
     };
-    let root = &root;
     let n = root.accessors.len();
     for (i, m) in root.meshes.iter().enumerate() {
         for (j, p) in m.primitives.iter().enumerate() {
