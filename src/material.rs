@@ -293,19 +293,51 @@ impl Material {
     /// The scattering function at a hit seen from direction `wo` (unit, away from the surface).
     #[inline]
     pub fn bsdf(&self, textures: &[Texture], hit: &SurfaceHit, wo: Vec3) -> Bsdf {
+        if let Some((albedo, frame)) = self.lambert(textures, hit, wo) {
+            // The common case stays small enough to inline into the integrators.
+            return Bsdf {
+                frame,
+                ng: hit.ng,
+                lobes: Lobes::Lambert(albedo),
+            };
+        }
+        self.glossy_bsdf(textures, hit, wo, self.base_color_at(textures, hit))
+    }
+
+    /// For a Lambertian material ([`is_plain_lambertian`](Self::is_plain_lambertian) or
+    /// not), the albedo and shading frame of its [`bsdf`](Self::bsdf) at `hit` seen from `wo`,
+    /// without the rest of a [`Bsdf`]; `None` for every other material.
+    #[inline]
+    pub fn lambert(
+        &self,
+        textures: &[Texture],
+        hit: &SurfaceHit,
+        wo: Vec3,
+    ) -> Option<(Rgb, Frame)> {
+        if !self.is_lambertian() {
+            return None;
+        }
+        let albedo = self.base_color_at(textures, hit);
+        let frame = Frame::from_normal(self.shading_normal(textures, hit, wo, 0.0));
+        Some((albedo, frame))
+    }
+
+    /// Whether the material is Lambertian, lit and does not emit: a surface where a path only
+    /// scatters diffusely and finds no light of its own (the common vertex of interiors, which
+    /// the path tracer runs in SIMD lanes).
+    #[inline]
+    pub fn is_plain_lambertian(&self) -> bool {
+        self.is_lambertian() && !self.unlit && !self.is_emissive()
+    }
+
+    /// The base colour at `hit`: factor × texture × vertex colour.
+    #[inline]
+    fn base_color_at(&self, textures: &[Texture], hit: &SurfaceHit) -> Rgb {
         let mut base = self.base_color * hit.color.truncate();
         if let Some(t) = lookup(textures, &self.base_color_texture, hit.uv, hit.uv1) {
             base *= t;
         }
-        if self.is_lambertian() {
-            // The common case stays small enough to inline into the integrators.
-            return Bsdf {
-                frame: Frame::from_normal(self.shading_normal(textures, hit, wo, 0.0)),
-                ng: hit.ng,
-                lobes: Lobes::Lambert(base),
-            };
-        }
-        self.glossy_bsdf(textures, hit, wo, base)
+        base
     }
 
     /// [`Material::bsdf`] for every material that is not purely Lambertian.

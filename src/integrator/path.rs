@@ -428,17 +428,54 @@ impl Path {
         let Some(s) = sampled else {
             return false;
         };
+        let count_found = split == 1.0 && !(mirror.is_some() && s.delta && !s.transmitted);
+        self.go_on(material.absorption, hit, s, count_found, sampler)
+    }
+
+    /// Finishes a vertex of the Lambertian route ([`LambertRoute`]), as [`scatter`] does there
+    /// (no split samples, no mirror ray, no render passes): adds the light sample `shadow` when
+    /// `unblocked` and continues the path by `sampled`. Returns whether the path goes on.
+    ///
+    /// [`scatter`]: Path::scatter
+    pub fn scatter_lambert(
+        &mut self,
+        hit: &SurfaceHit,
+        (shadow, unblocked): (Option<Shadow>, bool),
+        sampled: Option<BsdfSample>,
+        sampler: &mut Sampler,
+    ) -> bool {
+        if let (Some(shadow), true) = (shadow, unblocked) {
+            self.l += shadow.radiance;
+        }
+        let Some(s) = sampled else {
+            return false;
+        };
+        self.go_on(None, hit, s, true, sampler)
+    }
+
+    /// Continues the path from `hit` by its BSDF sample `s` (`absorption`: the medium inside
+    /// the surface's solid, entered or left by transmission; `count_found`: whether the next
+    /// vertex counts the light it finds), with Russian roulette from [`RR_DEPTH`] on. Returns
+    /// whether the path goes on.
+    fn go_on(
+        &mut self,
+        absorption: Option<Vec3>,
+        hit: &SurfaceHit,
+        s: BsdfSample,
+        count_found: bool,
+        sampler: &mut Sampler,
+    ) -> bool {
         self.beta *= s.weight;
         if s.transmitted {
             self.eta_scale *= s.etap * s.etap;
-            if let Some(sigma) = material.absorption {
+            if let Some(sigma) = absorption {
                 // Entering the solid (towards the back of the surface) or leaving it.
                 self.medium = (s.wi.dot(hit.ng) < 0.0).then_some(sigma);
             }
         }
         self.prev_pdf = s.pdf;
         self.prev_delta = s.delta;
-        self.count_found = split == 1.0 && !(mirror.is_some() && s.delta && !s.transmitted);
+        self.count_found = count_found;
         self.prev_p = hit.p;
         self.prev_n = hit.ns;
         self.ray = spawn(hit, s.wi);
@@ -492,6 +529,227 @@ impl<const W: usize> Scratch<W> {
 }
 
 impl<const W: usize> Default for Scratch<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The lanes of a wave whose vertex lies on a plain Lambertian surface
+/// ([`Material::is_plain_lambertian`]), outside any medium, below the last depth and without
+/// render passes: the common vertex of interiors. What [`Path::shade`] would make of them is
+/// only an albedo and a shading frame, which go straight into the inputs of the light-sample
+/// and BSDF-sample kernels, without a [`Vertex`] and its [`Bsdf`]; their light is picked and
+/// their shadow rays made as in [`Path::sample_lights`], and they scatter by
+/// [`Path::scatter_lambert`]. The same operations in the same order, so the same bits as the
+/// general route. Used from [`LANE_KERNELS_FROM`] lanes on.
+pub struct LambertRoute<const W: usize> {
+    /// The lanes on the route this step.
+    on: [bool; W],
+    /// The lanes on the route whose light sample runs in the light kernel.
+    in_kernel: [bool; W],
+    picked: [Option<Picked>; W],
+    shadow: [Option<Shadow>; W],
+    albedo: [Rgb; W],
+    lights: LightLanes<W>,
+    bsdf: LambertLanes<W>,
+}
+
+impl<const W: usize> LambertRoute<W> {
+    /// A route with no lane on it.
+    pub fn new() -> Self {
+        LambertRoute {
+            on: [false; W],
+            in_kernel: [false; W],
+            picked: [None; W],
+            shadow: [None; W],
+            albedo: [Vec3::ZERO; W],
+            lights: LightLanes::new(),
+            bsdf: LambertLanes {
+                s: V3s::default(),
+                t: V3s::default(),
+                n: V3s::default(),
+                ng: V3s::default(),
+                wo: V3s::default(),
+                u: (F32s::default(), F32s::default()),
+            },
+        }
+    }
+
+    /// Takes every lane off the route, for the wave's next step.
+    pub fn clear(&mut self) {
+        self.on = [false; W];
+        self.in_kernel = [false; W];
+        self.picked = [None; W];
+        self.shadow = [None; W];
+    }
+
+    /// Whether lane `i` is on the route this step.
+    #[inline]
+    pub fn is_on(&self, i: usize) -> bool {
+        self.on[i]
+    }
+
+    /// Puts lane `i` on the route when `path`'s vertex at `hit` belongs there, picking its
+    /// light with the lane's `u_light` (as [`Path::sample_lights`] does); returns whether it
+    /// did. A lane left off takes [`Path::shade`] as before.
+    pub fn enter(
+        &mut self,
+        i: usize,
+        scene: &Scene,
+        path: &Path,
+        hit: &SurfaceHit,
+        u_light: glam::Vec2,
+    ) -> bool {
+        if W < LANE_KERNELS_FROM
+            || path.aov.is_some()
+            || path.medium.is_some()
+            || path.depth == scene.settings.max_depth
+        {
+            return false;
+        }
+        let material = scene.material(hit);
+        if !material.is_plain_lambertian() {
+            return false;
+        }
+        // What `shade` computes here: no light is found on the surface (it neither emits nor
+        // is unlit), and the BSDF is the material's Lambertian lobe.
+        let wo = -path.ray.d.normalize();
+        let Some((albedo, frame)) = material.lambert(&scene.textures, hit, wo) else {
+            return false;
+        };
+        self.on[i] = true;
+        self.albedo[i] = albedo;
+        let b = &mut self.bsdf;
+        b.s.set(i, frame.s);
+        b.t.set(i, frame.t);
+        b.n.set(i, frame.n);
+        b.ng.set(i, hit.ng);
+        b.wo.set(i, wo);
+        let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x) else {
+            return true;
+        };
+        let light = &scene.lights[index];
+        let pick = Picked {
+            light: index,
+            pmf,
+            u: glam::Vec2::new(u_x, u_light.y),
+        };
+        self.picked[i] = Some(pick);
+        let emission = if matches!(light, Light::Triangle { .. }) {
+            constant_emission(scene, light)
+        } else {
+            None
+        };
+        let Some((emission, two_sided)) = emission else {
+            self.shadow[i] = path.light_sample(scene, hit, &self.vertex(i, scene, hit), pick);
+            return true;
+        };
+        self.in_kernel[i] = true;
+        let l = &mut self.lights;
+        l.triangles.set(i, light);
+        (l.u.0[i], l.u.1[i], l.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
+        l.emission.set(i, emission);
+        l.two_sided_emission.set(i, two_sided);
+        l.p.set(i, hit.p);
+        l.ng.set(i, hit.ng);
+        l.frame_n.set(i, frame.n);
+        l.bsdf_ng.set(i, hit.ng);
+        l.albedo.set(i, albedo);
+        l.wo.set(i, wo);
+        l.split[i] = 1.0;
+        l.beta.set(i, path.beta);
+        true
+    }
+
+    /// Lane `i`'s vertex as [`Path::shade`] would have made it, for the rare light samples
+    /// taken one lane at a time (lights other than constant triangles, and triangles that
+    /// may be seen large).
+    fn vertex<'a>(&self, i: usize, scene: &'a Scene, hit: &SurfaceHit) -> Vertex<'a> {
+        let b = &self.bsdf;
+        Vertex {
+            material: scene.material(hit),
+            bsdf: Bsdf {
+                frame: crate::math::Frame {
+                    s: b.s.lane(i),
+                    t: b.t.lane(i),
+                    n: b.n.lane(i),
+                },
+                ng: hit.ng,
+                lobes: Lobes::Lambert(self.albedo[i]),
+            },
+            wo: b.wo.lane(i),
+            split: 1.0,
+            needs_light: true,
+            shadow: None,
+        }
+    }
+
+    /// Runs the light kernel over the route's lanes that need it (`paths` and `hits`: the
+    /// wave's), leaving each lane's shadow ray for [`shadow`](Self::shadow).
+    pub fn sample_lights(
+        &mut self,
+        scene: &Scene,
+        paths: [Option<&Path>; W],
+        hits: &[Option<SurfaceHit>; W],
+    ) {
+        if !self.in_kernel.contains(&true) {
+            return;
+        }
+        let out = self.lights.run();
+        for i in 0..W {
+            let (true, Some(path), Some(hit), Some(pick)) =
+                (self.in_kernel[i], paths[i], &hits[i], self.picked[i])
+            else {
+                continue;
+            };
+            self.shadow[i] = if !out.decided.lane(i) {
+                path.light_sample(scene, hit, &self.vertex(i, scene, hit), pick)
+            } else if out.valid.lane(i) {
+                Some(Shadow {
+                    ray: Ray::new(out.origin.lane(i), out.dir.lane(i)),
+                    t_max: 1.0,
+                    radiance: out.radiance.lane(i),
+                })
+            } else {
+                None
+            };
+        }
+    }
+
+    /// Lane `i`'s light sample, if it has one.
+    #[inline]
+    pub fn shadow(&self, i: usize) -> Option<Shadow> {
+        self.shadow[i]
+    }
+
+    /// The BSDF samples of the route's lanes, each with its lane's 2D point `u[i].1`, in the
+    /// Lambertian kernel; `None` for lanes off the route or without a sample.
+    pub fn sample_bsdfs(&mut self, u: &[(f32, glam::Vec2); W]) -> [Option<BsdfSample>; W] {
+        let mut sampled = [None; W];
+        if !self.on.contains(&true) {
+            return sampled;
+        }
+        for (i, &(_, u)) in u.iter().enumerate() {
+            (self.bsdf.u.0[i], self.bsdf.u.1[i]) = (u.x, u.y);
+        }
+        let out = self.bsdf.sample();
+        for (i, sampled) in sampled.iter_mut().enumerate() {
+            if self.on[i] && out.valid.lane(i) {
+                *sampled = Some(BsdfSample {
+                    wi: out.wi.lane(i),
+                    weight: self.albedo[i],
+                    pdf: out.pdf[i],
+                    delta: false,
+                    transmitted: false,
+                    etap: 1.0,
+                });
+            }
+        }
+        sampled
+    }
+}
+
+impl<const W: usize> Default for LambertRoute<W> {
     fn default() -> Self {
         Self::new()
     }

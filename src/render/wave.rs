@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::Sink;
 use crate::geometry::SurfaceHit;
-use crate::integrator::path::{Path, Scratch, Vertex};
+use crate::integrator::path::{LambertRoute, Path, Scratch, Vertex};
 use crate::integrator::{raycast, TraceStats};
 use crate::math::{Ray, Vec2};
 use crate::sampler::Sampler;
@@ -79,6 +79,7 @@ fn run_wave<const W: usize>(
     let mut hits: [Option<SurfaceHit>; W] = [None; W];
     let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
     let mut scratch = Box::new(Scratch::<W>::new());
+    let mut route = Box::new(LambertRoute::<W>::new());
     loop {
         for (lane, ray) in lanes.iter_mut().zip(&mut rays) {
             if lane.is_none() {
@@ -94,8 +95,14 @@ fn run_wave<const W: usize>(
         scene.intersect_lanes(&rays, &mut hits);
         let u_light: [_; W] =
             Sampler::get_2d_lanes(lanes.each_mut().map(|l| l.as_mut().map(|l| &mut l.sampler)));
+        route.clear();
         for i in 0..W {
             let Some(lane) = &mut lanes[i] else { continue };
+            if let Some(hit) = &hits[i] {
+                if route.enter(i, scene, &lane.path, hit, u_light[i]) {
+                    continue;
+                }
+            }
             if !lane.path.shade(scene, hits[i].as_ref(), &mut vertices[i]) {
                 finish(&mut lanes[i], sums);
             }
@@ -108,11 +115,19 @@ fn run_wave<const W: usize>(
             &u_light,
             &mut scratch,
         );
+        route.sample_lights(
+            scene,
+            lanes.each_ref().map(|l| l.as_ref().map(|l| &l.path)),
+            &hits,
+        );
         // Only this step's vertices: a lane that is idle or whose path just ended traces none.
         let shadows: [Option<(Ray, f32)>; W] = std::array::from_fn(|i| {
-            vertices[i]
-                .as_ref()
-                .and_then(|v| v.shadow.map(|s| (s.ray, s.t_max)))
+            let shadow = if route.is_on(i) {
+                route.shadow(i)
+            } else {
+                vertices[i].as_ref().and_then(|v| v.shadow)
+            };
+            shadow.map(|s| (s.ray, s.t_max))
         });
         stats.rays += shadows.iter().flatten().count() as u64;
         let blocked = scene.occluded_lanes(&shadows);
@@ -120,14 +135,31 @@ fn run_wave<const W: usize>(
             lanes
                 .iter_mut()
                 .zip(&vertices)
-                .map(|(lane, vertex)| match (lane, vertex) {
-                    (Some(lane), Some(_)) => Some(&mut lane.sampler),
-                    _ => None,
-                });
+                .enumerate()
+                .map(
+                    |(i, (lane, vertex))| match (lane, vertex.is_some() || route.is_on(i)) {
+                        (Some(lane), true) => Some(&mut lane.sampler),
+                        _ => None,
+                    },
+                );
         let u_scatter: [_; W] =
             Sampler::get_choice_2d_lanes(std::array::from_fn(|_| scattering.next().flatten()));
         let sampled = Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch);
+        let sampled_on_route = route.sample_bsdfs(&u_scatter);
         for i in 0..W {
+            if route.is_on(i) {
+                let (Some(lane), Some(hit)) = (&mut lanes[i], &hits[i]) else {
+                    continue;
+                };
+                let shadow = (route.shadow(i), !blocked[i]);
+                if !lane
+                    .path
+                    .scatter_lambert(hit, shadow, sampled_on_route[i], &mut lane.sampler)
+                {
+                    finish(&mut lanes[i], sums);
+                }
+                continue;
+            }
             let (Some(vertex), Some(lane), Some(hit)) = (&vertices[i], &mut lanes[i], &hits[i])
             else {
                 continue;
