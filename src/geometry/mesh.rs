@@ -7,6 +7,7 @@ use rayon::prelude::*;
 
 use crate::geometry::triangle_bvh::{prefetch_line, Prefetch, TriRay, TriangleBvh};
 use crate::geometry::RawHit;
+use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{Aabb, Vec2, Vec3};
 
 /// A mesh's vertex and triangle arrays, as a loader reads them and as a [`Mesh`] keeps them. The
@@ -279,6 +280,36 @@ impl Mesh {
         (p, ng, ns, self.uv(tri, b0, h))
     }
 
+    /// Puts lane `i` of `lanes` to the hit `h` on this mesh, for [`SurfaceLanes::run`]: its
+    /// triangle's corners, and its vertex normals and texture coordinates where the mesh has
+    /// them.
+    #[inline]
+    pub fn gather_surface<const W: usize>(
+        &self,
+        lanes: &mut SurfaceLanes<W>,
+        i: usize,
+        h: &MeshHit,
+    ) {
+        let tri = self.data.triangles[h.prim as usize];
+        let p = &self.data.positions;
+        for (corner, &v) in lanes.corners.iter_mut().zip(&tri) {
+            corner.set(i, p[v as usize]);
+        }
+        (lanes.b1[i], lanes.b2[i]) = (h.b1, h.b2);
+        lanes.smooth.set(i, self.data.normals.is_some());
+        if let Some(n) = &self.data.normals {
+            for (corner, &v) in lanes.normals.iter_mut().zip(&tri) {
+                corner.set(i, n[v as usize]);
+            }
+        }
+        lanes.textured.set(i, self.data.uvs.is_some());
+        if let Some(uv) = &self.data.uvs {
+            for (corner, &v) in lanes.uvs.iter_mut().zip(&tri) {
+                (corner.0[i], corner.1[i]) = (uv[v as usize].x, uv[v as usize].y);
+            }
+        }
+    }
+
     /// Interpolated texture coordinates of a hit on triangle `tri` (barycentric weights b0 and
     /// those of `h`); the barycentric coordinates themselves without them.
     #[inline(always)]
@@ -383,6 +414,86 @@ pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         tris = next;
     }
     (positions, tris)
+}
+
+/// W hits on meshes, one per lane, for [`Mesh::surface`] in SIMD lanes (lanes set by
+/// [`Mesh::gather_surface`]; the others hold whatever they held, and their results mean
+/// nothing).
+pub struct SurfaceLanes<const W: usize> {
+    corners: [V3s<W>; 3],
+    b1: F32s<W>,
+    b2: F32s<W>,
+    /// The lanes whose mesh has vertex normals, and those normals at the corners.
+    smooth: Mask<W>,
+    normals: [V3s<W>; 3],
+    /// The lanes whose mesh has texture coordinates, and those at the corners.
+    textured: Mask<W>,
+    uvs: [(F32s<W>, F32s<W>); 3],
+}
+
+/// What [`SurfaceLanes::run`] computes in each lane: [`Mesh::surface`]'s point, geometric
+/// and shading normals and texture coordinates.
+pub struct SurfacesOut<const W: usize> {
+    /// The hit point.
+    pub p: V3s<W>,
+    /// The unit geometric normal.
+    pub ng: V3s<W>,
+    /// The unit shading normal.
+    pub ns: V3s<W>,
+    /// The texture coordinates.
+    pub uv: (F32s<W>, F32s<W>),
+}
+
+impl<const W: usize> Default for SurfaceLanes<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const W: usize> SurfaceLanes<W> {
+    /// Lanes of nothing (zeros).
+    pub fn new() -> Self {
+        SurfaceLanes {
+            corners: [V3s::default(); 3],
+            b1: F32s::default(),
+            b2: F32s::default(),
+            smooth: Mask::splat(false),
+            normals: [V3s::default(); 3],
+            textured: Mask::splat(false),
+            uvs: [(F32s::default(), F32s::default()); 3],
+        }
+    }
+
+    /// [`Mesh::surface`] in every lane, compiled for the widest vector instructions the CPU
+    /// has that suit W lanes (the same operations, so the same bits).
+    pub fn run(&self) -> SurfacesOut<W> {
+        crate::lanes::widest!(W, lanes: &SurfaceLanes<W> => SurfacesOut<W>, self, lanes.run_here())
+    }
+
+    /// The operations of [`Mesh::surface`] and [`interpolate`], in their order.
+    #[inline(always)]
+    fn run_here(&self) -> SurfacesOut<W> {
+        let [a, b, c] = self.corners;
+        let (b1, b2) = (self.b1, self.b2);
+        let b0 = 1.0 - b1 - b2;
+        let p = a * b0 + b * b1 + c * b2;
+        let ng = (b - a).cross(c - a).normalize();
+        let [na, nb, nc] = self.normals;
+        let s = (na * b0 + nb * b1 + nc * b2).normalize_or_zero();
+        let ns = V3s::select(self.smooth & !s.is_zero(), s, ng);
+        let [ua, ub, uc] = self.uvs;
+        let u = ua.0 * b0 + ub.0 * b1 + uc.0 * b2;
+        let v = ua.1 * b0 + ub.1 * b1 + uc.1 * b2;
+        SurfacesOut {
+            p,
+            ng,
+            ns,
+            uv: (
+                F32s::select(self.textured, u, b1),
+                F32s::select(self.textured, v, b2),
+            ),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -567,6 +567,61 @@ impl Geometry {
 }
 
 impl Geometry {
+    /// The closest hits of a wave's rays over (0, ∞) into `hits` (`None` lanes are idle), as
+    /// [`Accel::intersect`] finds them one at a time. From [`crate::lanes::KERNELS_FROM`] lanes
+    /// on, the surfaces of hits on untransformed meshes without extra vertex attributes (the
+    /// common case) are computed together in SIMD lanes (`surfaces`: the kernel's working
+    /// memory), with the operations of [`Mesh::surface`], so with its bits.
+    pub fn intersect_lanes<const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+        hits: &mut [Option<SurfaceHit>; W],
+        surfaces: &mut mesh::SurfaceLanes<W>,
+    ) {
+        let mut in_lanes: [Option<(u32, RawHit)>; W] = [None; W];
+        for i in 0..W {
+            hits[i] = None;
+            let Some(ray) = &rays[i] else { continue };
+            let Some((k, raw)) = self.closest(ray, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            let instance = &self.instances[k as usize];
+            match &instance.shape {
+                Shape::Mesh(m)
+                    if W >= crate::lanes::KERNELS_FROM
+                        && instance.identity
+                        && !m.has_attributes() =>
+                {
+                    m.gather_surface(surfaces, i, &mesh::MeshHit::of_raw(&raw));
+                    in_lanes[i] = Some((k, raw));
+                }
+                _ => hits[i] = Some(instance.surface(ray, &raw, k)),
+            }
+        }
+        if in_lanes.iter().all(Option::is_none) {
+            return;
+        }
+        let out = surfaces.run();
+        for (i, (hit, lane)) in hits.iter_mut().zip(in_lanes).enumerate() {
+            if let Some((k, raw)) = lane {
+                *hit = Some(SurfaceHit {
+                    t: raw.t,
+                    p: out.p.lane(i),
+                    ng: out.ng.lane(i),
+                    ns: out.ns.lane(i),
+                    uv: Vec2::new(out.uv.0[i], out.uv.1[i]),
+                    uv1: Vec2::ZERO,
+                    tangent: Vec4::ZERO,
+                    color: Vec4::ONE,
+                    instance: k,
+                    prim: raw.prim,
+                });
+            }
+        }
+    }
+}
+
+impl Geometry {
     /// The nearest hit within (t_min, t_max) that `accept` (given the instance and the hit)
     /// takes, looked for within one traversal of each level.
     pub fn intersect_accepted(

@@ -499,11 +499,7 @@ impl Path {
     }
 }
 
-/// The narrowest wave whose stages run their vector kernels. Narrower waves (W = 1) take the
-/// scalar code for every lane: it computes the same bits, with none of the kernels' gathering,
-/// and `tests/lane_widths.rs`, which requires W = 4, 8 and 16 to give W = 1's films, so checks
-/// every kernel against the scalar code it stands for on every scene it renders.
-pub const LANE_KERNELS_FROM: usize = 4;
+pub use crate::lanes::KERNELS_FROM as LANE_KERNELS_FROM;
 
 /// A wave's working memory for the stages that run in SIMD lanes, kept from step to step.
 pub struct Scratch<const W: usize> {

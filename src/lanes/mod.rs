@@ -157,6 +157,13 @@ macro_rules! widest {
 }
 pub(crate) use widest;
 
+/// The narrowest wave whose stages run their vector kernels (the path tracer's light and BSDF
+/// samples, the surfaces of mesh hits). Narrower waves (W = 1) take the scalar code for every
+/// lane: it computes the same bits, with none of the kernels' gathering, and
+/// `tests/lane_widths.rs`, which requires W = 4, 8 and 16 to give W = 1's films, so checks
+/// every kernel against the scalar code it stands for on every scene it renders.
+pub const KERNELS_FROM: usize = 4;
+
 /// `if a < b { a } else { b }`: the lanes' minimum (a NaN in either argument gives `b`).
 #[inline(always)]
 pub fn min(a: f32, b: f32) -> f32 {

@@ -82,6 +82,31 @@ impl<const W: usize> V3s<W> {
         }
     }
 
+    /// The cross product, as `glam::Vec3::cross`: (y·z′ − y′·z, z·x′ − z′·x, x·y′ − x′·y).
+    #[inline(always)]
+    pub fn cross(self, rhs: Self) -> Self {
+        V3s {
+            x: self.y * rhs.z - rhs.y * self.z,
+            y: self.z * rhs.x - rhs.z * self.x,
+            z: self.x * rhs.y - rhs.x * self.y,
+        }
+    }
+
+    /// The vector times 1 / √(self·self), as `glam::Vec3::normalize`.
+    #[inline(always)]
+    pub fn normalize(self) -> Self {
+        self * (F32s::splat(1.0) / self.dot(self).sqrt())
+    }
+
+    /// As `glam::Vec3::normalize_or_zero`: the normalised vector where 1 / √(self·self) is
+    /// finite and positive, zero elsewhere.
+    #[inline(always)]
+    pub fn normalize_or_zero(self) -> Self {
+        let rcp = F32s::splat(1.0) / self.dot(self).sqrt();
+        let ok = rcp.is_finite() & rcp.gt(F32s::splat(0.0));
+        V3s::select(ok, self * rcp, V3s::default())
+    }
+
     /// The lanes where every component is zero (`== Vec3::ZERO`: −0 counts, NaN does not).
     #[inline(always)]
     pub fn is_zero(self) -> Mask<W> {

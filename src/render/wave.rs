@@ -14,6 +14,7 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::Sink;
+use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::SurfaceHit;
 use crate::integrator::path::{LambertRoute, Path, Scratch, Vertex};
 use crate::integrator::{raycast, TraceStats};
@@ -80,6 +81,7 @@ fn run_wave<const W: usize>(
     let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
     let mut scratch = Box::new(Scratch::<W>::new());
     let mut route = Box::new(LambertRoute::<W>::new());
+    let mut surfaces = Box::new(SurfaceLanes::<W>::new());
     loop {
         for (lane, ray) in lanes.iter_mut().zip(&mut rays) {
             if lane.is_none() {
@@ -92,7 +94,7 @@ fn run_wave<const W: usize>(
             return;
         }
         stats.rays += traced as u64;
-        scene.intersect_lanes(&rays, &mut hits);
+        scene.intersect_lanes(&rays, &mut hits, &mut surfaces);
         let u_light: [_; W] =
             Sampler::get_2d_lanes(lanes.each_mut().map(|l| l.as_mut().map(|l| &mut l.sampler)));
         route.clear();

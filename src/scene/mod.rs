@@ -5,6 +5,7 @@ pub mod build;
 
 use crate::camera::Camera;
 use crate::environment::Environment;
+use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::{Accel, Geometry, RawHit, SurfaceHit};
 use crate::light::Light;
 use crate::light_sampler::LightSampler;
@@ -98,13 +99,19 @@ impl Scene {
     }
 
     /// The closest hits of a wave's rays into `hits` (`None` lanes are idle), each as
-    /// [`intersect`](Scene::intersect) over (0, ∞) finds it.
+    /// [`intersect`](Scene::intersect) over (0, ∞) finds it (`surfaces`: working memory for
+    /// [`Geometry::intersect_lanes`], which scenes without alpha-tested surfaces use).
     #[inline]
     pub fn intersect_lanes<const W: usize>(
         &self,
         rays: &[Option<Ray>; W],
         hits: &mut [Option<SurfaceHit>; W],
+        surfaces: &mut SurfaceLanes<W>,
     ) {
+        if !self.has_alpha {
+            self.geometry.intersect_lanes(rays, hits, surfaces);
+            return;
+        }
         for (ray, hit) in rays.iter().zip(hits) {
             *hit = ray
                 .as_ref()
