@@ -163,20 +163,10 @@ def write_scene(name: str, folder: Path) -> tuple[Path, list[tuple[str, str, Pat
 
 def mitsuba_scene(mi, objects, sampler: str):
     """The scene for Mitsuba from ``objects`` (as ``write_scene`` returns them) with ``sampler``."""
-    T = mi.ScalarTransform4f
     d = {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": cs.MAX_DEPTH_MITSUBA},
-        "sensor": {
-            "type": "perspective", "fov_axis": "smaller", "fov": cs.FOV_DEGREES,
-            "near_clip": 0.001, "far_clip": 100.0,
-            "to_world": T().look_at(origin=cs.CAMERA_ORIGIN, target=cs.CAMERA_TARGET,
-                                    up=cs.CAMERA_UP),
-            "sampler": {"type": sampler, "sample_count": 4},
-            "film": {"type": "hdrfilm", "width": cs.WIDTH, "height": cs.HEIGHT,
-                     "rfilter": {"type": "box"}, "pixel_format": "rgb",
-                     "component_format": "float32"},
-        },
+        "sensor": mitsuba_cornell.sensor_dict(mi, sampler),
     }
     for m, rgb in cs.MATERIALS.items():
         d[m] = {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(rgb)}}

@@ -71,25 +71,30 @@ def builtin_scene_dict(mi, sampler: str = "independent") -> dict:
     return d
 
 
+def sensor_dict(mi, sampler: str) -> dict:
+    """The spec's camera and film (box filter) with ``sampler``."""
+    T = mi.ScalarTransform4f
+    return {
+        "type": "perspective",
+        "fov_axis": "smaller",
+        "fov": cs.FOV_DEGREES,
+        "near_clip": 0.001,
+        "far_clip": 100.0,
+        "to_world": T().look_at(origin=cs.CAMERA_ORIGIN, target=cs.CAMERA_TARGET,
+                                up=cs.CAMERA_UP),
+        "sampler": {"type": sampler, "sample_count": 4},
+        "film": {"type": "hdrfilm", "width": cs.WIDTH, "height": cs.HEIGHT,
+                 "rfilter": {"type": "box"}, "pixel_format": "rgb",
+                 "component_format": "float32"},
+    }
+
+
 def explicit_scene_dict(mi, workdir: Path, sampler: str = "independent") -> dict:
     """The same scene from cornell_scene.py's triangles, via OBJ files in ``workdir``."""
-    T = mi.ScalarTransform4f
     d = {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": cs.MAX_DEPTH_MITSUBA},
-        "sensor": {
-            "type": "perspective",
-            "fov_axis": "smaller",
-            "fov": cs.FOV_DEGREES,
-            "near_clip": 0.001,
-            "far_clip": 100.0,
-            "to_world": T().look_at(origin=cs.CAMERA_ORIGIN, target=cs.CAMERA_TARGET,
-                                    up=cs.CAMERA_UP),
-            "sampler": {"type": sampler, "sample_count": 4},
-            "film": {"type": "hdrfilm", "width": cs.WIDTH, "height": cs.HEIGHT,
-                     "rfilter": {"type": "box"}, "pixel_format": "rgb",
-                     "component_format": "float32"},
-        },
+        "sensor": sensor_dict(mi, sampler),
     }
     for name, rgb in cs.MATERIALS.items():
         d[name] = {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(rgb)}}

@@ -264,16 +264,9 @@ impl Path {
             if in_lanes[i].is_none() {
                 continue;
             }
-            vertex.shadow = if !out.decided.lane(i) {
-                path.light_sample(scene, hit, vertex, pick)
-            } else if out.valid.lane(i) {
-                Some(Shadow {
-                    ray: Ray::new(out.origin.lane(i), out.dir.lane(i)),
-                    t_max: 1.0,
-                    radiance: out.radiance.lane(i),
-                })
-            } else {
-                None
+            vertex.shadow = match out.shadow(i) {
+                Some(shadow) => shadow,
+                None => path.light_sample(scene, hit, vertex, pick),
             };
         }
     }
@@ -698,16 +691,9 @@ impl<const W: usize> LambertRoute<W> {
             else {
                 continue;
             };
-            self.shadow[i] = if !out.decided.lane(i) {
-                path.light_sample(scene, hit, &self.vertex(i, scene, hit), pick)
-            } else if out.valid.lane(i) {
-                Some(Shadow {
-                    ray: Ray::new(out.origin.lane(i), out.dir.lane(i)),
-                    t_max: 1.0,
-                    radiance: out.radiance.lane(i),
-                })
-            } else {
-                None
+            self.shadow[i] = match out.shadow(i) {
+                Some(shadow) => shadow,
+                None => path.light_sample(scene, hit, &self.vertex(i, scene, hit), pick),
             };
         }
     }
@@ -809,6 +795,21 @@ struct LightLanesOut<const W: usize> {
     origin: V3s<W>,
     dir: V3s<W>,
     radiance: V3s<W>,
+}
+
+impl<const W: usize> LightLanesOut<W> {
+    /// Lane `i`'s light sample: `None` where the kernel left the lane undecided (the scalar
+    /// code then takes it), else the shadow ray, if the sample can add anything.
+    #[inline]
+    fn shadow(&self, i: usize) -> Option<Option<Shadow>> {
+        self.decided.lane(i).then(|| {
+            self.valid.lane(i).then(|| Shadow {
+                ray: Ray::new(self.origin.lane(i), self.dir.lane(i)),
+                t_max: 1.0,
+                radiance: self.radiance.lane(i),
+            })
+        })
+    }
 }
 
 impl<const W: usize> LightLanes<W> {
