@@ -221,6 +221,7 @@ impl Bsdf {
 
 /// The Lambertian lobes of W lanes (one per lane, structure of arrays) for
 /// [`LambertLanes::sample`]: what [`Bsdf::sample`] reads of a [`Lobes::Lambert`] BSDF.
+#[derive(Default)]
 pub(crate) struct LambertLanes<const W: usize> {
     /// The shading frame's axes.
     pub s: V3s<W>,

@@ -505,14 +505,7 @@ impl<const W: usize> Scratch<W> {
     pub fn new() -> Self {
         Scratch {
             lights: LightLanes::new(),
-            lambert: LambertLanes {
-                s: V3s::default(),
-                t: V3s::default(),
-                n: V3s::default(),
-                ng: V3s::default(),
-                wo: V3s::default(),
-                u: (F32s::default(), F32s::default()),
-            },
+            lambert: LambertLanes::default(),
         }
     }
 }
@@ -553,14 +546,7 @@ impl<const W: usize> LambertRoute<W> {
             shadow: [None; W],
             albedo: [Vec3::ZERO; W],
             lights: LightLanes::new(),
-            bsdf: LambertLanes {
-                s: V3s::default(),
-                t: V3s::default(),
-                n: V3s::default(),
-                ng: V3s::default(),
-                wo: V3s::default(),
-                u: (F32s::default(), F32s::default()),
-            },
+            bsdf: LambertLanes::default(),
         }
     }
 
