@@ -620,19 +620,19 @@ impl<const W: usize> LambertRoute<W> {
             return true;
         };
         self.in_kernel[i] = true;
-        let l = &mut self.lights;
-        l.triangles.set(i, light);
-        (l.u.0[i], l.u.1[i], l.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
-        l.emission.set(i, emission);
-        l.two_sided_emission.set(i, two_sided);
-        l.p.set(i, hit.p);
-        l.ng.set(i, hit.ng);
-        l.frame_n.set(i, frame.n);
-        l.bsdf_ng.set(i, hit.ng);
-        l.albedo.set(i, albedo);
-        l.wo.set(i, wo);
-        l.split[i] = 1.0;
-        l.beta.set(i, path.beta);
+        let lane = LaneLight {
+            light,
+            emission: (emission, two_sided),
+            albedo,
+        };
+        let seen = LaneVertex {
+            frame_n: frame.n,
+            bsdf_ng: hit.ng,
+            wo,
+            split: 1.0,
+            beta: path.beta,
+        };
+        self.lights.set(i, (pick, lane), hit, seen);
         true
     }
 
@@ -741,6 +741,18 @@ struct LaneLight<'a> {
     albedo: Rgb,
 }
 
+/// What the light kernel reads of a lane's vertex besides its hit: the BSDF's shading and
+/// geometric normals, the direction to the viewer, the BSDF samples drawn for direct light
+/// there (see [`SPLIT`]) and the path's throughput.
+#[derive(Clone, Copy)]
+struct LaneVertex {
+    frame_n: Vec3,
+    bsdf_ng: Vec3,
+    wo: Vec3,
+    split: f32,
+    beta: Rgb,
+}
+
 /// The radiance of an area light's surface when it is the same everywhere (an emissive
 /// material without an emission texture), and whether both faces emit it.
 fn constant_emission(scene: &Scene, light: &Light) -> Option<(Rgb, bool)> {
@@ -827,31 +839,51 @@ impl<const W: usize> LightLanes<W> {
         picked: &[Option<Picked>; W],
         lights: &[Option<LaneLight>; W],
     ) {
-        let l = self;
         for i in 0..W {
             let (Some(path), Some(hit), Some(vertex), Some(pick), Some(lane)) =
                 (paths[i], &hits[i], &vertices[i], picked[i], lights[i])
             else {
                 continue;
             };
-            let LaneLight {
-                light,
-                emission: (emission, two_sided),
-                albedo,
-            } = lane;
-            l.triangles.set(i, light);
-            (l.u.0[i], l.u.1[i], l.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
-            l.emission.set(i, emission);
-            l.two_sided_emission.set(i, two_sided);
-            l.p.set(i, hit.p);
-            l.ng.set(i, hit.ng);
-            l.frame_n.set(i, vertex.bsdf.frame.n);
-            l.bsdf_ng.set(i, vertex.bsdf.ng);
-            l.albedo.set(i, albedo);
-            l.wo.set(i, vertex.wo);
-            l.split[i] = vertex.split;
-            l.beta.set(i, path.beta);
+            let seen = LaneVertex {
+                frame_n: vertex.bsdf.frame.n,
+                bsdf_ng: vertex.bsdf.ng,
+                wo: vertex.wo,
+                split: vertex.split,
+                beta: path.beta,
+            };
+            self.set(i, (pick, lane), hit, seen);
         }
+    }
+
+    /// Sets lane `i` to the light `lane` picked by `pick`, sampled from `hit` whose vertex
+    /// reads as `seen`.
+    #[inline(always)]
+    fn set(
+        &mut self,
+        i: usize,
+        (pick, lane): (Picked, LaneLight),
+        hit: &SurfaceHit,
+        seen: LaneVertex,
+    ) {
+        let l = self;
+        let LaneLight {
+            light,
+            emission: (emission, two_sided),
+            albedo,
+        } = lane;
+        l.triangles.set(i, light);
+        (l.u.0[i], l.u.1[i], l.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
+        l.emission.set(i, emission);
+        l.two_sided_emission.set(i, two_sided);
+        l.p.set(i, hit.p);
+        l.ng.set(i, hit.ng);
+        l.frame_n.set(i, seen.frame_n);
+        l.bsdf_ng.set(i, seen.bsdf_ng);
+        l.albedo.set(i, albedo);
+        l.wo.set(i, seen.wo);
+        l.split[i] = seen.split;
+        l.beta.set(i, seen.beta);
     }
 
     /// [`Path::light_sample`] in every lane, compiled for the widest vector instructions the
