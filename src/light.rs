@@ -595,7 +595,7 @@ impl<const W: usize> TriangleLanes<W> {
     }
 
     /// Lane `i` samples `light`, when it is a triangle (other kinds leave the lane as it was).
-    #[inline]
+    #[inline(always)]
     pub fn set(&mut self, i: usize, light: &Light) {
         if let Light::Triangle {
             v,

@@ -247,6 +247,21 @@ pub(crate) struct LambertSamples<const W: usize> {
     pub pdf: F32s<W>,
 }
 
+impl<const W: usize> LambertSamples<W> {
+    /// Lane `i`'s sample as [`Bsdf::sample`] gives it for a Lambertian lobe of `albedo`.
+    #[inline]
+    pub fn lane(&self, i: usize, albedo: Rgb) -> Option<BsdfSample> {
+        self.valid.lane(i).then(|| BsdfSample {
+            wi: self.wi.lane(i),
+            weight: albedo,
+            pdf: self.pdf[i],
+            delta: false,
+            transmitted: false,
+            etap: 1.0,
+        })
+    }
+}
+
 impl<const W: usize> LambertLanes<W> {
     /// [`Bsdf::sample`] of a Lambertian BSDF in every lane, compiled for the widest vector
     /// instructions the CPU has that suit W lanes.

@@ -219,22 +219,12 @@ impl Path {
             if !vertex.needs_light {
                 continue;
             }
-            let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light[i].x)
-            else {
+            let Some((pick, light)) = Picked::choose(scene, hit, u_light[i]) else {
                 continue;
             };
-            let light = &scene.lights[index];
-            let pick = Picked {
-                light: index,
-                pmf,
-                u: glam::Vec2::new(u_x, u_light[i].y),
-            };
             picked[i] = Some(pick);
-            let emission = if LANE_KERNELS_FROM <= W
-                && path.medium.is_none()
-                && matches!(light, Light::Triangle { .. })
-            {
-                constant_emission(scene, light)
+            let emission = if LANE_KERNELS_FROM <= W && path.medium.is_none() {
+                kernel_emission(scene, light)
             } else {
                 None
             };
@@ -347,15 +337,8 @@ impl Path {
         }
         let out = lanes.sample();
         for i in 0..W {
-            if let (Some(albedo), true) = (lambert[i], out.valid.lane(i)) {
-                sampled[i] = Some(BsdfSample {
-                    wi: out.wi.lane(i),
-                    weight: albedo,
-                    pdf: out.pdf[i],
-                    delta: false,
-                    transmitted: false,
-                    etap: 1.0,
-                });
+            if let Some(albedo) = lambert[i] {
+                sampled[i] = out.lane(i, albedo);
             }
         }
         sampled
@@ -600,22 +583,11 @@ impl<const W: usize> LambertRoute<W> {
         b.n.set(i, frame.n);
         b.ng.set(i, hit.ng);
         b.wo.set(i, wo);
-        let Some((index, pmf, u_x)) = scene.light_sampler.pick(hit.p, hit.ns, u_light.x) else {
+        let Some((pick, light)) = Picked::choose(scene, hit, u_light) else {
             return true;
         };
-        let light = &scene.lights[index];
-        let pick = Picked {
-            light: index,
-            pmf,
-            u: glam::Vec2::new(u_x, u_light.y),
-        };
         self.picked[i] = Some(pick);
-        let emission = if matches!(light, Light::Triangle { .. }) {
-            constant_emission(scene, light)
-        } else {
-            None
-        };
-        let Some((emission, two_sided)) = emission else {
+        let Some((emission, two_sided)) = kernel_emission(scene, light) else {
             self.shadow[i] = path.light_sample(scene, hit, &self.vertex(i, scene, hit), pick);
             return true;
         };
@@ -702,15 +674,8 @@ impl<const W: usize> LambertRoute<W> {
         }
         let out = self.bsdf.sample();
         for (i, sampled) in sampled.iter_mut().enumerate() {
-            if self.on[i] && out.valid.lane(i) {
-                *sampled = Some(BsdfSample {
-                    wi: out.wi.lane(i),
-                    weight: self.albedo[i],
-                    pdf: out.pdf[i],
-                    delta: false,
-                    transmitted: false,
-                    etap: 1.0,
-                });
+            if self.on[i] {
+                *sampled = out.lane(i, self.albedo[i]);
             }
         }
         sampled
@@ -732,8 +697,28 @@ struct Picked {
     u: glam::Vec2,
 }
 
+impl Picked {
+    /// The light that next-event estimation at `hit` picks with the first coordinate of `u`
+    /// (the vertex's light-sample point, whose first coordinate is then remapped to sample a
+    /// point on that light), and the light itself; `None` when the scene has none to pick.
+    #[inline]
+    fn choose<'a>(
+        scene: &'a Scene,
+        hit: &SurfaceHit,
+        u: glam::Vec2,
+    ) -> Option<(Picked, &'a Light)> {
+        let (light, pmf, u_x) = scene.light_sampler.pick(hit.p, hit.ns, u.x)?;
+        let pick = Picked {
+            light,
+            pmf,
+            u: glam::Vec2::new(u_x, u.y),
+        };
+        Some((pick, &scene.lights[light]))
+    }
+}
+
 /// A lane of [`Path::sample_lights`] that runs in the vector kernel: its triangle light, that
-/// light's constant emission (see [`constant_emission`]) and the Lambertian albedo of its surface.
+/// light's constant emission (see [`kernel_emission`]) and the Lambertian albedo of its surface.
 #[derive(Clone, Copy)]
 struct LaneLight<'a> {
     light: &'a Light,
@@ -753,9 +738,12 @@ struct LaneVertex {
     beta: Rgb,
 }
 
-/// The radiance of an area light's surface when it is the same everywhere (an emissive
-/// material without an emission texture), and whether both faces emit it.
-fn constant_emission(scene: &Scene, light: &Light) -> Option<(Rgb, bool)> {
+/// For a triangle light whose radiance is the same everywhere (an emissive material without an
+/// emission texture), the light kernel's case: that radiance and whether both faces emit it.
+fn kernel_emission(scene: &Scene, light: &Light) -> Option<(Rgb, bool)> {
+    if !matches!(light, Light::Triangle { .. }) {
+        return None;
+    }
     let material = scene.material_of_light(light)?;
     (material.is_emissive() && material.emission_texture.is_none())
         .then_some((material.emission, material.two_sided_emission))
