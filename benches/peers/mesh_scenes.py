@@ -8,8 +8,8 @@ its two boxes replaced by one white Lambertian mesh:
 
 - ``bunny``: the Stanford bunny of ``shared/meshes/bunny_small.obj`` (4,968 triangles), scaled to
   0.9 high and standing on the floor at the centre of the box;
-- ``ico``: an icosphere of 327,680 triangles (an icosahedron subdivided 7 times, its vertices on
-  the sphere), radius 0.55, resting on the floor: the traversal-heavy scene.
+- ``ico``: the 327,680-triangle icosphere of the ray benchmark (``embree_rays.py``: an
+  icosahedron subdivided 7 times), radius 0.55, resting on the floor: the traversal-heavy scene.
 
 Every object is written once, in world space, to ``out/mesh/<scene>/*.obj``; both renderers read
 those files (flat shading: lumo's default, Mitsuba's ``face_normals``), so they render the same
@@ -55,9 +55,9 @@ import numpy as np
 import common
 import compare
 import cornell_scene as cs
+import embree_rays
 import mitsuba_cornell
 
-SHARED = Path(os.environ.get("LUMO_SHARED", common.REPO_ROOT.parent / "shared"))
 BOXES = ("small-box", "large-box")
 REFERENCE_SEED_BASE = 1_000_000
 CHECK_SEED = 424_242
@@ -65,59 +65,22 @@ CHECK_SEED = 424_242
 
 def bunny() -> tuple[np.ndarray, np.ndarray]:
     """The shared bunny, 0.9 high, centred in x and z, standing on the floor (y = -1)."""
-    path = SHARED / "meshes" / "bunny_small.obj"
-    if not path.is_file():
-        raise SystemExit(f"{path}: not found; set LUMO_SHARED to the shared data folder")
-    vertices, faces = [], []
-    for line in path.read_text().splitlines():
-        parts = line.split()
-        if parts and parts[0] == "v":
-            vertices.append([float(x) for x in parts[1:4]])
-        elif parts and parts[0] == "f":
-            idx = [int(p.split("/")[0]) - 1 for p in parts[1:]]
-            faces.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1))
-    v = np.asarray(vertices, dtype=np.float64)
+    v, f = embree_rays.load_obj(embree_rays.shared_dir() / "meshes" / "bunny_small.obj")
+    v = v.astype(np.float64)
     lo, hi = v.min(0), v.max(0)
     scale = 0.9 / (hi[1] - lo[1])
     centre = np.array([(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2])
-    v = (v - centre) * scale + np.array([0.0, -1.0, 0.0])
-    return v, np.asarray(faces, dtype=np.int64)
+    return (v - centre) * scale + np.array([0.0, -1.0, 0.0]), f
 
 
-def icosphere(levels: int, radius: float, centre) -> tuple[np.ndarray, np.ndarray]:
-    """An icosahedron subdivided ``levels`` times (20·4^levels triangles), vertices on the sphere."""
-    t = (1.0 + math.sqrt(5.0)) / 2.0
-    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t),
-         (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
-    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
-         (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9),
-         (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
-    verts = [np.asarray(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
-    faces = f
-    for _ in range(levels):
-        midpoint: dict[tuple[int, int], int] = {}
-
-        def mid(a: int, b: int) -> int:
-            key = (min(a, b), max(a, b))
-            if key not in midpoint:
-                m = verts[a] + verts[b]
-                verts.append(m / np.linalg.norm(m))
-                midpoint[key] = len(verts) - 1
-            return midpoint[key]
-
-        nxt = []
-        for a, b, c in faces:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
-            nxt += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
-        faces = nxt
-    return (np.asarray(verts) * radius + np.asarray(centre, dtype=np.float64),
-            np.asarray(faces, dtype=np.int64))
+def icosphere() -> tuple[np.ndarray, np.ndarray]:
+    """The ray benchmark's 327,680-triangle icosphere (``embree_rays.py``), radius 0.55,
+    resting on the floor."""
+    v, f = embree_rays.icosphere(7)
+    return v.astype(np.float64) * 0.55 + np.array([0.0, -0.45, 0.0]), f
 
 
-MESHES = {
-    "bunny": bunny,
-    "ico": lambda: icosphere(7, 0.55, (0.0, -0.45, 0.0)),
-}
+MESHES = {"bunny": bunny, "ico": icosphere}
 
 
 def write_mesh_obj(path: Path, v: np.ndarray, f: np.ndarray) -> None:
