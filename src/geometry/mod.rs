@@ -3,6 +3,7 @@
 
 pub mod mesh;
 mod node8;
+pub mod small_set;
 pub mod sphere;
 pub mod triangle;
 pub mod triangle_bvh;
@@ -14,6 +15,7 @@ use glam::{Vec3A, Vec4};
 use crate::bvh::{Bvh, TraversalRay};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
 pub use mesh::{Mesh, OpacityInputs};
+use small_set::SmallSet;
 pub use sphere::{Plane, Sphere};
 use triangle::TriHit;
 pub use triangle_bvh::{TriRay, TriangleBvh};
@@ -354,6 +356,9 @@ pub struct Geometry {
     /// The instances.
     pub instances: Vec<Instance>,
     flat: TriangleBvh,
+    /// The world-space triangles again, for waves of rays, when they are all the scene is and
+    /// few ([`small_set::SMALL_SET_MAX`]).
+    small: Option<SmallSet>,
     top: Bvh,
     /// Instance index of each primitive of `top`.
     top_instances: Vec<u32>,
@@ -433,31 +438,34 @@ impl Geometry {
             let (k, first, mesh) = flat[flat.partition_point(|&(_, first, _)| first <= i) - 1];
             (k, (i - first) as u32, mesh)
         };
-        let flat_bvh = TriangleBvh::build(
-            flat_count,
-            |i| {
-                let (k, prim, mesh) = locate(i);
-                let inst = &instances[k];
-                let c = mesh.corners(prim);
-                let c = if inst.identity {
-                    c
-                } else {
-                    c.map(|p| inst.to_world.transform_point3(p))
-                };
-                c.map(Vec3A::from)
-            },
-            |i| {
-                let (k, prim, _) = locate(i);
-                [k as u32, prim]
-            },
-            |i, stage| {
-                let (_, prim, mesh) = locate(i);
-                mesh.prefetch_corners(prim, stage);
-            },
-        );
+        let corners = |i| {
+            let (k, prim, mesh) = locate(i);
+            let inst = &instances[k];
+            let c = mesh.corners(prim);
+            let c = if inst.identity {
+                c
+            } else {
+                c.map(|p| inst.to_world.transform_point3(p))
+            };
+            c.map(Vec3A::from)
+        };
+        let id = |i| {
+            let (k, prim, _) = locate(i);
+            [k as u32, prim]
+        };
+        let small = (top_instances.is_empty()
+            && unbounded.is_empty()
+            && (1..=small_set::SMALL_SET_MAX).contains(&flat_count))
+        .then(|| SmallSet::new(flat_count, corners, id))
+        .flatten();
+        let flat_bvh = TriangleBvh::build(flat_count, corners, id, |i, stage| {
+            let (_, prim, mesh) = locate(i);
+            mesh.prefetch_corners(prim, stage);
+        });
         drop(flat);
         Geometry {
             flat: flat_bvh,
+            small,
             top: Bvh::build(&top_boxes),
             top_instances,
             instances,
@@ -578,11 +586,20 @@ impl Geometry {
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
     ) {
+        let closest: [Option<(u32, RawHit)>; W] = match &self.small {
+            Some(small) if W >= crate::lanes::KERNELS_FROM => small
+                .closest_lanes(rays)
+                .map(|hit| hit.map(|(id, h)| (id[0], RawHit::of_triangle(id, &h)))),
+            _ => std::array::from_fn(|i| {
+                rays[i]
+                    .as_ref()
+                    .and_then(|ray| self.closest(ray, 0.0, f32::INFINITY))
+            }),
+        };
         let mut in_lanes: [Option<(u32, RawHit)>; W] = [None; W];
         for i in 0..W {
             hits[i] = None;
-            let Some(ray) = &rays[i] else { continue };
-            let Some((k, raw)) = self.closest(ray, 0.0, f32::INFINITY) else {
+            let (Some(ray), Some((k, raw))) = (&rays[i], closest[i]) else {
                 continue;
             };
             let instance = &self.instances[k as usize];
@@ -617,6 +634,22 @@ impl Geometry {
                     prim: raw.prim,
                 });
             }
+        }
+    }
+}
+
+impl Geometry {
+    /// Whether something blocks each of a wave's segments (a ray and its `t_max`, over
+    /// (0, `t_max`); `None` lanes are idle and report `false`), as [`Accel::occluded`] finds
+    /// it.
+    pub fn occluded_lanes<const W: usize>(&self, segments: &[Option<(Ray, f32)>; W]) -> [bool; W] {
+        match &self.small {
+            Some(small) if W >= crate::lanes::KERNELS_FROM => small.occluded_lanes(segments),
+            _ => std::array::from_fn(|i| {
+                segments[i]
+                    .as_ref()
+                    .is_some_and(|(ray, t_max)| self.occluded(ray, 0.0, *t_max))
+            }),
         }
     }
 }

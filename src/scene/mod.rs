@@ -124,6 +124,9 @@ impl Scene {
     /// [`occluded`](Scene::occluded) finds it.
     #[inline]
     pub fn occluded_lanes<const W: usize>(&self, segments: &[Option<(Ray, f32)>; W]) -> [bool; W] {
+        if !self.has_alpha {
+            return self.geometry.occluded_lanes(segments);
+        }
         std::array::from_fn(|i| {
             segments[i]
                 .as_ref()

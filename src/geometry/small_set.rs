@@ -1,0 +1,926 @@
+//! Scenes of a few dozen triangles, tested against all of a wave's rays at once.
+//!
+//! A BVH walk pays per ray for every node it opens, in branches that depend on the ray. When a
+//! scene is a few dozen triangles (a Cornell box is 36), testing each triangle against a whole
+//! wave of rays costs less: the wave's rays sit in SIMD lanes (16 per instruction with
+//! AVX-512, 8 with AVX2, 4 with SSE2), each triangle is broadcast to every lane, and a lane
+//! never waits on another lane's branch. Culling by boxes would not pay: a wave's rays go in all
+//! directions, so some lane enters nearly every box.
+//!
+//! Every lane computes the operations of the scalar watertight test
+//! ([`triangle::intersect_a`](super::triangle::intersect_a), and the BVH's leaf test that
+//! matches it bit for bit), including the per-ray axis permutation (each lane picks its
+//! corners' coordinates by its own axes) and the double-precision fallback on edges. The set
+//! is stored in (instance, primitive) order and a triangle replaces a lane's best hit only when
+//! strictly nearer, so of equally near hits the lowest (instance, primitive) wins, as in the
+//! BVH. So each lane's hit is the BVH's, bit for bit.
+
+use std::mem::MaybeUninit;
+
+use glam::Vec3A;
+
+use crate::geometry::triangle::{shear_axes, TriHit};
+use crate::math::Ray;
+
+/// Scenes of at most this many triangles (and nothing else) are tested by [`SmallSet`] in
+/// waves of four lanes or more.
+pub const SMALL_SET_MAX: usize = 64;
+
+/// The most distinct corners a [`SmallSet`] holds (sets with more are left to the BVH).
+pub const MAX_VERTICES: usize = 96;
+
+/// The instruction sets the kernels run on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Isa {
+    /// 16 lanes per instruction.
+    Avx512,
+    /// 8 lanes per instruction.
+    Avx2,
+    /// 4 lanes per instruction (every x86-64).
+    Sse2,
+}
+
+/// A few triangles in world space, in (instance, primitive) order, with their ids.
+#[derive(Debug, Clone)]
+pub struct SmallSet {
+    /// The triangles' distinct corners, (x, y, z, 0) each (at most [`MAX_VERTICES`]).
+    vertices: Vec<[f32; 4]>,
+    /// Each triangle's corners, as indices into `vertices`.
+    triangles: Vec<[u16; 3]>,
+    /// Each triangle's (instance, primitive), increasing.
+    ids: Vec<[u32; 2]>,
+    /// The widest instruction set this CPU has.
+    isa: Isa,
+}
+
+/// A wave's rays, structure-of-arrays, prepared for the watertight test: for lane i, the
+/// origin's coordinates and the shear constants on the ray's axes (kx, ky, kz), the axes
+/// themselves, and the end of the segment looked along (0 for idle lanes, which then hit
+/// nothing).
+struct WaveRays<const W: usize> {
+    org: [[f32; W]; 3],
+    shear: [[f32; W]; 3],
+    axes: [[i32; W]; 3],
+    t_max: [f32; W],
+}
+
+impl<const W: usize> WaveRays<W> {
+    /// `segments[i]`: lane i's ray and the end of its segment, or `None` for an idle lane. The
+    /// constants are [`TriRay::new`](super::TriRay::new)'s (the divisions are the scalar ones).
+    #[inline(always)]
+    fn new(segments: impl Fn(usize) -> Option<(Ray, f32)>) -> WaveRays<W> {
+        let mut rays = WaveRays {
+            org: [[0.0; W]; 3],
+            shear: [[0.0; W]; 3],
+            axes: [[0; W]; 3],
+            t_max: [0.0; W],
+        };
+        for i in 0..W {
+            let Some((ray, t_max)) = segments(i) else {
+                rays.axes[0][i] = 0;
+                rays.axes[1][i] = 1;
+                rays.axes[2][i] = 2;
+                continue;
+            };
+            let axes = shear_axes(ray.d);
+            let (o, d) = (ray.o.to_array(), ray.d.to_array());
+            let [kx, ky, kz] = axes;
+            let shear = [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]];
+            for a in 0..3 {
+                rays.org[a][i] = o[axes[a]];
+                rays.shear[a][i] = shear[a];
+                rays.axes[a][i] = axes[a] as i32;
+            }
+            rays.t_max[i] = t_max;
+        }
+        rays
+    }
+}
+
+/// The best hits of a wave's lanes: distance, barycentrics of corners 1 and 2, and the slot
+/// of the triangle in the set (−1 for none).
+struct WaveHits<const W: usize> {
+    t: [f32; W],
+    b1: [f32; W],
+    b2: [f32; W],
+    slot: [f32; W],
+}
+
+impl SmallSet {
+    /// The set of triangles `corners(i)` named `ids(i)` for i < `count` (at most
+    /// [`SMALL_SET_MAX`]), with ids increasing; `None` where no vector kernel runs (outside
+    /// x86-64) or the triangles have more than [`MAX_VERTICES`] distinct corners, so the BVH
+    /// answers.
+    pub fn new(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3A; 3],
+        ids: impl Fn(usize) -> [u32; 2],
+    ) -> Option<SmallSet> {
+        let isa = detect()?;
+        debug_assert!(count <= SMALL_SET_MAX);
+        let ids: Vec<[u32; 2]> = (0..count).map(ids).collect();
+        debug_assert!(ids.windows(2).all(|p| p[0] < p[1]));
+        // Corners with the same bits are one vertex: the kernel shears each vertex once per
+        // wave, and a corner's sheared coordinates depend on its bits alone.
+        let mut vertices: Vec<[f32; 4]> = Vec::new();
+        let mut index = std::collections::HashMap::new();
+        let triangles = (0..count)
+            .map(|i| {
+                corners(i).map(|c| {
+                    let v = [c.x, c.y, c.z, 0.0];
+                    *index.entry(v.map(f32::to_bits)).or_insert_with(|| {
+                        vertices.push(v);
+                        (vertices.len() - 1) as u16
+                    })
+                })
+            })
+            .collect();
+        if vertices.len() > MAX_VERTICES {
+            return None;
+        }
+        Some(SmallSet {
+            vertices,
+            triangles,
+            ids,
+            isa,
+        })
+    }
+
+    /// The closest hit of each lane's ray over (0, ∞) (`None` lanes are idle): the hit
+    /// triangle's id and the hit, as [`TriangleBvh::intersect`](super::TriangleBvh::intersect)
+    /// finds it.
+    pub fn closest_lanes<const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+    ) -> [Option<([u32; 2], TriHit)>; W] {
+        let wave = WaveRays::<W>::new(|i| rays[i].map(|r| (r, f32::INFINITY)));
+        let mut hits = WaveHits {
+            t: wave.t_max,
+            b1: [0.0; W],
+            b2: [0.0; W],
+            slot: [-1.0; W],
+        };
+        self.run::<W, true>(&wave, &mut hits, &mut [false; W]);
+        std::array::from_fn(|i| {
+            (hits.slot[i] >= 0.0).then(|| {
+                (
+                    self.ids[hits.slot[i] as usize],
+                    TriHit {
+                        t: hits.t[i],
+                        b1: hits.b1[i],
+                        b2: hits.b2[i],
+                    },
+                )
+            })
+        })
+    }
+
+    /// Whether each lane's segment (a ray and its `t_max`, over (0, `t_max`)) meets a triangle
+    /// (`None` lanes are idle and report `false`), as
+    /// [`TriangleBvh::occluded`](super::TriangleBvh::occluded) finds it.
+    pub fn occluded_lanes<const W: usize>(&self, segments: &[Option<(Ray, f32)>; W]) -> [bool; W] {
+        let wave = WaveRays::<W>::new(|i| segments[i]);
+        let mut hits = WaveHits {
+            t: [0.0; W],
+            b1: [0.0; W],
+            b2: [0.0; W],
+            slot: [0.0; W],
+        };
+        let mut blocked = [false; W];
+        self.run::<W, false>(&wave, &mut hits, &mut blocked);
+        blocked
+    }
+
+    /// Runs the closest-hit (`CLOSEST`) or the occlusion kernel over the wave in chunks of the
+    /// widest vectors that divide W.
+    fn run<const W: usize, const CLOSEST: bool>(
+        &self,
+        wave: &WaveRays<W>,
+        hits: &mut WaveHits<W>,
+        blocked: &mut [bool; W],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use x86::{Avx2, Avx512, Sse2};
+            #[target_feature(enable = "avx512f")]
+            unsafe fn avx512<const W: usize, const CLOSEST: bool>(
+                set: &SmallSet,
+                wave: &WaveRays<W>,
+                hits: &mut WaveHits<W>,
+                blocked: &mut [bool; W],
+            ) {
+                for k in (0..W).step_by(16) {
+                    // SAFETY: the CPU has AVX-512F; lanes k..k + 16 lie within W.
+                    unsafe { chunk::<Avx512, W, CLOSEST>(set, wave, hits, blocked, k) };
+                }
+            }
+            #[target_feature(enable = "avx2")]
+            unsafe fn avx2<const W: usize, const CLOSEST: bool>(
+                set: &SmallSet,
+                wave: &WaveRays<W>,
+                hits: &mut WaveHits<W>,
+                blocked: &mut [bool; W],
+            ) {
+                for k in (0..W).step_by(8) {
+                    // SAFETY: the CPU has AVX2; lanes k..k + 8 lie within W.
+                    unsafe { chunk::<Avx2, W, CLOSEST>(set, wave, hits, blocked, k) };
+                }
+            }
+            if W.is_multiple_of(16) && self.isa == Isa::Avx512 {
+                // SAFETY: `isa` is AVX-512 only when the CPU has AVX-512F.
+                return unsafe { avx512::<W, CLOSEST>(self, wave, hits, blocked) };
+            }
+            if W.is_multiple_of(8) && self.isa != Isa::Sse2 {
+                // SAFETY: `isa` is AVX2 or wider only when the CPU has AVX2.
+                return unsafe { avx2::<W, CLOSEST>(self, wave, hits, blocked) };
+            }
+            if W.is_multiple_of(4) {
+                for k in (0..W).step_by(4) {
+                    // SAFETY: SSE2 is part of x86-64; lanes k..k + 4 lie within W.
+                    unsafe { chunk::<Sse2, W, CLOSEST>(self, wave, hits, blocked, k) };
+                }
+                return;
+            }
+        }
+        unreachable!("the small-set kernels run on x86-64 waves of a multiple of 4 lanes")
+    }
+}
+
+/// The widest instruction set the kernels may use here, `None` where they do not run.
+fn detect() -> Option<Isa> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            Some(Isa::Avx512)
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            Some(Isa::Avx2)
+        } else {
+            Some(Isa::Sse2)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        None
+    }
+}
+
+/// V::LANES lanes of f32 and their operations, each the IEEE-754 operation of the scalar code.
+trait Vector: Copy {
+    /// Lanes per vector.
+    const LANES: usize;
+    /// A truth value per lane.
+    type Mask: Copy;
+    /// An axis (0, 1 or 2) per lane, prepared for [`Vector::pick`].
+    type Axis: Copy;
+
+    unsafe fn splat(x: f32) -> Self;
+    unsafe fn load(p: *const f32) -> Self;
+    unsafe fn store(self, p: *mut f32);
+    unsafe fn axis(p: *const i32) -> Self::Axis;
+    /// Lane i: `corner[axis_i]`.
+    unsafe fn pick(corner: &[f32; 4], axis: Self::Axis) -> Self;
+    unsafe fn add(self, o: Self) -> Self;
+    unsafe fn sub(self, o: Self) -> Self;
+    unsafe fn mul(self, o: Self) -> Self;
+    unsafe fn div(self, o: Self) -> Self;
+    /// Ordered `==` (false with a NaN).
+    unsafe fn eq(self, o: Self) -> Self::Mask;
+    /// Ordered `<`.
+    unsafe fn lt(self, o: Self) -> Self::Mask;
+    /// Ordered `>`.
+    unsafe fn gt(self, o: Self) -> Self::Mask;
+    /// Unordered `!=` (true with a NaN).
+    unsafe fn ne(self, o: Self) -> Self::Mask;
+    unsafe fn or(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    unsafe fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// `a & !b`.
+    unsafe fn and_not(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// Bit i set where lane i holds.
+    unsafe fn bits(m: Self::Mask) -> u32;
+    /// `a` where `m` holds, else `b`.
+    unsafe fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+}
+
+/// The kernel on lanes `k..k + V::LANES` of a wave: the closest hit of each (`CLOSEST`, into
+/// `hits`, whose `t` starts as the lane's bound) or whether anything blocks it (into `blocked`).
+///
+/// # Safety
+/// The CPU runs V's instructions, and `k + V::LANES <= W`.
+#[inline(always)]
+unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
+    set: &SmallSet,
+    wave: &WaveRays<W>,
+    hits: &mut WaveHits<W>,
+    blocked: &mut [bool; W],
+    k: usize,
+) {
+    debug_assert!(k + V::LANES <= W);
+    // SAFETY: the caller's; every pointer below is to lanes k..k + V::LANES of a [_; W].
+    // (No closures here: they would not inherit the caller's target features, and the vector
+    // operations inside them would become calls.)
+    unsafe {
+        let [ox, oy, oz] = &wave.org;
+        let [sx, sy, sz] = &wave.shear;
+        let [kx, ky, kz] = &wave.axes;
+        let ray = ShearedRay {
+            org: [
+                V::load(ox.as_ptr().add(k)),
+                V::load(oy.as_ptr().add(k)),
+                V::load(oz.as_ptr().add(k)),
+            ],
+            shear: [
+                V::load(sx.as_ptr().add(k)),
+                V::load(sy.as_ptr().add(k)),
+                V::load(sz.as_ptr().add(k)),
+            ],
+            axes: [
+                V::axis(kx.as_ptr().add(k)),
+                V::axis(ky.as_ptr().add(k)),
+                V::axis(kz.as_ptr().add(k)),
+            ],
+        };
+        let t_max = V::load(wave.t_max.as_ptr().add(k));
+        let zero = V::splat(0.0);
+        let live = V::gt(t_max, zero);
+        let all_live = V::bits(live);
+        let mut best_t = V::load(hits.t.as_ptr().add(k));
+        let mut best_b1 = V::load(hits.b1.as_ptr().add(k));
+        let mut best_b2 = V::load(hits.b2.as_ptr().add(k));
+        let mut best_slot = V::load(hits.slot.as_ptr().add(k));
+        let mut blocked_bits = 0u32;
+        // Every vertex in every lane's sheared frame, once.
+        let mut frame = [MaybeUninit::<[V; 3]>::uninit(); MAX_VERTICES];
+        debug_assert!(set.vertices.len() <= MAX_VERTICES);
+        for (out, vertex) in frame.iter_mut().zip(&set.vertices) {
+            out.write(sheared(&ray, vertex));
+        }
+        for (slot, corners) in set.triangles.iter().enumerate() {
+            // SAFETY: the first `vertices.len()` entries are written, and the indices point
+            // into `vertices`.
+            let [ax, ay, az] = frame.get_unchecked(usize::from(corners[0])).assume_init();
+            let [bx, by, bz] = frame.get_unchecked(usize::from(corners[1])).assume_init();
+            let [cx, cy, cz] = frame.get_unchecked(usize::from(corners[2])).assume_init();
+            let mut u = cx.mul(by).sub(cy.mul(bx));
+            let mut v = ax.mul(cy).sub(ay.mul(cx));
+            let mut w = bx.mul(ay).sub(by.mul(ax));
+            let on_edge = V::or(V::or(u.eq(zero), v.eq(zero)), w.eq(zero));
+            let on_edge = V::bits(on_edge) & all_live;
+            if on_edge != 0 {
+                let mut p = [[0.0f32; MAX_LANES]; 6];
+                for (array, value) in p.iter_mut().zip([ax, ay, bx, by, cx, cy]) {
+                    value.store(array.as_mut_ptr());
+                }
+                let mut e = [[0.0f32; MAX_LANES]; 3];
+                for (array, value) in e.iter_mut().zip([u, v, w]) {
+                    value.store(array.as_mut_ptr());
+                }
+                edges_in_f64(on_edge, &p, &mut e);
+                [u, v, w] = [
+                    V::load(e[0].as_ptr()),
+                    V::load(e[1].as_ptr()),
+                    V::load(e[2].as_ptr()),
+                ];
+            }
+            let negative = V::or(V::or(u.lt(zero), v.lt(zero)), w.lt(zero));
+            let positive = V::or(V::or(u.gt(zero), v.gt(zero)), w.gt(zero));
+            let det = u.add(v).add(w);
+            let inside = V::and_not(det.ne(zero), V::and(negative, positive));
+            if !CLOSEST && V::bits(inside) & all_live == 0 {
+                continue;
+            }
+            let t_scaled = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
+            let inv_det = V::splat(1.0).div(det);
+            let t = t_scaled.mul(inv_det);
+            let bound = if CLOSEST { best_t } else { t_max };
+            let hit = V::and(inside, V::and(t.gt(zero), t.lt(bound)));
+            if CLOSEST {
+                best_t = V::select(hit, t, best_t);
+                best_b1 = V::select(hit, v.mul(inv_det), best_b1);
+                best_b2 = V::select(hit, w.mul(inv_det), best_b2);
+                best_slot = V::select(hit, V::splat(slot as f32), best_slot);
+            } else {
+                blocked_bits |= V::bits(hit);
+                if blocked_bits == all_live {
+                    break;
+                }
+            }
+        }
+        if CLOSEST {
+            best_t.store(hits.t.as_mut_ptr().add(k));
+            best_b1.store(hits.b1.as_mut_ptr().add(k));
+            best_b2.store(hits.b2.as_mut_ptr().add(k));
+            best_slot.store(hits.slot.as_mut_ptr().add(k));
+        } else {
+            for (i, b) in blocked[k..k + V::LANES].iter_mut().enumerate() {
+                *b = blocked_bits & (1 << i) != 0;
+            }
+        }
+    }
+}
+
+/// The lanes' rays as [`chunk`] reads them: origins and shear constants on the axes (kx, ky,
+/// kz), and the axes.
+struct ShearedRay<V: Vector> {
+    org: [V; 3],
+    shear: [V; 3],
+    axes: [V::Axis; 3],
+}
+
+/// A corner in each lane's sheared frame: relative to the origin, sheared so the ray runs
+/// along +z, z scaled (the operations of `Packet::hits` in the triangle BVH).
+///
+/// # Safety
+/// The CPU runs V's instructions.
+#[inline(always)]
+unsafe fn sheared<V: Vector>(ray: &ShearedRay<V>, corner: &[f32; 4]) -> [V; 3] {
+    let [ox, oy, oz] = ray.org;
+    let [sx, sy, sz] = ray.shear;
+    let [kx, ky, kz] = ray.axes;
+    // SAFETY: the caller's.
+    unsafe {
+        let z = V::pick(corner, kz).sub(oz);
+        let x = V::pick(corner, kx).sub(ox).sub(sx.mul(z));
+        let y = V::pick(corner, ky).sub(oy).sub(sy.mul(z));
+        [x, y, sz.mul(z)]
+    }
+}
+
+/// The most lanes of a [`Vector`].
+const MAX_LANES: usize = 16;
+
+/// The edge functions (u, v, w) in `uvw` recomputed in f64 in the lanes of `lanes` (a hit
+/// exactly on an edge in f32), from the sheared corners `[ax, ay, bx, by, cx, cy]`, as the
+/// scalar test does.
+#[cold]
+#[inline(never)]
+fn edges_in_f64(lanes: u32, sheared: &[[f32; MAX_LANES]; 6], uvw: &mut [[f32; MAX_LANES]; 3]) {
+    for i in (0..MAX_LANES).filter(|i| lanes & (1 << i) != 0) {
+        let [ax, ay, bx, by, cx, cy] = sheared.map(|a| f64::from(a[i]));
+        uvw[0][i] = (cx * by - cy * bx) as f32;
+        uvw[1][i] = (ax * cy - ay * cx) as f32;
+        uvw[2][i] = (bx * ay - by * ax) as f32;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    //! [`Vector`] in SSE2, AVX2 and AVX-512 registers.
+
+    use super::Vector;
+    use std::arch::x86_64::*;
+
+    /// Four lanes in SSE2.
+    #[derive(Clone, Copy)]
+    pub(super) struct Sse2(__m128);
+
+    /// Eight lanes in AVX.
+    #[derive(Clone, Copy)]
+    pub(super) struct Avx2(__m256);
+
+    /// Sixteen lanes in AVX-512.
+    #[derive(Clone, Copy)]
+    pub(super) struct Avx512(__m512);
+
+    impl Vector for Sse2 {
+        const LANES: usize = 4;
+        type Mask = __m128;
+        /// Where the axis is 0, and where it is 1.
+        type Axis = (__m128, __m128);
+
+        #[inline(always)]
+        unsafe fn splat(x: f32) -> Self {
+            Sse2(_mm_set1_ps(x))
+        }
+        #[inline(always)]
+        unsafe fn load(p: *const f32) -> Self {
+            // SAFETY: the caller's pointer to four lanes.
+            Sse2(unsafe { _mm_loadu_ps(p) })
+        }
+        #[inline(always)]
+        unsafe fn store(self, p: *mut f32) {
+            // SAFETY: the caller's pointer to four lanes.
+            unsafe { _mm_storeu_ps(p, self.0) }
+        }
+        #[inline(always)]
+        unsafe fn axis(p: *const i32) -> Self::Axis {
+            // SAFETY: the caller's pointer to four lanes.
+            let a = unsafe { _mm_loadu_si128(p.cast()) };
+            (
+                _mm_castsi128_ps(_mm_cmpeq_epi32(a, _mm_set1_epi32(0))),
+                _mm_castsi128_ps(_mm_cmpeq_epi32(a, _mm_set1_epi32(1))),
+            )
+        }
+        #[inline(always)]
+        unsafe fn pick(corner: &[f32; 4], (is_x, is_y): Self::Axis) -> Self {
+            let (x, y, z) = (
+                _mm_set1_ps(corner[0]),
+                _mm_set1_ps(corner[1]),
+                _mm_set1_ps(corner[2]),
+            );
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { Self::select(is_x, Sse2(x), Self::select(is_y, Sse2(y), Sse2(z))) }
+        }
+        #[inline(always)]
+        unsafe fn add(self, o: Self) -> Self {
+            Sse2(_mm_add_ps(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn sub(self, o: Self) -> Self {
+            Sse2(_mm_sub_ps(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn mul(self, o: Self) -> Self {
+            Sse2(_mm_mul_ps(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn div(self, o: Self) -> Self {
+            Sse2(_mm_div_ps(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn eq(self, o: Self) -> __m128 {
+            _mm_cmpeq_ps(self.0, o.0)
+        }
+        #[inline(always)]
+        unsafe fn lt(self, o: Self) -> __m128 {
+            _mm_cmplt_ps(self.0, o.0)
+        }
+        #[inline(always)]
+        unsafe fn gt(self, o: Self) -> __m128 {
+            _mm_cmpgt_ps(self.0, o.0)
+        }
+        #[inline(always)]
+        unsafe fn ne(self, o: Self) -> __m128 {
+            _mm_cmpneq_ps(self.0, o.0)
+        }
+        #[inline(always)]
+        unsafe fn or(a: __m128, b: __m128) -> __m128 {
+            _mm_or_ps(a, b)
+        }
+        #[inline(always)]
+        unsafe fn and(a: __m128, b: __m128) -> __m128 {
+            _mm_and_ps(a, b)
+        }
+        #[inline(always)]
+        unsafe fn and_not(a: __m128, b: __m128) -> __m128 {
+            _mm_andnot_ps(b, a)
+        }
+        #[inline(always)]
+        unsafe fn bits(m: __m128) -> u32 {
+            _mm_movemask_ps(m) as u32
+        }
+        #[inline(always)]
+        unsafe fn select(m: __m128, a: Self, b: Self) -> Self {
+            Sse2(_mm_or_ps(_mm_and_ps(m, a.0), _mm_andnot_ps(m, b.0)))
+        }
+    }
+
+    impl Vector for Avx2 {
+        const LANES: usize = 8;
+        type Mask = __m256;
+        type Axis = __m256i;
+
+        #[inline(always)]
+        unsafe fn splat(x: f32) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_set1_ps(x) })
+        }
+        #[inline(always)]
+        unsafe fn load(p: *const f32) -> Self {
+            // SAFETY: the caller's CPU and pointer to eight lanes.
+            Avx2(unsafe { _mm256_loadu_ps(p) })
+        }
+        #[inline(always)]
+        unsafe fn store(self, p: *mut f32) {
+            // SAFETY: the caller's CPU and pointer to eight lanes.
+            unsafe { _mm256_storeu_ps(p, self.0) }
+        }
+        #[inline(always)]
+        unsafe fn axis(p: *const i32) -> __m256i {
+            // SAFETY: the caller's CPU and pointer to eight lanes.
+            unsafe { _mm256_loadu_si256(p.cast()) }
+        }
+        #[inline(always)]
+        unsafe fn pick(corner: &[f32; 4], axis: __m256i) -> Self {
+            // SAFETY: the caller's CPU; `corner` is 16 bytes. `vpermilps` picks, in each lane,
+            // the element of its 128-bit half that the low two bits of `axis` name.
+            unsafe {
+                let c = _mm256_broadcast_ps(&_mm_loadu_ps(corner.as_ptr()));
+                Avx2(_mm256_permutevar_ps(c, axis))
+            }
+        }
+        #[inline(always)]
+        unsafe fn add(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_add_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn sub(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_sub_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn mul(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_mul_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn div(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_div_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn eq(self, o: Self) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn lt(self, o: Self) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn gt(self, o: Self) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn ne(self, o: Self) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn or(a: __m256, b: __m256) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_or_ps(a, b) }
+        }
+        #[inline(always)]
+        unsafe fn and(a: __m256, b: __m256) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_and_ps(a, b) }
+        }
+        #[inline(always)]
+        unsafe fn and_not(a: __m256, b: __m256) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_andnot_ps(b, a) }
+        }
+        #[inline(always)]
+        unsafe fn bits(m: __m256) -> u32 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_movemask_ps(m) as u32 }
+        }
+        #[inline(always)]
+        unsafe fn select(m: __m256, a: Self, b: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_blendv_ps(b.0, a.0, m) })
+        }
+    }
+
+    impl Vector for Avx512 {
+        const LANES: usize = 16;
+        type Mask = __mmask16;
+        type Axis = __m512i;
+
+        #[inline(always)]
+        unsafe fn splat(x: f32) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_set1_ps(x) })
+        }
+        #[inline(always)]
+        unsafe fn load(p: *const f32) -> Self {
+            // SAFETY: the caller's CPU and pointer to sixteen lanes.
+            Avx512(unsafe { _mm512_loadu_ps(p) })
+        }
+        #[inline(always)]
+        unsafe fn store(self, p: *mut f32) {
+            // SAFETY: the caller's CPU and pointer to sixteen lanes.
+            unsafe { _mm512_storeu_ps(p, self.0) }
+        }
+        #[inline(always)]
+        unsafe fn axis(p: *const i32) -> __m512i {
+            // SAFETY: the caller's CPU and pointer to sixteen lanes.
+            unsafe { _mm512_loadu_si512(p.cast()) }
+        }
+        #[inline(always)]
+        unsafe fn pick(corner: &[f32; 4], axis: __m512i) -> Self {
+            // SAFETY: the caller's CPU; `corner` is 16 bytes. As in AVX2, per 128-bit quarter.
+            unsafe {
+                let c = _mm512_broadcast_f32x4(_mm_loadu_ps(corner.as_ptr()));
+                Avx512(_mm512_permutevar_ps(c, axis))
+            }
+        }
+        #[inline(always)]
+        unsafe fn add(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_add_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn sub(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_sub_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn mul(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_mul_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn div(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_div_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn eq(self, o: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn lt(self, o: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn gt(self, o: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_cmp_ps_mask::<_CMP_GT_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn ne(self, o: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn or(a: __mmask16, b: __mmask16) -> __mmask16 {
+            a | b
+        }
+        #[inline(always)]
+        unsafe fn and(a: __mmask16, b: __mmask16) -> __mmask16 {
+            a & b
+        }
+        #[inline(always)]
+        unsafe fn and_not(a: __mmask16, b: __mmask16) -> __mmask16 {
+            a & !b
+        }
+        #[inline(always)]
+        unsafe fn bits(m: __mmask16) -> u32 {
+            u32::from(m)
+        }
+        #[inline(always)]
+        unsafe fn select(m: __mmask16, a: Self, b: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_mask_blend_ps(m, b.0, a.0) })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{TriRay, TriangleBvh};
+    use crate::math::Vec3;
+
+    /// A small random generator (xorshift), for reproducible soups.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn point(&mut self, scale: f32) -> Vec3 {
+            Vec3::new(self.next(), self.next(), self.next()) * (2.0 * scale) - scale
+        }
+    }
+
+    /// Every kernel this CPU runs, forced in turn.
+    fn sets(tris: &[[Vec3; 3]], ids: &[[u32; 2]]) -> Vec<SmallSet> {
+        let Some(widest) = detect() else {
+            return Vec::new();
+        };
+        let order = [Isa::Avx512, Isa::Avx2, Isa::Sse2];
+        let from = order.iter().position(|&i| i == widest).unwrap_or(2);
+        order[from..]
+            .iter()
+            .map(|&isa| SmallSet {
+                isa,
+                ..SmallSet::new(tris.len(), |i| tris[i].map(Vec3A::from), |i| ids[i])
+                    .expect("a set on x86-64 with few enough corners")
+            })
+            .collect()
+    }
+
+    /// Checks every kernel against the BVH over the same triangles on `rays`, at every width.
+    fn check(tris: &[[Vec3; 3]], ids: &[[u32; 2]], rays: &[Ray]) {
+        let bvh = TriangleBvh::new(
+            tris.iter().map(|t| t.map(Vec3A::from)).collect(),
+            ids.to_vec(),
+        );
+        for set in sets(tris, ids) {
+            for chunk in rays.chunks(16) {
+                let mut wave = [None; 16];
+                for (w, r) in wave.iter_mut().zip(chunk) {
+                    *w = Some(*r);
+                }
+                // An idle lane, which must hit nothing.
+                wave[5] = None;
+                check_wave::<16>(&bvh, &set, &wave);
+                check_wave::<8>(&bvh, &set, &std::array::from_fn(|i| wave[i]));
+                check_wave::<4>(&bvh, &set, &std::array::from_fn(|i| wave[i + 4]));
+            }
+        }
+    }
+
+    fn check_wave<const W: usize>(bvh: &TriangleBvh, set: &SmallSet, wave: &[Option<Ray>; W]) {
+        let got = set.closest_lanes(wave);
+        for (ray, got) in wave.iter().zip(got) {
+            let want = ray.and_then(|r| bvh.intersect(&TriRay::new(r.o, r.d), 0.0, f32::INFINITY));
+            let bits = |h: Option<([u32; 2], TriHit)>| {
+                h.map(|(id, h)| (id, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits()))
+            };
+            assert_eq!(bits(got), bits(want), "{:?} on {ray:?}", set.isa);
+        }
+        // Segments ending before, at and after the closest hit.
+        for scale in [0.5f32, 1.0, 1.5] {
+            let segments: [Option<(Ray, f32)>; W] = std::array::from_fn(|i| {
+                let r = wave[i]?;
+                let t = bvh
+                    .intersect(&TriRay::new(r.o, r.d), 0.0, f32::INFINITY)
+                    .map_or(10.0, |(_, h)| h.t);
+                Some((r, t * scale))
+            });
+            let got = set.occluded_lanes(&segments);
+            for (segment, got) in segments.iter().zip(got) {
+                let want = segment
+                    .is_some_and(|(r, t_max)| bvh.occluded(&TriRay::new(r.o, r.d), 0.0, t_max));
+                assert_eq!(got, want, "{:?} on {segment:?}", set.isa);
+            }
+        }
+    }
+
+    #[test]
+    fn random_soups_match_the_bvh_bit_for_bit() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        for n in [1, 7, 32, 36, SMALL_SET_MAX] {
+            // Separate triangles while their corners fit, then triangles sharing corners (as a
+            // mesh's do) drawn from as many points as fit.
+            let points: Vec<Vec3> = (0..(3 * n).min(MAX_VERTICES))
+                .map(|_| rng.point(1.0))
+                .collect();
+            let pick = |rng: &mut Rng| points[(rng.next() * points.len() as f32) as usize];
+            let tris: Vec<[Vec3; 3]> = (0..n)
+                .map(|i| {
+                    if 3 * n <= MAX_VERTICES {
+                        let c = points[3 * i];
+                        [c, c + rng.point(0.4), c + rng.point(0.4)]
+                    } else {
+                        [pick(&mut rng), pick(&mut rng), pick(&mut rng)]
+                    }
+                })
+                .collect();
+            let ids: Vec<[u32; 2]> = (0..n as u32).map(|i| [i / 3, i % 3]).collect();
+            let mut rays: Vec<Ray> = (0..4096)
+                .map(|_| Ray::new(rng.point(1.5), rng.point(1.0)))
+                .collect();
+            // Rays aimed at points of edges: their edge functions round to exactly zero in f32
+            // often enough to exercise the f64 fallback (where f64 then says otherwise).
+            for _ in 0..4096 {
+                let tri = tris[(rng.next() * n as f32) as usize % n];
+                let (a, b) = (tri[0], tri[1 + (rng.next() < 0.5) as usize]);
+                let o = rng.point(1.5);
+                rays.push(Ray::new(o, a + (b - a) * rng.next() - o));
+            }
+            check(&tris, &ids, &rays);
+        }
+    }
+
+    #[test]
+    fn coincident_triangles_and_shared_edges_match_the_bvh() {
+        // A unit square split along its diagonal, twice in the same place (two instances: ties
+        // go to the first) and once behind: rays along the grid meet edges, corners and ties
+        // exactly.
+        let square = |z: f32| {
+            let p = |x: f32, y: f32| Vec3::new(x, y, z);
+            [
+                [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0)],
+                [p(0.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)],
+            ]
+        };
+        let tris: Vec<[Vec3; 3]> = [square(0.0), square(0.0), square(0.5)].concat();
+        let ids: Vec<[u32; 2]> = (0..tris.len() as u32).map(|i| [i / 2, i % 2]).collect();
+        let mut rays = Vec::new();
+        for i in 0..=8 {
+            for j in 0..=8 {
+                let (x, y) = (i as f32 / 8.0, j as f32 / 8.0);
+                for d in [
+                    Vec3::Z,
+                    -Vec3::Z,
+                    Vec3::new(0.0, 1.0, 1.0),
+                    Vec3::new(1.0, -1.0, 3.0),
+                ] {
+                    rays.push(Ray::new(Vec3::new(x, y, 0.0) - d * 2.0, d));
+                }
+            }
+        }
+        check(&tris, &ids, &rays);
+    }
+}
