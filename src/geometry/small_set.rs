@@ -19,7 +19,9 @@ use std::mem::MaybeUninit;
 
 use glam::Vec3A;
 
-use crate::geometry::triangle::{shear_axes, TriHit};
+#[cfg(doc)]
+use crate::geometry::triangle::shear_axes;
+use crate::geometry::triangle::TriHit;
 use crate::math::Ray;
 
 /// Scenes of at most this many triangles (and nothing else) are tested by [`SmallSet`] in
@@ -53,45 +55,32 @@ pub struct SmallSet {
     isa: Isa,
 }
 
-/// A wave's rays, structure-of-arrays, prepared for the watertight test: for lane i, the
-/// origin's coordinates and the shear constants on the ray's axes (kx, ky, kz), the axes
-/// themselves, and the end of the segment looked along (0 for idle lanes, which then hit
-/// nothing).
+/// A wave's rays, structure-of-arrays: origins, directions, and the end of the segment looked
+/// along (0 for idle lanes, which then hit nothing).
 struct WaveRays<const W: usize> {
-    org: [[f32; W]; 3],
-    shear: [[f32; W]; 3],
-    axes: [[i32; W]; 3],
+    o: [[f32; W]; 3],
+    d: [[f32; W]; 3],
     t_max: [f32; W],
 }
 
 impl<const W: usize> WaveRays<W> {
-    /// `segments[i]`: lane i's ray and the end of its segment, or `None` for an idle lane. The
-    /// constants are [`TriRay::new`](super::TriRay::new)'s (the divisions are the scalar ones).
+    /// `segments(i)`: lane i's ray and the end of its segment, or `None` for an idle lane.
     #[inline(always)]
     fn new(segments: impl Fn(usize) -> Option<(Ray, f32)>) -> WaveRays<W> {
         let mut rays = WaveRays {
-            org: [[0.0; W]; 3],
-            shear: [[0.0; W]; 3],
-            axes: [[0; W]; 3],
+            o: [[0.0; W]; 3],
+            // Idle lanes look along +z: no division by zero in their shear.
+            d: [[0.0; W], [0.0; W], [1.0; W]],
             t_max: [0.0; W],
         };
         for i in 0..W {
-            let Some((ray, t_max)) = segments(i) else {
-                rays.axes[0][i] = 0;
-                rays.axes[1][i] = 1;
-                rays.axes[2][i] = 2;
-                continue;
-            };
-            let axes = shear_axes(ray.d);
-            let (o, d) = (ray.o.to_array(), ray.d.to_array());
-            let [kx, ky, kz] = axes;
-            let shear = [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]];
-            for a in 0..3 {
-                rays.org[a][i] = o[axes[a]];
-                rays.shear[a][i] = shear[a];
-                rays.axes[a][i] = axes[a] as i32;
+            if let Some((ray, t_max)) = segments(i) {
+                for a in 0..3 {
+                    rays.o[a][i] = ray.o[a];
+                    rays.d[a][i] = ray.d[a];
+                }
+                rays.t_max[i] = t_max;
             }
-            rays.t_max[i] = t_max;
         }
         rays
     }
@@ -276,7 +265,12 @@ trait Vector: Copy {
     unsafe fn splat(x: f32) -> Self;
     unsafe fn load(p: *const f32) -> Self;
     unsafe fn store(self, p: *mut f32);
-    unsafe fn axis(p: *const i32) -> Self::Axis;
+    /// The axes 0.0, 1.0 or 2.0 of the lanes, prepared for [`Vector::pick`].
+    unsafe fn axis(self) -> Self::Axis;
+    /// |x| (the sign bit cleared).
+    unsafe fn abs(self) -> Self;
+    /// Ordered `>=`.
+    unsafe fn ge(self, o: Self) -> Self::Mask;
     /// Lane i: `corner[axis_i]`.
     unsafe fn pick(corner: &[f32; 4], axis: Self::Axis) -> Self;
     unsafe fn add(self, o: Self) -> Self;
@@ -319,26 +313,7 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
     // (No closures here: they would not inherit the caller's target features, and the vector
     // operations inside them would become calls.)
     unsafe {
-        let [ox, oy, oz] = &wave.org;
-        let [sx, sy, sz] = &wave.shear;
-        let [kx, ky, kz] = &wave.axes;
-        let ray = ShearedRay {
-            org: [
-                V::load(ox.as_ptr().add(k)),
-                V::load(oy.as_ptr().add(k)),
-                V::load(oz.as_ptr().add(k)),
-            ],
-            shear: [
-                V::load(sx.as_ptr().add(k)),
-                V::load(sy.as_ptr().add(k)),
-                V::load(sz.as_ptr().add(k)),
-            ],
-            axes: [
-                V::axis(kx.as_ptr().add(k)),
-                V::axis(ky.as_ptr().add(k)),
-                V::axis(kz.as_ptr().add(k)),
-            ],
-        };
+        let ray = ShearedRay::<V>::new(wave, k);
         let t_max = V::load(wave.t_max.as_ptr().add(k));
         let zero = V::splat(0.0);
         let live = V::gt(t_max, zero);
@@ -426,6 +401,78 @@ struct ShearedRay<V: Vector> {
     axes: [V::Axis; 3],
 }
 
+impl<V: Vector> ShearedRay<V> {
+    /// Lanes `k..k + V::LANES` of `wave`, with the constants of
+    /// [`TriRay::new`](super::TriRay::new) (and [`shear_axes`]): kz the dominant axis of the
+    /// direction, (kx, ky) the next two cyclically, swapped where d\[kz\] < 0; the origin on
+    /// those axes; d\[kx\] / d\[kz\], d\[ky\] / d\[kz\] and 1 / d\[kz\], each the correctly rounded
+    /// quotient.
+    ///
+    /// # Safety
+    /// The CPU runs V's instructions, and `k + V::LANES <= W`.
+    #[inline(always)]
+    unsafe fn new<const W: usize>(wave: &WaveRays<W>, k: usize) -> ShearedRay<V> {
+        // SAFETY: the caller's.
+        unsafe {
+            let [ox, oy, oz] = [
+                V::load(wave.o[0].as_ptr().add(k)),
+                V::load(wave.o[1].as_ptr().add(k)),
+                V::load(wave.o[2].as_ptr().add(k)),
+            ];
+            let [dx, dy, dz] = [
+                V::load(wave.d[0].as_ptr().add(k)),
+                V::load(wave.d[1].as_ptr().add(k)),
+                V::load(wave.d[2].as_ptr().add(k)),
+            ];
+            let (ax, ay, az) = (dx.abs(), dy.abs(), dz.abs());
+            // As `shear_axes`: x where |dx| ≥ |dy| and |dx| ≥ |dz|, else y where |dy| ≥ |dz|,
+            // else z (a NaN fails every comparison, as there).
+            let x_major = V::and(ax.ge(ay), ax.ge(az));
+            let y_major = V::and_not(ay.ge(az), x_major);
+            let [dkx, dky, dkz] = rotate(x_major, y_major, [dx, dy, dz]);
+            let [okx, oky, okz] = rotate(x_major, y_major, [ox, oy, oz]);
+            let axes = [V::splat(0.0), V::splat(1.0), V::splat(2.0)];
+            let [kx, ky, kz] = rotate(x_major, y_major, axes);
+            let flip = dkz.lt(V::splat(0.0));
+            let (dkx, dky) = swap_where(flip, dkx, dky);
+            let (okx, oky) = swap_where(flip, okx, oky);
+            let (kx, ky) = swap_where(flip, kx, ky);
+            ShearedRay {
+                org: [okx, oky, okz],
+                shear: [dkx.div(dkz), dky.div(dkz), V::splat(1.0).div(dkz)],
+                axes: [V::axis(kx), V::axis(ky), V::axis(kz)],
+            }
+        }
+    }
+}
+
+/// Per lane, the values on axes (kx, ky, kz) of `[x, y, z]`: kz is x where `x_major` holds, else
+/// y where `y_major` holds, else z, and (kx, ky) the next two axes cyclically.
+///
+/// # Safety
+/// The CPU runs V's instructions.
+#[inline(always)]
+unsafe fn rotate<V: Vector>(x_major: V::Mask, y_major: V::Mask, [x, y, z]: [V; 3]) -> [V; 3] {
+    // SAFETY: the caller's.
+    unsafe {
+        [
+            V::select(x_major, y, V::select(y_major, z, x)),
+            V::select(x_major, z, V::select(y_major, x, y)),
+            V::select(x_major, x, V::select(y_major, y, z)),
+        ]
+    }
+}
+
+/// (b, a) in the lanes where `flip` holds, (a, b) in the others.
+///
+/// # Safety
+/// The CPU runs V's instructions.
+#[inline(always)]
+unsafe fn swap_where<V: Vector>(flip: V::Mask, a: V, b: V) -> (V, V) {
+    // SAFETY: the caller's.
+    unsafe { (V::select(flip, b, a), V::select(flip, a, b)) }
+}
+
 /// A corner in each lane's sheared frame: relative to the origin, sheared so the ray runs
 /// along +z, z scaled (the operations of `Packet::hits` in the triangle BVH).
 ///
@@ -502,13 +549,19 @@ mod x86 {
             unsafe { _mm_storeu_ps(p, self.0) }
         }
         #[inline(always)]
-        unsafe fn axis(p: *const i32) -> Self::Axis {
-            // SAFETY: the caller's pointer to four lanes.
-            let a = unsafe { _mm_loadu_si128(p.cast()) };
+        unsafe fn axis(self) -> Self::Axis {
             (
-                _mm_castsi128_ps(_mm_cmpeq_epi32(a, _mm_set1_epi32(0))),
-                _mm_castsi128_ps(_mm_cmpeq_epi32(a, _mm_set1_epi32(1))),
+                _mm_cmpeq_ps(self.0, _mm_set1_ps(0.0)),
+                _mm_cmpeq_ps(self.0, _mm_set1_ps(1.0)),
             )
+        }
+        #[inline(always)]
+        unsafe fn abs(self) -> Self {
+            Sse2(_mm_andnot_ps(_mm_set1_ps(-0.0), self.0))
+        }
+        #[inline(always)]
+        unsafe fn ge(self, o: Self) -> __m128 {
+            _mm_cmpge_ps(self.0, o.0)
         }
         #[inline(always)]
         unsafe fn pick(corner: &[f32; 4], (is_x, is_y): Self::Axis) -> Self {
@@ -595,9 +648,19 @@ mod x86 {
             unsafe { _mm256_storeu_ps(p, self.0) }
         }
         #[inline(always)]
-        unsafe fn axis(p: *const i32) -> __m256i {
-            // SAFETY: the caller's CPU and pointer to eight lanes.
-            unsafe { _mm256_loadu_si256(p.cast()) }
+        unsafe fn axis(self) -> __m256i {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_cvttps_epi32(self.0) }
+        }
+        #[inline(always)]
+        unsafe fn abs(self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
+        }
+        #[inline(always)]
+        unsafe fn ge(self, o: Self) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2.
+            unsafe { _mm256_cmp_ps::<_CMP_GE_OQ>(self.0, o.0) }
         }
         #[inline(always)]
         unsafe fn pick(corner: &[f32; 4], axis: __m256i) -> Self {
@@ -696,9 +759,19 @@ mod x86 {
             unsafe { _mm512_storeu_ps(p, self.0) }
         }
         #[inline(always)]
-        unsafe fn axis(p: *const i32) -> __m512i {
-            // SAFETY: the caller's CPU and pointer to sixteen lanes.
-            unsafe { _mm512_loadu_si512(p.cast()) }
+        unsafe fn axis(self) -> __m512i {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_cvttps_epi32(self.0) }
+        }
+        #[inline(always)]
+        unsafe fn abs(self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_abs_ps(self.0) })
+        }
+        #[inline(always)]
+        unsafe fn ge(self, o: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_cmp_ps_mask::<_CMP_GE_OQ>(self.0, o.0) }
         }
         #[inline(always)]
         unsafe fn pick(corner: &[f32; 4], axis: __m512i) -> Self {
