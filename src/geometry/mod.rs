@@ -586,20 +586,23 @@ impl Geometry {
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
     ) {
-        let closest: [Option<(u32, RawHit)>; W] = match &self.small {
-            Some(small) if W >= crate::lanes::KERNELS_FROM => small
-                .closest_lanes(rays)
-                .map(|hit| hit.map(|(id, h)| (id[0], RawHit::of_triangle(id, &h)))),
-            _ => std::array::from_fn(|i| {
-                rays[i]
-                    .as_ref()
-                    .and_then(|ray| self.closest(ray, 0.0, f32::INFINITY))
-            }),
+        // The small set's hits for the whole wave at once; otherwise each lane's is found just
+        // before its surface is gathered.
+        let small_hits = match &self.small {
+            Some(small) if W >= crate::lanes::KERNELS_FROM => Some(small.closest_lanes(rays)),
+            _ => None,
         };
         let mut in_lanes: [Option<(u32, RawHit)>; W] = [None; W];
         for i in 0..W {
             hits[i] = None;
-            let (Some(ray), Some((k, raw))) = (&rays[i], closest[i]) else {
+            let Some(ray) = &rays[i] else { continue };
+            let closest = match &small_hits {
+                Some(small_hits) => {
+                    small_hits[i].map(|(id, h)| (id[0], RawHit::of_triangle(id, &h)))
+                }
+                None => self.closest(ray, 0.0, f32::INFINITY),
+            };
+            let Some((k, raw)) = closest else {
                 continue;
             };
             let instance = &self.instances[k as usize];

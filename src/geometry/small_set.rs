@@ -318,6 +318,9 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
         let zero = V::splat(0.0);
         let live = V::gt(t_max, zero);
         let all_live = V::bits(live);
+        if all_live == 0 {
+            return;
+        }
         let mut best_t = V::load(hits.t.as_ptr().add(k));
         let mut best_b1 = V::load(hits.b1.as_ptr().add(k));
         let mut best_b2 = V::load(hits.b2.as_ptr().add(k));
@@ -360,9 +363,6 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
             let positive = V::or(V::or(u.gt(zero), v.gt(zero)), w.gt(zero));
             let det = u.add(v).add(w);
             let inside = V::and_not(det.ne(zero), V::and(negative, positive));
-            if !CLOSEST && V::bits(inside) & all_live == 0 {
-                continue;
-            }
             let t_scaled = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
             let inv_det = V::splat(1.0).div(det);
             let t = t_scaled.mul(inv_det);
