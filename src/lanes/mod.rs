@@ -719,10 +719,10 @@ impl<const W: usize> F32s<W> {
     pub fn to_i32(self) -> I32s<W> {
         // `a as i32` saturates, which LLVM leaves scalar; SSE2's truncation and two fix-ups
         // give the same values four lanes at a time.
-        const TWO_31: f32 = 2_147_483_648.0;
         let mut out = I32s([0; W]);
         #[cfg(target_arch = "x86_64")]
         if sse2::chunked::<W>() {
+            const TWO_31: f32 = 2_147_483_648.0;
             use std::arch::x86_64::*;
             for c in 0..W / 4 {
                 // SAFETY: SSE2 is part of x86-64; each load and store covers lanes 4c..4c + 4 of

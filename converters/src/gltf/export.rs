@@ -63,11 +63,11 @@ pub fn export(scene: &Scene, scene_dir: &Path, out: &Path) -> Result<Vec<String>
         message: e.to_string(),
     })?;
     if glb {
-        while text.len() % 4 != 0 {
+        while !text.len().is_multiple_of(4) {
             text.push(' ');
         }
         let mut bin = std::mem::take(&mut b.bin);
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let total = 12 + 8 + text.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
@@ -159,7 +159,7 @@ impl Builder {
     }
 
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut v = json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()});

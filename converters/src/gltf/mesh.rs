@@ -296,7 +296,7 @@ pub fn read_primitive(
         }
         None => (0..n as u32).collect(),
     };
-    if flat.len() % 3 != 0 {
+    if !flat.len().is_multiple_of(3) {
         return Err(GltfError::invalid(
             file,
             el,

@@ -410,7 +410,7 @@ fn is_uniform(k: &[f32], n: usize) -> bool {
 /// Surfaces for CAGD", §5.1).
 fn bezier_for_legacy(points: &[[f32; 2]]) -> Vec<[f32; 2]> {
     let mut p: Vec<[f64; 2]> = points.iter().map(|q| [q[0] as f64, q[1] as f64]).collect();
-    while !p.is_empty() && (p.len() < 4 || (p.len() - 1) % 3 != 0) {
+    while !p.is_empty() && (p.len() < 4 || !(p.len() - 1).is_multiple_of(3)) {
         let n = p.len(); // degree n - 1 → n
         let mut q = Vec::with_capacity(n + 1);
         q.push(p[0]);

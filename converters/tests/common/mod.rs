@@ -132,7 +132,7 @@ pub fn accessor_start(doc: &serde_json::Value, index: usize) -> usize {
 /// as [`split_glb`] returned it.
 pub fn join_glb(json: &str, rest: &[u8]) -> Vec<u8> {
     let mut text = json.to_string();
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(' ');
     }
     let mut glb = Vec::with_capacity(20 + text.len() + rest.len());
