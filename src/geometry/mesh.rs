@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use crate::geometry::triangle_bvh::{prefetch_line, Prefetch, TriRay, TriangleBvh};
 use crate::geometry::RawHit;
 use crate::lanes::{F32s, Mask, V3s};
-use crate::math::{Aabb, Vec2, Vec3};
+use crate::math::{Aabb, Affine3A, Mat3, Vec2, Vec3};
 
 /// A mesh's vertex and triangle arrays, as a loader reads them and as a [`Mesh`] keeps them. The
 /// arrays are shared (`Arc`), so a mesh read from a file is in memory once whatever uses it.
@@ -429,6 +429,11 @@ pub struct SurfaceLanes<const W: usize> {
     /// The lanes whose mesh has texture coordinates, and those at the corners.
     textured: Mask<W>,
     uvs: [(F32s<W>, F32s<W>); 3],
+    /// The lanes whose instance is placed by a transform, its object → world map (the columns
+    /// of the linear part, then the translation) and its normal map's columns.
+    transformed: Mask<W>,
+    to_world: [V3s<W>; 4],
+    normal_to_world: [V3s<W>; 3],
 }
 
 /// What [`SurfaceLanes::run`] computes in each lane: [`Mesh::surface`]'s point, geometric
@@ -461,6 +466,33 @@ impl<const W: usize> SurfaceLanes<W> {
             normals: [V3s::default(); 3],
             textured: Mask::splat(false),
             uvs: [(F32s::default(), F32s::default()); 3],
+            transformed: Mask::splat(false),
+            to_world: [V3s::default(); 4],
+            normal_to_world: [V3s::default(); 3],
+        }
+    }
+
+    /// Places lane `i`'s surface by its instance's maps, `None` for an untransformed instance
+    /// (as [`Instance::surface`](super::Instance::surface) places it).
+    #[inline]
+    pub fn set_transform(&mut self, i: usize, maps: Option<(&Affine3A, &Mat3)>) {
+        self.transformed.set(i, maps.is_some());
+        if let Some((to_world, normals)) = maps {
+            let m = &to_world.matrix3;
+            for (column, v) in
+                self.to_world
+                    .iter_mut()
+                    .zip([m.x_axis, m.y_axis, m.z_axis, to_world.translation])
+            {
+                column.set(i, v.into());
+            }
+            for (column, v) in self.normal_to_world.iter_mut().zip([
+                normals.x_axis,
+                normals.y_axis,
+                normals.z_axis,
+            ]) {
+                column.set(i, v);
+            }
         }
     }
 
@@ -484,6 +516,21 @@ impl<const W: usize> SurfaceLanes<W> {
         let [ua, ub, uc] = self.uvs;
         let u = ua.0 * b0 + ub.0 * b1 + uc.0 * b2;
         let v = ua.1 * b0 + ub.1 * b1 + uc.1 * b2;
+        let (p, ng, ns) = if self.transformed.any() {
+            // `Instance::surface`: glam's `transform_point3` ((X·x + Y·y) + Z·z) + T, and the
+            // normals by the normal map (X·x + Y·y) + Z·z, normalised.
+            let [x, y, z, t] = self.to_world;
+            let placed = x * p.x + y * p.y + z * p.z + t;
+            let [nx, ny, nz] = self.normal_to_world;
+            let normal = |n: V3s<W>| (nx * n.x + ny * n.y + nz * n.z).normalize();
+            (
+                V3s::select(self.transformed, placed, p),
+                V3s::select(self.transformed, normal(ng), ng),
+                V3s::select(self.transformed, normal(ns), ns),
+            )
+        } else {
+            (p, ng, ns)
+        };
         SurfacesOut {
             p,
             ng,

@@ -577,9 +577,10 @@ impl Geometry {
 impl Geometry {
     /// The closest hits of a wave's rays over (0, ∞) into `hits` (`None` lanes are idle), as
     /// [`Accel::intersect`] finds them one at a time. From [`crate::lanes::KERNELS_FROM`] lanes
-    /// on, the surfaces of hits on untransformed meshes without extra vertex attributes (the
-    /// common case) are computed together in SIMD lanes (`surfaces`: the kernel's working
-    /// memory), with the operations of [`Mesh::surface`], so with its bits.
+    /// on, the surfaces of hits on meshes without extra vertex attributes (the common case) are
+    /// computed together in SIMD lanes (`surfaces`: the kernel's working memory), with the
+    /// operations of [`Mesh::surface`] and, for transformed instances, of
+    /// [`Instance::surface`]'s placing, so with their bits.
     pub fn intersect_lanes<const W: usize>(
         &self,
         rays: &[Option<Ray>; W],
@@ -607,12 +608,11 @@ impl Geometry {
             };
             let instance = &self.instances[k as usize];
             match &instance.shape {
-                Shape::Mesh(m)
-                    if W >= crate::lanes::KERNELS_FROM
-                        && instance.identity
-                        && !m.has_attributes() =>
-                {
+                Shape::Mesh(m) if W >= crate::lanes::KERNELS_FROM && !m.has_attributes() => {
                     m.gather_surface(surfaces, i, &mesh::MeshHit::of_raw(&raw));
+                    let maps = (!instance.identity)
+                        .then_some((&instance.to_world, &instance.normal_to_world));
+                    surfaces.set_transform(i, maps);
                     in_lanes[i] = Some((k, raw));
                 }
                 _ => hits[i] = Some(instance.surface(ray, &raw, k)),
@@ -986,6 +986,110 @@ mod tests {
                 .intersect(&ray, 0.0, f32::INFINITY)
                 .map(|h| (h.instance, h.prim));
             assert_eq!(oracle, Some((hit.instance, hit.prim)), "ray {i}");
+        }
+    }
+
+    /// A wave's closest hits and shadow segments, found together (the small set's kernels for
+    /// few triangles, the BVH per lane for more; the surfaces in lanes, placed by their
+    /// instances' transforms), are one lane at a time's, bit for bit.
+    #[test]
+    fn waves_of_rays_find_the_hits_and_surfaces_of_single_rays() {
+        let mut s = 11u64;
+        let v3 = |s: &mut u64| Vec3::new(lcg(s), lcg(s), lcg(s)) * 2.0 - 1.0;
+        // A smooth, textured patch: vertex normals and texture coordinates.
+        let positions: Vec<Vec3> = (0..12).map(|_| v3(&mut s)).collect();
+        let normals: Vec<Vec3> = positions.iter().map(|p| p.normalize()).collect();
+        let uvs: Vec<Vec2> = positions
+            .iter()
+            .map(|p| Vec2::new(p.x, p.y * p.z))
+            .collect();
+        let triangles: Vec<[u32; 3]> = (0..8).map(|i| [i, (i + 1) % 12, (i + 5) % 12]).collect();
+        let (patch, _) = Mesh::new(mesh::MeshData {
+            positions: Arc::new(positions),
+            triangles: Arc::new(triangles),
+            normals: Some(Arc::new(normals)),
+            uvs: Some(Arc::new(uvs)),
+            uvs1: None,
+            tangents: None,
+            colors: None,
+        });
+        let patch = Arc::new(patch);
+        let place = |s: &mut u64, mirror: bool| {
+            let scale = Vec3::new(0.3 + lcg(s), 0.3 + lcg(s), 0.3 + lcg(s));
+            let scale = if mirror {
+                scale * Vec3::new(-1.0, 1.0, 1.0)
+            } else {
+                scale
+            };
+            let axis = Vec3::new(lcg(s), lcg(s), lcg(s) + 0.1).normalize();
+            let rot = glam::Quat::from_axis_angle(axis, lcg(s) * 6.0);
+            Affine3A::from_scale_rotation_translation(
+                scale,
+                rot,
+                Vec3::new(lcg(s), lcg(s), lcg(s)) * 4.0 - 2.0,
+            )
+        };
+        for copies in [4, 40] {
+            let instances: Vec<Instance> = (0..copies)
+                .map(|k| {
+                    let to_world = match k % 3 {
+                        0 => Affine3A::IDENTITY,
+                        1 => place(&mut s, false),
+                        _ => place(&mut s, true),
+                    };
+                    Instance::new(Shape::Mesh(patch.clone()), to_world, 0)
+                })
+                .collect();
+            let geo = Geometry::new(instances);
+            // 32 triangles go to the small set, 320 to the BVH.
+            assert_eq!(geo.small.is_some(), copies * 8 <= small_set::SMALL_SET_MAX);
+            let bits = |h: &SurfaceHit| {
+                let v = |v: Vec3| v.to_array().map(f32::to_bits);
+                (
+                    h.instance,
+                    h.prim,
+                    h.t.to_bits(),
+                    v(h.p),
+                    v(h.ng),
+                    v(h.ns),
+                    h.uv.to_array().map(f32::to_bits),
+                )
+            };
+            for _ in 0..400 {
+                let rays: [Option<Ray>; 16] = std::array::from_fn(|i| {
+                    (i != 3).then(|| Ray::new(v3(&mut s) * 3.0, v3(&mut s).normalize()))
+                });
+                check_wave::<16, _>(&geo, &rays, bits);
+                check_wave::<8, _>(&geo, &std::array::from_fn(|i| rays[i]), bits);
+                check_wave::<4, _>(&geo, &std::array::from_fn(|i| rays[i]), bits);
+            }
+        }
+
+        fn check_wave<const W: usize, B: PartialEq + std::fmt::Debug>(
+            geo: &Geometry,
+            rays: &[Option<Ray>; W],
+            bits: impl Fn(&SurfaceHit) -> B,
+        ) {
+            let mut hits = [None; W];
+            let mut surfaces = mesh::SurfaceLanes::<W>::new();
+            geo.intersect_lanes(rays, &mut hits, &mut surfaces);
+            let mut segments = [None; W];
+            for (i, ray) in rays.iter().enumerate() {
+                let single = ray.and_then(|r| geo.intersect(&r, 0.0, f32::INFINITY));
+                assert_eq!(
+                    hits[i].as_ref().map(&bits),
+                    single.as_ref().map(&bits),
+                    "lane {i}"
+                );
+                // Segments ending just before and just after the hit.
+                let end = single.map_or(5.0, |h| h.t * if i % 2 == 0 { 0.999 } else { 1.001 });
+                segments[i] = ray.map(|r| (r, end));
+            }
+            let blocked = geo.occluded_lanes(&segments);
+            for (i, segment) in segments.iter().enumerate() {
+                let single = segment.is_some_and(|(r, t_max)| geo.occluded(&r, 0.0, t_max));
+                assert_eq!(blocked[i], single, "lane {i}");
+            }
         }
     }
 }
