@@ -25,7 +25,7 @@ use glam::Vec3A;
 
 #[cfg(doc)]
 use crate::geometry::triangle::shear_axes;
-use crate::geometry::triangle::TriHit;
+use crate::geometry::triangle::{edge_functions_f64, TriHit};
 use crate::math::Ray;
 
 /// Scenes of at most this many triangles (and nothing else) are tested by [`SmallSet`] in
@@ -242,22 +242,17 @@ impl SmallSet {
     }
 }
 
-/// The widest instruction set the kernels may use here, `None` where they do not run.
+/// The widest instruction set the kernels may use here (the one behind
+/// [`native_width`](crate::lanes::native_width)), `None` where they do not run.
 fn detect() -> Option<Isa> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            Some(Isa::Avx512)
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            Some(Isa::Avx2)
-        } else {
-            Some(Isa::Sse2)
-        }
+    if !cfg!(target_arch = "x86_64") {
+        return None;
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        None
-    }
+    Some(match crate::lanes::native_width() {
+        16 => Isa::Avx512,
+        8 => Isa::Avx2,
+        _ => Isa::Sse2,
+    })
 }
 
 /// V::LANES lanes of f32 and their operations, each the IEEE-754 operation of the scalar code.
@@ -509,10 +504,8 @@ const MAX_LANES: usize = 16;
 #[inline(never)]
 fn edges_in_f64(lanes: u32, sheared: &[[f32; MAX_LANES]; 6], uvw: &mut [[f32; MAX_LANES]; 3]) {
     for i in (0..MAX_LANES).filter(|i| lanes & (1 << i) != 0) {
-        let [ax, ay, bx, by, cx, cy] = sheared.map(|a| f64::from(a[i]));
-        uvw[0][i] = (cx * by - cy * bx) as f32;
-        uvw[1][i] = (ax * cy - ay * cx) as f32;
-        uvw[2][i] = (bx * ay - by * ax) as f32;
+        let [ax, ay, bx, by, cx, cy] = sheared.map(|a| a[i]);
+        [uvw[0][i], uvw[1][i], uvw[2][i]] = edge_functions_f64([ax, ay], [bx, by], [cx, cy]);
     }
 }
 

@@ -88,6 +88,20 @@ pub fn intersect(
     intersect_a(r, &[v0.into(), v1.into(), v2.into()], t_min, t_max)
 }
 
+/// The edge functions (u, v, w) of the sheared corners a, b, c (x and y) in f64, rounded to
+/// f32: the watertight test's decision for a ray exactly on an edge in f32, so neighbouring
+/// triangles agree. Every form of the test (scalar, the BVH's packets, the small set's lanes)
+/// takes it from here.
+#[inline(always)]
+pub(crate) fn edge_functions_f64(a: [f32; 2], b: [f32; 2], c: [f32; 2]) -> [f32; 3] {
+    let ([ax, ay], [bx, by], [cx, cy]) = (a.map(f64::from), b.map(f64::from), c.map(f64::from));
+    [
+        (cx * by - cy * bx) as f32,
+        (ax * cy - ay * cx) as f32,
+        (bx * ay - by * ax) as f32,
+    ]
+}
+
 /// [`intersect`] on corners stored in SIMD layout (as the triangle sets keep them).
 #[inline(always)]
 pub fn intersect_a(r: &RayShear, v: &[Vec3A; 3], t_min: f32, t_max: f32) -> Option<TriHit> {
@@ -99,9 +113,7 @@ pub fn intersect_a(r: &RayShear, v: &[Vec3A; 3], t_min: f32, t_max: f32) -> Opti
     let mut w = b.x * a.y - b.y * a.x;
     if u == 0.0 || v == 0.0 || w == 0.0 {
         // Exactly on an edge in f32: decide in double precision so neighbours agree.
-        u = (c.x as f64 * b.y as f64 - c.y as f64 * b.x as f64) as f32;
-        v = (a.x as f64 * c.y as f64 - a.y as f64 * c.x as f64) as f32;
-        w = (b.x as f64 * a.y as f64 - b.y as f64 * a.x as f64) as f32;
+        [u, v, w] = edge_functions_f64([a.x, a.y], [b.x, b.y], [c.x, c.y]);
     }
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return None;

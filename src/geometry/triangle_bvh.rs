@@ -26,7 +26,7 @@ use crate::bvh::{Arena, Bvh, LeafCost};
 #[cfg(target_arch = "x86_64")]
 use crate::geometry::node8::Avx2;
 use crate::geometry::node8::{avx2_available, BoxTest, Node4, Node8, Sse};
-use crate::geometry::triangle::{shear_axes, TriHit};
+use crate::geometry::triangle::{edge_functions_f64, shear_axes, TriHit};
 use crate::math::{Aabb, Vec3};
 
 /// A ray prepared for [`TriangleBvh`] queries: the box-test and the watertight-shear constants.
@@ -186,19 +186,12 @@ impl Packet {
         if zero.any() {
             let m = zero.bitmask();
             let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
-            let f = |x: Vec4, lane: usize| f64::from(x[lane]);
             for lane in (0..4).filter(|l| m & (1 << l) != 0) {
-                let (ax, ay, bx, by, cx, cy) = (
-                    f(ax, lane),
-                    f(ay, lane),
-                    f(bx, lane),
-                    f(by, lane),
-                    f(cx, lane),
-                    f(cy, lane),
+                [ua[lane], va[lane], wa[lane]] = edge_functions_f64(
+                    [ax[lane], ay[lane]],
+                    [bx[lane], by[lane]],
+                    [cx[lane], cy[lane]],
                 );
-                ua[lane] = (cx * by - cy * bx) as f32;
-                va[lane] = (ax * cy - ay * cx) as f32;
-                wa[lane] = (bx * ay - by * ax) as f32;
             }
             (u, v, w) = (
                 Vec4::from_array(ua),
