@@ -5,7 +5,7 @@ use crate::lanes::{F32s, U32s, U64s};
 
 /// PCG32 (O'Neill 2014, "PCG: A Family of Simple Fast Space-Efficient Statistically Good
 /// Algorithms for Random Number Generation"): 64-bit LCG state, XSH-RR output.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct Pcg32 {
     state: u64,
     inc: u64,
@@ -73,7 +73,7 @@ pub enum SamplerKind {
 
 /// The sample stream of one pixel sample. Deterministic in (seed, pixel, sample index), so the
 /// image does not depend on scheduling.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct Sampler {
     kind: SamplerKind,
     rng: Pcg32,
@@ -192,54 +192,6 @@ impl Sampler {
         }
     }
 
-    /// Draws the next 2D point of every lane's sampler at once (`None` lanes are idle and get
-    /// zeros): for each, what [`get_2d`](Self::get_2d) would give, bit for bit. Scrambled Sobol
-    /// points are computed in SIMD lanes; independent numbers, which follow a sequential
-    /// generator, one lane at a time.
-    pub fn get_2d_lanes<const W: usize>(samplers: [Option<&mut Sampler>; W]) -> [glam::Vec2; W] {
-        let mut out = [glam::Vec2::ZERO; W];
-        let Some(state) = SobolLanes::gather(&samplers, 0) else {
-            for (o, s) in out.iter_mut().zip(samplers) {
-                if let Some(s) = s {
-                    *o = s.get_2d();
-                }
-            }
-            return out;
-        };
-        let (x, y) = state.point_2d();
-        for (i, s) in samplers.into_iter().enumerate() {
-            if let Some(s) = s {
-                s.dimension += 1;
-                out[i] = glam::Vec2::new(x.0[i], y.0[i]);
-            }
-        }
-        out
-    }
-
-    /// [`get_choice_2d`](Self::get_choice_2d) for every lane's sampler at once, as
-    /// [`get_2d_lanes`](Self::get_2d_lanes) draws 2D points.
-    pub fn get_choice_2d_lanes<const W: usize>(
-        samplers: [Option<&mut Sampler>; W],
-    ) -> [(f32, glam::Vec2); W] {
-        let mut out = [(0.0, glam::Vec2::ZERO); W];
-        let Some(state) = SobolLanes::gather(&samplers, 1) else {
-            for (o, s) in out.iter_mut().zip(samplers) {
-                if let Some(s) = s {
-                    *o = s.get_choice_2d();
-                }
-            }
-            return out;
-        };
-        let (choice, x, y) = state.choice_2d();
-        for (i, s) in samplers.into_iter().enumerate() {
-            if let Some(s) = s {
-                s.dimension += 2;
-                out[i] = (choice.0[i], glam::Vec2::new(x.0[i], y.0[i]));
-            }
-        }
-        out
-    }
-
     /// The scrambling hash of the next dimension (pair) of this pixel.
     #[inline]
     fn next_dimension_hash(&mut self) -> u64 {
@@ -276,6 +228,131 @@ macro_rules! lanes_dispatch {
     }};
 }
 
+/// The samplers of a wave, one per lane, as a structure of arrays: a lane's next numbers are
+/// those its [`Sampler`] would give, bit for bit, and the wave draws the same dimension of every
+/// lane's stream at once, scrambled Sobol points in SIMD lanes (independent numbers, which follow
+/// a sequential generator, one lane at a time). A lane's sampler is [`set`](Self::set) when its
+/// sample starts and [`get`](Self::get) out for the steps that run one lane at a time.
+pub struct SamplerLanes<const W: usize> {
+    /// Whether every lane's sampler draws scrambled Sobol points.
+    kinds: [SamplerKind; W],
+    rng: [Pcg32; W],
+    pixel_seed: U32s<W>,
+    reversed_index: U32s<W>,
+    dimension: U32s<W>,
+}
+
+impl<const W: usize> SamplerLanes<W> {
+    /// Lanes of samplers that draw nothing yet (each lane is [`set`](Self::set) before use).
+    pub fn new() -> Self {
+        SamplerLanes {
+            kinds: [SamplerKind::Sobol; W],
+            rng: [Pcg32 { state: 0, inc: 1 }; W],
+            pixel_seed: U32s::default(),
+            reversed_index: U32s::default(),
+            dimension: U32s::default(),
+        }
+    }
+
+    /// Lane `i`'s sampler, as it stands.
+    #[inline]
+    pub fn get(&self, i: usize) -> Sampler {
+        Sampler {
+            kind: self.kinds[i],
+            rng: self.rng[i],
+            pixel_seed: self.pixel_seed[i],
+            reversed_index: self.reversed_index[i],
+            dimension: self.dimension[i],
+        }
+    }
+
+    /// Makes `sampler` lane `i`'s.
+    #[inline]
+    pub fn set(&mut self, i: usize, sampler: Sampler) {
+        self.kinds[i] = sampler.kind;
+        self.rng[i] = sampler.rng;
+        self.pixel_seed[i] = sampler.pixel_seed;
+        self.reversed_index[i] = sampler.reversed_index;
+        self.dimension[i] = sampler.dimension;
+    }
+
+    /// One uniform number from lane `i`'s sampler ([`Sampler::get_1d`]).
+    #[inline]
+    pub fn get_1d(&mut self, i: usize) -> f32 {
+        let mut sampler = self.get(i);
+        let u = sampler.get_1d();
+        self.set(i, sampler);
+        u
+    }
+
+    /// The next 2D point of the samplers of the `live` lanes ([`Sampler::get_2d`]; the others
+    /// draw nothing and get numbers that mean nothing).
+    pub fn get_2d(&mut self, live: &[bool; W]) -> (F32s<W>, F32s<W>) {
+        if !self.all_sobol(live) {
+            let mut out = (F32s::default(), F32s::default());
+            for i in (0..W).filter(|&i| live[i]) {
+                let mut sampler = self.get(i);
+                let u = sampler.get_2d();
+                self.set(i, sampler);
+                (out.0[i], out.1[i]) = (u.x, u.y);
+            }
+            return out;
+        }
+        let out = self.sobol(0).point_2d();
+        self.advance(live, 1);
+        out
+    }
+
+    /// The next lobe choice and 2D point of the samplers of the `live` lanes
+    /// ([`Sampler::get_choice_2d`]; the others draw nothing and get numbers that mean nothing).
+    pub fn get_choice_2d(&mut self, live: &[bool; W]) -> (F32s<W>, F32s<W>, F32s<W>) {
+        if !self.all_sobol(live) {
+            let mut out = (F32s::default(), F32s::default(), F32s::default());
+            for i in (0..W).filter(|&i| live[i]) {
+                let mut sampler = self.get(i);
+                let (choice, u) = sampler.get_choice_2d();
+                self.set(i, sampler);
+                (out.0[i], out.1[i], out.2[i]) = (choice, u.x, u.y);
+            }
+            return out;
+        }
+        let out = self.sobol(1).choice_2d();
+        self.advance(live, 2);
+        out
+    }
+
+    /// Whether every `live` lane draws scrambled Sobol points.
+    #[inline]
+    fn all_sobol(&self, live: &[bool; W]) -> bool {
+        (0..W).all(|i| !live[i] || self.kinds[i] == SamplerKind::Sobol)
+    }
+
+    /// Every lane's Sobol stream at its next dimension + `skip`.
+    #[inline]
+    fn sobol(&self, skip: u32) -> SobolLanes<W> {
+        SobolLanes {
+            hash: U64s::from_fn(|i| {
+                u64::from(self.pixel_seed[i]) << 32 | u64::from(self.dimension[i] + skip)
+            }),
+            reversed_index: self.reversed_index,
+        }
+    }
+
+    /// Moves the `live` lanes `by` dimensions on.
+    #[inline]
+    fn advance(&mut self, live: &[bool; W], by: u32) {
+        for (d, &live) in self.dimension.0.iter_mut().zip(live) {
+            *d += if live { by } else { 0 };
+        }
+    }
+}
+
+impl<const W: usize> Default for SamplerLanes<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// The scrambled Sobol streams of a wave's lanes, at one dimension (pair) each: the values
 /// [`Sampler`] computes for one lane, computed for W lanes at once with the same integer
 /// operations (so with the same bits).
@@ -287,26 +364,6 @@ struct SobolLanes<const W: usize> {
 }
 
 impl<const W: usize> SobolLanes<W> {
-    /// The lanes' streams at each lane's next dimension + `skip` (idle lanes get stream 0);
-    /// `None` unless every sampler given draws scrambled Sobol points.
-    fn gather(samplers: &[Option<&mut Sampler>; W], skip: u32) -> Option<SobolLanes<W>> {
-        let mut key = [0u64; W];
-        let mut reversed_index = [0u32; W];
-        for (i, s) in samplers.iter().enumerate() {
-            if let Some(s) = s {
-                if s.kind != SamplerKind::Sobol {
-                    return None;
-                }
-                key[i] = u64::from(s.pixel_seed) << 32 | u64::from(s.dimension + skip);
-                reversed_index[i] = s.reversed_index;
-            }
-        }
-        Some(SobolLanes {
-            hash: U64s(key),
-            reversed_index: U32s(reversed_index),
-        })
-    }
-
     /// [`owen_sobol_2d_reversed`] in every lane.
     fn point_2d(&self) -> (F32s<W>, F32s<W>) {
         lanes_dispatch!(W, self.point_2d_here(), (F32s<W>, F32s<W>))
@@ -607,6 +664,54 @@ fn laine_karras(mut v: u32, seed: u32) -> u32 {
 mod tests {
     use super::*;
 
+    /// A wave's samplers draw, lane by lane, what each lane's own sampler draws, bit for bit,
+    /// and lanes left out of a draw neither draw nor move on.
+    fn check_lanes<const W: usize>(kind: SamplerKind) {
+        let mut lanes = SamplerLanes::<W>::new();
+        let mut single: [Sampler; W] =
+            std::array::from_fn(|i| Sampler::with_kind(kind, 7, 1000 + i as u64, 3 * i as u64));
+        for (i, s) in single.iter().enumerate() {
+            lanes.set(i, *s);
+        }
+        for step in 0..24 {
+            let live: [bool; W] = std::array::from_fn(|i| (i + step) % 3 != 0);
+            let (x, y) = lanes.get_2d(&live);
+            let (c, cx, cy) = lanes.get_choice_2d(&live);
+            for i in (0..W).filter(|&i| live[i]) {
+                let u = single[i].get_2d();
+                let (choice, v) = single[i].get_choice_2d();
+                let bits = |a: f32, b: f32| assert_eq!(a.to_bits(), b.to_bits(), "lane {i}");
+                bits(x[i], u.x);
+                bits(y[i], u.y);
+                bits(c[i], choice);
+                bits(cx[i], v.x);
+                bits(cy[i], v.y);
+            }
+            let rr = step % W;
+            assert_eq!(lanes.get_1d(rr).to_bits(), single[rr].get_1d().to_bits());
+            for (i, s) in single.iter_mut().enumerate() {
+                assert_eq!(
+                    lanes.get(i).get_1d().to_bits(),
+                    {
+                        let mut copy = *s;
+                        copy.get_1d()
+                    }
+                    .to_bits()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn sampler_lanes_draw_each_lanes_numbers() {
+        for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
+            check_lanes::<1>(kind);
+            check_lanes::<4>(kind);
+            check_lanes::<8>(kind);
+            check_lanes::<16>(kind);
+        }
+    }
+
     #[test]
     fn streams_are_reproducible_and_distinct() {
         let a: Vec<f32> = (0..4)
@@ -630,7 +735,7 @@ mod tests {
         for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
             for sample in 0..64 {
                 let mut drawn = Sampler::with_kind(kind, 7, 11, sample);
-                let mut skipped = drawn.clone();
+                let mut skipped = drawn;
                 let first = drawn.get_2d();
                 let later = (drawn.get_2d(), drawn.get_choice_2d(), drawn.get_1d());
                 skipped.skip_2d();

@@ -273,7 +273,7 @@ impl<const W: usize> LambertLanes<W> {
     /// The operations of [`Bsdf::sample`]'s Lambertian case, [`cosine_hemisphere`] and
     /// [`crate::sampling::concentric_disk`], in their order, so with their bits.
     #[inline(always)]
-    fn sample_here(&self) -> LambertSamples<W> {
+    pub fn sample_here(&self) -> LambertSamples<W> {
         use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
         let zero = F32s::splat(0.0);
         let lo_z = self.wo.dot(self.n);

@@ -13,6 +13,7 @@ use std::sync::Arc;
 use glam::{Vec3A, Vec4};
 
 use crate::bvh::{Bvh, TraversalRay};
+use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
 pub use mesh::{Mesh, OpacityInputs};
 use small_set::SmallSet;
@@ -314,6 +315,66 @@ pub struct SurfaceHit {
     pub instance: u32,
     /// Primitive index within the instance's shape.
     pub prim: u32,
+}
+
+/// The segments of a wave's shadow rays, one per lane, as a structure of arrays: lane i looks
+/// along `o + t·d` for t in (0, `t_max`) where `live` holds; the other lanes are idle.
+#[derive(Clone, Copy, Debug)]
+pub struct SegmentLanes<const W: usize> {
+    /// The lanes with a segment.
+    pub live: Mask<W>,
+    /// Origins.
+    pub o: V3s<W>,
+    /// Directions.
+    pub d: V3s<W>,
+    /// The ends of the segments, in units of `d`.
+    pub t_max: F32s<W>,
+}
+
+impl<const W: usize> SegmentLanes<W> {
+    /// No segment in any lane.
+    pub fn new() -> Self {
+        SegmentLanes {
+            live: Mask::splat(false),
+            o: V3s::default(),
+            d: V3s::default(),
+            t_max: F32s::default(),
+        }
+    }
+
+    /// The segments `segments[i]` (`None` lanes idle).
+    pub fn from_options(segments: &[Option<(Ray, f32)>; W]) -> Self {
+        let mut out = Self::new();
+        for (i, segment) in segments.iter().enumerate() {
+            if let Some((ray, t_max)) = segment {
+                out.set(i, ray, *t_max);
+            }
+        }
+        out
+    }
+
+    /// Lane `i` looks along `ray` over (0, `t_max`).
+    #[inline]
+    pub fn set(&mut self, i: usize, ray: &Ray, t_max: f32) {
+        self.live.set(i, true);
+        self.o.set(i, ray.o);
+        self.d.set(i, ray.d);
+        self.t_max[i] = t_max;
+    }
+
+    /// Lane `i`'s ray and the end of its segment, if it has one.
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<(Ray, f32)> {
+        self.live
+            .lane(i)
+            .then(|| (Ray::new(self.o.lane(i), self.d.lane(i)), self.t_max[i]))
+    }
+}
+
+impl<const W: usize> Default for SegmentLanes<W> {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 /// What the renderer needs from an acceleration structure.
@@ -642,16 +703,15 @@ impl Geometry {
 }
 
 impl Geometry {
-    /// Whether something blocks each of a wave's segments (a ray and its `t_max`, over
-    /// (0, `t_max`); `None` lanes are idle and report `false`), as [`Accel::occluded`] finds
-    /// it.
-    pub fn occluded_lanes<const W: usize>(&self, segments: &[Option<(Ray, f32)>; W]) -> [bool; W] {
+    /// Whether something blocks each of a wave's segments (over (0, `t_max`); idle lanes report
+    /// `false`), as [`Accel::occluded`] finds it.
+    pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
         match &self.small {
             Some(small) if W >= crate::lanes::KERNELS_FROM => small.occluded_lanes(segments),
             _ => std::array::from_fn(|i| {
-                segments[i]
-                    .as_ref()
-                    .is_some_and(|(ray, t_max)| self.occluded(ray, 0.0, *t_max))
+                segments
+                    .get(i)
+                    .is_some_and(|(ray, t_max)| self.occluded(&ray, 0.0, t_max))
             }),
         }
     }
@@ -1085,7 +1145,7 @@ mod tests {
                 let end = single.map_or(5.0, |h| h.t * if i % 2 == 0 { 0.999 } else { 1.001 });
                 segments[i] = ray.map(|r| (r, end));
             }
-            let blocked = geo.occluded_lanes(&segments);
+            let blocked = geo.occluded_lanes(&SegmentLanes::from_options(&segments));
             for (i, segment) in segments.iter().enumerate() {
                 let single = segment.is_some_and(|(r, t_max)| geo.occluded(&r, 0.0, t_max));
                 assert_eq!(blocked[i], single, "lane {i}");

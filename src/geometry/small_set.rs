@@ -26,6 +26,8 @@ use glam::Vec3A;
 #[cfg(doc)]
 use crate::geometry::triangle::shear_axes;
 use crate::geometry::triangle::{edge_functions_f64, TriHit};
+use crate::geometry::SegmentLanes;
+use crate::lanes::F32s;
 use crate::math::Ray;
 
 /// Scenes of at most this many triangles (and nothing else) are tested by [`SmallSet`] in
@@ -89,6 +91,26 @@ impl<const W: usize> WaveRays<W> {
             }
         }
         rays
+    }
+}
+
+impl<const W: usize> WaveRays<W> {
+    /// The segments of `segments`' live lanes.
+    #[inline(always)]
+    fn of_segments(segments: &SegmentLanes<W>) -> WaveRays<W> {
+        let live = segments.live;
+        let (o, d) = (segments.o, segments.d);
+        // Idle lanes look along +z over nothing.
+        let (zero, one) = (F32s::splat(0.0), F32s::splat(1.0));
+        WaveRays {
+            o: [o.x.0, o.y.0, o.z.0],
+            d: [
+                F32s::select(live, d.x, zero).0,
+                F32s::select(live, d.y, zero).0,
+                F32s::select(live, d.z, one).0,
+            ],
+            t_max: F32s::select(live, segments.t_max, zero).0,
+        }
     }
 }
 
@@ -170,11 +192,10 @@ impl SmallSet {
         })
     }
 
-    /// Whether each lane's segment (a ray and its `t_max`, over (0, `t_max`)) meets a triangle
-    /// (`None` lanes are idle and report `false`), as
-    /// [`TriangleBvh::occluded`](super::TriangleBvh::occluded) finds it.
-    pub fn occluded_lanes<const W: usize>(&self, segments: &[Option<(Ray, f32)>; W]) -> [bool; W] {
-        let wave = WaveRays::<W>::new(|i| segments[i]);
+    /// Whether each live lane's segment (over (0, `t_max`)) meets a triangle (idle lanes report
+    /// `false`), as [`TriangleBvh::occluded`](super::TriangleBvh::occluded) finds it.
+    pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
+        let wave = WaveRays::<W>::of_segments(segments);
         let mut hits = WaveHits {
             t: [0.0; W],
             b1: [0.0; W],
@@ -921,7 +942,7 @@ mod tests {
                     .map_or(10.0, |(_, h)| h.t);
                 Some((r, t * scale))
             });
-            let got = set.occluded_lanes(&segments);
+            let got = set.occluded_lanes(&SegmentLanes::from_options(&segments));
             for (segment, got) in segments.iter().zip(got) {
                 let want = segment
                     .is_some_and(|(r, t_max)| bvh.occluded(&TriRay::new(r.o, r.d), 0.0, t_max));

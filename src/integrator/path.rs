@@ -8,14 +8,14 @@ use std::f32::consts::FRAC_1_PI;
 
 use crate::aov::AovSample;
 use crate::bsdf::{Bsdf, BsdfSample, LambertLanes, Lobes};
-use crate::geometry::SurfaceHit;
+use crate::geometry::{SegmentLanes, SurfaceHit};
 use crate::integrator::direct::{sample_light, Strategy};
 use crate::integrator::{spawn, TraceStats};
 use crate::lanes::{F32s, Mask, V3s};
 use crate::light::{Light, TriangleLanes};
 use crate::material::Material;
 use crate::math::{offset_origin_lanes, Ray, Rgb, Vec3};
-use crate::sampler::Sampler;
+use crate::sampler::{Sampler, SamplerLanes};
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
 
@@ -106,6 +106,13 @@ impl Path {
     /// The radiance the path has gathered: the sample's value once it has ended.
     pub fn radiance(&self) -> Rgb {
         self.l
+    }
+
+    /// What a light sample at the next vertex reads of the path: its throughput and the
+    /// medium it travels in.
+    #[inline]
+    fn seen(&self) -> (Rgb, Option<Vec3>) {
+        (self.beta, self.medium)
     }
 
     /// The vertex where [`ray`](Path::ray) hits (`hit`, its closest hit): the light found
@@ -236,7 +243,7 @@ impl Path {
                         albedo,
                     })
                 }
-                _ => vertex.shadow = path.light_sample(scene, hit, vertex, pick),
+                _ => vertex.shadow = Path::light_sample(path.seen(), scene, hit, vertex, pick),
             }
         }
         if in_lanes.iter().all(Option::is_none) {
@@ -256,7 +263,7 @@ impl Path {
             }
             vertex.shadow = match out.shadow(i) {
                 Some(shadow) => shadow,
-                None => path.light_sample(scene, hit, vertex, pick),
+                None => Path::light_sample(path.seen(), scene, hit, vertex, pick),
             };
         }
     }
@@ -265,7 +272,7 @@ impl Path {
     /// one at a time) with the light it picked. The shadow ray to the point sampled on the
     /// light, if the sample can add anything.
     fn light_sample(
-        &self,
+        (beta, medium): (Rgb, Option<Vec3>),
         scene: &Scene,
         hit: &SurfaceHit,
         vertex: &Vertex,
@@ -290,24 +297,22 @@ impl Path {
         } else {
             power_heuristic(pdf_light, split * pdf_bsdf)
         };
-        let tr = self
-            .medium
-            .map_or(Vec3::ONE, |sigma| transmittance(sigma, ls.distance));
+        let tr = medium.map_or(Vec3::ONE, |sigma| transmittance(sigma, ls.distance));
         Some(Shadow {
             ray: incident.shadow_ray,
             t_max: incident.t_max,
-            radiance: self.beta * f * ls.li * tr * (weight / pdf_light),
+            radiance: beta * f * ls.li * tr * (weight / pdf_light),
         })
     }
 
     /// The BSDF samples of a wave's vertices (`None` where a lane has none, or its BSDF
-    /// samples nothing), each with its lane's lobe choice and 2D point `u[i]` (the vertex's
+    /// samples nothing), each with its lane's lobe choice and 2D point (lane i of `u`'s three: the vertex's
     /// next sampler dimensions, drawn for every lane at once): for [`scatter`](Path::scatter).
     /// Lambertian lanes are sampled in SIMD lanes (from [`LANE_KERNELS_FROM`] lanes on), the
     /// others one at a time; a lane's bits are the same either way.
     pub fn sample_bsdfs<const W: usize>(
         vertices: &[Option<Vertex>; W],
-        u: &[(f32, glam::Vec2); W],
+        (u_lobe, ux, uy): &(F32s<W>, F32s<W>, F32s<W>),
         scratch: &mut Scratch<W>,
     ) -> [Option<BsdfSample>; W] {
         let mut sampled = [None; W];
@@ -316,7 +321,10 @@ impl Path {
             let Some(vertex) = &vertices[i] else { continue };
             match vertex.bsdf.lobes {
                 Lobes::Lambert(albedo) if LANE_KERNELS_FROM <= W => lambert[i] = Some(albedo),
-                _ => sampled[i] = vertex.bsdf.sample(vertex.wo, u[i].0, u[i].1),
+                _ => {
+                    let u = glam::Vec2::new(ux[i], uy[i]);
+                    sampled[i] = vertex.bsdf.sample(vertex.wo, u_lobe[i], u);
+                }
             }
         }
         if lambert.iter().all(Option::is_none) {
@@ -333,7 +341,7 @@ impl Path {
             lanes.n.set(i, frame.n);
             lanes.ng.set(i, vertex.bsdf.ng);
             lanes.wo.set(i, vertex.wo);
-            (lanes.u.0[i], lanes.u.1[i]) = (u[i].1.x, u[i].1.y);
+            (lanes.u.0[i], lanes.u.1[i]) = (ux[i], uy[i]);
         }
         let out = lanes.sample();
         for i in 0..W {
@@ -408,27 +416,6 @@ impl Path {
         self.go_on(material.absorption, hit, s, count_found, sampler)
     }
 
-    /// Finishes a vertex of the Lambertian route ([`LambertRoute`]), as [`scatter`] does there
-    /// (no split samples, no mirror ray, no render passes): adds the light sample `shadow` when
-    /// `unblocked` and continues the path by `sampled`. Returns whether the path goes on.
-    ///
-    /// [`scatter`]: Path::scatter
-    pub fn scatter_lambert(
-        &mut self,
-        hit: &SurfaceHit,
-        (shadow, unblocked): (Option<Shadow>, bool),
-        sampled: Option<BsdfSample>,
-        sampler: &mut Sampler,
-    ) -> bool {
-        if let (Some(shadow), true) = (shadow, unblocked) {
-            self.l += shadow.radiance;
-        }
-        let Some(s) = sampled else {
-            return false;
-        };
-        self.go_on(None, hit, s, true, sampler)
-    }
-
     /// Continues the path from `hit` by its BSDF sample `s` (`absorption`: the medium inside
     /// the surface's solid, entered or left by transmission; `count_found`: whether the next
     /// vertex counts the light it finds), with Russian roulette from [`RR_DEPTH`] on. Returns
@@ -475,6 +462,97 @@ impl Path {
     }
 }
 
+/// The paths of a wave, one per lane, as a structure of arrays: what [`Path`] holds, kept in
+/// the form the stages that run in SIMD lanes read and write ([`LambertRoute`] continues its
+/// lanes' paths here without taking them out). A lane whose vertex takes the general route
+/// is [`take`](Self::take)n out as a [`Path`] and [`put`](Self::put) back when it goes on;
+/// either way a lane's numbers are the same.
+pub struct PathLanes<const W: usize> {
+    ray_o: V3s<W>,
+    ray_d: V3s<W>,
+    depth: [u32; W],
+    l: V3s<W>,
+    beta: V3s<W>,
+    prev_pdf: F32s<W>,
+    prev_delta: [bool; W],
+    prev_p: V3s<W>,
+    prev_n: V3s<W>,
+    medium: [Option<Vec3>; W],
+    eta_scale: F32s<W>,
+    count_found: [bool; W],
+    aov: [Option<Box<AovSample>>; W],
+}
+
+impl<const W: usize> PathLanes<W> {
+    /// Lanes of no path (zeros).
+    pub fn new() -> Self {
+        PathLanes {
+            ray_o: V3s::default(),
+            ray_d: V3s::default(),
+            depth: [0; W],
+            l: V3s::default(),
+            beta: V3s::default(),
+            prev_pdf: F32s::default(),
+            prev_delta: [false; W],
+            prev_p: V3s::default(),
+            prev_n: V3s::default(),
+            medium: [None; W],
+            eta_scale: F32s::default(),
+            count_found: [false; W],
+            aov: std::array::from_fn(|_| None),
+        }
+    }
+
+    /// Puts `path` in lane `i`.
+    #[inline]
+    pub fn put(&mut self, i: usize, path: Path) {
+        self.ray_o.set(i, path.ray.o);
+        self.ray_d.set(i, path.ray.d);
+        self.depth[i] = path.depth;
+        self.l.set(i, path.l);
+        self.beta.set(i, path.beta);
+        self.prev_pdf[i] = path.prev_pdf;
+        self.prev_delta[i] = path.prev_delta;
+        self.prev_p.set(i, path.prev_p);
+        self.prev_n.set(i, path.prev_n);
+        self.medium[i] = path.medium;
+        self.eta_scale[i] = path.eta_scale;
+        self.count_found[i] = path.count_found;
+        self.aov[i] = path.aov;
+    }
+
+    /// Takes lane `i`'s path out (the lane then means nothing until a path is put there).
+    #[inline]
+    pub fn take(&mut self, i: usize) -> Path {
+        Path {
+            ray: self.ray(i),
+            depth: self.depth[i],
+            l: self.l.lane(i),
+            beta: self.beta.lane(i),
+            prev_pdf: self.prev_pdf[i],
+            prev_delta: self.prev_delta[i],
+            prev_p: self.prev_p.lane(i),
+            prev_n: self.prev_n.lane(i),
+            medium: self.medium[i],
+            eta_scale: self.eta_scale[i],
+            count_found: self.count_found[i],
+            aov: self.aov[i].take(),
+        }
+    }
+
+    /// Lane `i`'s ray to its next vertex.
+    #[inline]
+    pub fn ray(&self, i: usize) -> Ray {
+        Ray::new(self.ray_o.lane(i), self.ray_d.lane(i))
+    }
+}
+
+impl<const W: usize> Default for PathLanes<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 pub use crate::lanes::KERNELS_FROM as LANE_KERNELS_FROM;
 
 /// A wave's working memory for the stages that run in SIMD lanes, kept from step to step.
@@ -513,8 +591,16 @@ pub struct LambertRoute<const W: usize> {
     /// The lanes on the route whose light sample runs in the light kernel.
     in_kernel: [bool; W],
     picked: [Option<Picked>; W],
-    shadow: [Option<Shadow>; W],
-    albedo: [Rgb; W],
+    /// The lanes with a light sample: its shadow ray (over (0, `shadow_t`)) and its radiance.
+    has_shadow: Mask<W>,
+    shadow_o: V3s<W>,
+    shadow_d: V3s<W>,
+    shadow_t: F32s<W>,
+    shadow_radiance: V3s<W>,
+    albedo: V3s<W>,
+    /// The hit point and its shading normal (the geometric one is the BSDF's `ng`).
+    p: V3s<W>,
+    ns: V3s<W>,
     lights: LightLanes<W>,
     bsdf: LambertLanes<W>,
 }
@@ -526,8 +612,14 @@ impl<const W: usize> LambertRoute<W> {
             on: [false; W],
             in_kernel: [false; W],
             picked: [None; W],
-            shadow: [None; W],
-            albedo: [Vec3::ZERO; W],
+            has_shadow: Mask::splat(false),
+            shadow_o: V3s::default(),
+            shadow_d: V3s::default(),
+            shadow_t: F32s::default(),
+            shadow_radiance: V3s::default(),
+            albedo: V3s::default(),
+            p: V3s::default(),
+            ns: V3s::default(),
             lights: LightLanes::new(),
             bsdf: LambertLanes::default(),
         }
@@ -538,7 +630,19 @@ impl<const W: usize> LambertRoute<W> {
         self.on = [false; W];
         self.in_kernel = [false; W];
         self.picked = [None; W];
-        self.shadow = [None; W];
+        self.has_shadow = Mask::splat(false);
+    }
+
+    /// Sets lane `i`'s light sample.
+    #[inline]
+    fn set_shadow(&mut self, i: usize, shadow: Option<Shadow>) {
+        if let Some(shadow) = shadow {
+            self.has_shadow.set(i, true);
+            self.shadow_o.set(i, shadow.ray.o);
+            self.shadow_d.set(i, shadow.ray.d);
+            self.shadow_t[i] = shadow.t_max;
+            self.shadow_radiance.set(i, shadow.radiance);
+        }
     }
 
     /// Whether lane `i` is on the route this step.
@@ -547,21 +651,21 @@ impl<const W: usize> LambertRoute<W> {
         self.on[i]
     }
 
-    /// Puts lane `i` on the route when `path`'s vertex at `hit` belongs there, picking its
-    /// light with the lane's `u_light` (as [`Path::sample_lights`] does); returns whether it
-    /// did. A lane left off takes [`Path::shade`] as before.
+    /// Puts lane `i` on the route when the vertex of its path (in `paths`) at `hit` belongs
+    /// there, picking its light with the lane's `u_light` (as [`Path::sample_lights`] does);
+    /// returns whether it did. A lane left off takes [`Path::shade`] as before.
     pub fn enter(
         &mut self,
         i: usize,
         scene: &Scene,
-        path: &Path,
+        paths: &PathLanes<W>,
         hit: &SurfaceHit,
         u_light: glam::Vec2,
     ) -> bool {
         if W < LANE_KERNELS_FROM
-            || path.aov.is_some()
-            || path.medium.is_some()
-            || path.depth == scene.settings.max_depth
+            || paths.aov[i].is_some()
+            || paths.medium[i].is_some()
+            || paths.depth[i] == scene.settings.max_depth
         {
             return false;
         }
@@ -571,12 +675,15 @@ impl<const W: usize> LambertRoute<W> {
         }
         // What `shade` computes here: no light is found on the surface (it neither emits nor
         // is unlit), and the BSDF is the material's Lambertian lobe.
-        let wo = -path.ray.d.normalize();
+        let wo = -paths.ray_d.lane(i).normalize();
         let Some((albedo, frame)) = material.lambert(&scene.textures, hit, wo) else {
             return false;
         };
         self.on[i] = true;
-        self.albedo[i] = albedo;
+        self.albedo.set(i, albedo);
+        self.p.set(i, hit.p);
+        self.ns.set(i, hit.ns);
+        let beta = paths.beta.lane(i);
         let b = &mut self.bsdf;
         b.s.set(i, frame.s);
         b.t.set(i, frame.t);
@@ -588,7 +695,9 @@ impl<const W: usize> LambertRoute<W> {
         };
         self.picked[i] = Some(pick);
         let Some((emission, two_sided)) = kernel_emission(scene, light) else {
-            self.shadow[i] = path.light_sample(scene, hit, &self.vertex(i, scene, hit), pick);
+            let vertex = self.vertex(i, scene, hit);
+            let shadow = Path::light_sample((beta, None), scene, hit, &vertex, pick);
+            self.set_shadow(i, shadow);
             return true;
         };
         self.in_kernel[i] = true;
@@ -602,7 +711,7 @@ impl<const W: usize> LambertRoute<W> {
             bsdf_ng: hit.ng,
             wo,
             split: 1.0,
-            beta: path.beta,
+            beta,
         };
         self.lights.set(i, (pick, lane), hit, seen);
         true
@@ -622,7 +731,7 @@ impl<const W: usize> LambertRoute<W> {
                     n: b.n.lane(i),
                 },
                 ng: hit.ng,
-                lobes: Lobes::Lambert(self.albedo[i]),
+                lobes: Lobes::Lambert(self.albedo.lane(i)),
             },
             wo: b.wo.lane(i),
             split: 1.0,
@@ -636,49 +745,121 @@ impl<const W: usize> LambertRoute<W> {
     pub fn sample_lights(
         &mut self,
         scene: &Scene,
-        paths: [Option<&Path>; W],
+        paths: &PathLanes<W>,
         hits: &[Option<SurfaceHit>; W],
     ) {
         if !self.in_kernel.contains(&true) {
             return;
         }
         let out = self.lights.run();
-        for i in 0..W {
-            let (true, Some(path), Some(hit), Some(pick)) =
-                (self.in_kernel[i], paths[i], &hits[i], self.picked[i])
-            else {
+        let in_kernel = Mask::from_fn(|i| self.in_kernel[i]);
+        let lit = in_kernel & out.decided & out.valid;
+        self.has_shadow = self.has_shadow | lit;
+        self.shadow_o = V3s::select(lit, out.origin, self.shadow_o);
+        self.shadow_d = V3s::select(lit, out.dir, self.shadow_d);
+        self.shadow_t = F32s::select(lit, F32s::splat(1.0), self.shadow_t);
+        self.shadow_radiance = V3s::select(lit, out.radiance, self.shadow_radiance);
+        // The lanes the kernel left to the scalar code.
+        for (i, hit) in hits.iter().enumerate() {
+            if !in_kernel.lane(i) || out.decided.lane(i) {
+                continue;
+            }
+            let (Some(hit), Some(pick)) = (hit, self.picked[i]) else {
                 continue;
             };
-            self.shadow[i] = match out.shadow(i) {
-                Some(shadow) => shadow,
-                None => path.light_sample(scene, hit, &self.vertex(i, scene, hit), pick),
-            };
+            let vertex = self.vertex(i, scene, hit);
+            let beta = paths.beta.lane(i);
+            self.set_shadow(
+                i,
+                Path::light_sample((beta, None), scene, hit, &vertex, pick),
+            );
         }
     }
 
-    /// Lane `i`'s light sample, if it has one.
-    #[inline]
-    pub fn shadow(&self, i: usize) -> Option<Shadow> {
-        self.shadow[i]
+    /// [`advance_here`](Self::advance_here), compiled for the widest vector instructions the
+    /// CPU has that suit W lanes (the same operations, so the same bits).
+    fn advance(&self, paths: &mut PathLanes<W>, on: Mask<W>, lit: Mask<W>) -> Mask<W> {
+        crate::lanes::widest!(
+            W,
+            (route: &LambertRoute<W>, paths: &mut PathLanes<W>, on: Mask<W>, lit: Mask<W>) => Mask<W>,
+            (self, paths, on, lit),
+            route.advance_here(paths, on, lit)
+        )
     }
 
-    /// The BSDF samples of the route's lanes, each with its lane's 2D point `u[i].1`, in the
-    /// Lambertian kernel; `None` for lanes off the route or without a sample.
-    pub fn sample_bsdfs(&mut self, u: &[(f32, glam::Vec2); W]) -> [Option<BsdfSample>; W] {
-        let mut sampled = [None; W];
+    /// The arithmetic of [`scatter`](Self::scatter) over all lanes at once: the light
+    /// samples of the `lit` lanes added, the Lambertian lobe sampled in the `on` lanes, and
+    /// the paths of those with a sample continued as [`Path::go_on`] continues them up to
+    /// Russian roulette (their sample's weight is the albedo, its pdf not a delta's, and it
+    /// reflects). Returns the lanes with a sample.
+    #[inline(always)]
+    fn advance_here(&self, paths: &mut PathLanes<W>, on: Mask<W>, lit: Mask<W>) -> Mask<W> {
+        paths.l = V3s::select(lit, paths.l + self.shadow_radiance, paths.l);
+        let sampled = self.bsdf.sample_here();
+        let go = on & sampled.valid;
+        paths.beta = V3s::select(go, paths.beta * self.albedo, paths.beta);
+        paths.prev_pdf = F32s::select(go, sampled.pdf, paths.prev_pdf);
+        paths.prev_p = V3s::select(go, self.p, paths.prev_p);
+        paths.prev_n = V3s::select(go, self.ns, paths.prev_n);
+        let origin = offset_origin_lanes(self.p, self.bsdf.ng, sampled.wi);
+        paths.ray_o = V3s::select(go, origin, paths.ray_o);
+        paths.ray_d = V3s::select(go, sampled.wi, paths.ray_d);
+        go
+    }
+
+    /// Puts the shadow rays of the route's light samples in their lanes of `segments`.
+    pub fn shadows(&self, segments: &mut SegmentLanes<W>) {
+        let lit = self.has_shadow;
+        segments.live = segments.live | lit;
+        segments.o = V3s::select(lit, self.shadow_o, segments.o);
+        segments.d = V3s::select(lit, self.shadow_d, segments.d);
+        segments.t_max = F32s::select(lit, self.shadow_t, segments.t_max);
+    }
+
+    /// Finishes the route's vertices, as [`Path::scatter`] does there (no split samples, no
+    /// mirror ray, no render passes), on the lanes' paths in `paths`: adds each lane's light
+    /// sample where its shadow ray was not `blocked`, samples the Lambertian lobe with the
+    /// lane's 2D point (`u`'s second and third lanes) in the BSDF kernel, and continues the path as
+    /// [`Path::go_on`] does, in SIMD lanes but for Russian roulette, which takes its number
+    /// from the lane's sampler (`samplers[i]`). Returns the lanes whose path ended.
+    pub fn scatter(
+        &mut self,
+        &(_, ux, uy): &(F32s<W>, F32s<W>, F32s<W>),
+        blocked: &[bool; W],
+        paths: &mut PathLanes<W>,
+        samplers: &mut SamplerLanes<W>,
+    ) -> [bool; W] {
+        let mut ended = [false; W];
         if !self.on.contains(&true) {
-            return sampled;
+            return ended;
         }
-        for (i, &(_, u)) in u.iter().enumerate() {
-            (self.bsdf.u.0[i], self.bsdf.u.1[i]) = (u.x, u.y);
-        }
-        let out = self.bsdf.sample();
-        for (i, sampled) in sampled.iter_mut().enumerate() {
-            if self.on[i] {
-                *sampled = out.lane(i, self.albedo[i]);
+        self.bsdf.u = (ux, uy);
+        let on = Mask::from_fn(|i| self.on[i]);
+        let lit = self.has_shadow & on & !Mask::from_fn(|i| blocked[i]);
+        let go = self.advance(paths, on, lit);
+        for (i, ended) in ended.iter_mut().enumerate() {
+            if !self.on[i] {
+                continue;
             }
+            if !go.lane(i) {
+                *ended = true;
+                continue;
+            }
+            paths.prev_delta[i] = false;
+            paths.count_found[i] = true;
+            if paths.depth[i] >= RR_DEPTH {
+                let beta = paths.beta.lane(i);
+                let q = (beta * paths.eta_scale[i]).max_element().min(1.0);
+                if samplers.get_1d(i) >= q {
+                    *ended = true;
+                    continue;
+                }
+                paths.beta.set(i, beta / q);
+            }
+            paths.depth[i] += 1;
+            *ended = paths.beta.lane(i) == Vec3::ZERO;
         }
-        sampled
+        ended
     }
 }
 

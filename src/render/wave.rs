@@ -15,11 +15,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::Sink;
 use crate::geometry::mesh::SurfaceLanes;
-use crate::geometry::SurfaceHit;
-use crate::integrator::path::{LambertRoute, Path, Scratch, Vertex};
+use crate::geometry::{SegmentLanes, SurfaceHit};
+use crate::integrator::path::{LambertRoute, Path, PathLanes, Scratch, Vertex};
 use crate::integrator::{raycast, TraceStats};
 use crate::math::{Ray, Vec2};
-use crate::sampler::Sampler;
+use crate::sampler::{Sampler, SamplerLanes};
 use crate::scene::{IntegratorKind, Scene};
 
 /// A pixel's share of a pass: pixel (x, y) takes the samples with `indices`.
@@ -53,11 +53,9 @@ pub(super) fn render_pixels(
     }
 }
 
-/// A lane's path: the path, its sampler, the entry of the work it is a sample of, and the
-/// sample's index.
+/// A lane's sample: the entry of the work it is a sample of, and the sample's index (its path
+/// and its sampler are the lane's in the wave's [`PathLanes`] and [`SamplerLanes`]).
 struct Lane {
-    path: Path,
-    sampler: Sampler,
     pixel: usize,
     index: u32,
 }
@@ -76,6 +74,10 @@ fn run_wave<const W: usize>(
         .enumerate()
         .flat_map(|(k, w)| w.indices.clone().map(move |i| (k, i)));
     let mut lanes: [Option<Lane>; W] = std::array::from_fn(|_| None);
+    let mut paths = Box::new(PathLanes::<W>::new());
+    let mut samplers = Box::new(SamplerLanes::<W>::new());
+    // The paths of the lanes off the Lambertian route, taken out of `paths` for the step.
+    let mut off_route: [Option<Path>; W] = std::array::from_fn(|_| None);
     let mut rays: [Option<Ray>; W] = [None; W];
     let mut hits: [Option<SurfaceHit>; W] = [None; W];
     let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
@@ -83,11 +85,17 @@ fn run_wave<const W: usize>(
     let mut route = Box::new(LambertRoute::<W>::new());
     let mut surfaces = Box::new(SurfaceLanes::<W>::new());
     loop {
-        for (lane, ray) in lanes.iter_mut().zip(&mut rays) {
+        for (i, (lane, ray)) in lanes.iter_mut().zip(&mut rays).enumerate() {
             if lane.is_none() {
-                *lane = next_lane(scene, origin, &mut queue, work, sums, stats);
+                if let Some((next, sampler, path)) =
+                    next_lane(scene, origin, &mut queue, work, sums, stats)
+                {
+                    *lane = Some(next);
+                    samplers.set(i, sampler);
+                    paths.put(i, path);
+                }
             }
-            *ray = lane.as_ref().map(|l| l.path.ray);
+            *ray = lane.as_ref().map(|_| paths.ray(i));
         }
         let traced = rays.iter().flatten().count();
         if traced == 0 || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
@@ -95,105 +103,93 @@ fn run_wave<const W: usize>(
         }
         stats.rays += traced as u64;
         scene.intersect_lanes(&rays, &mut hits, &mut surfaces);
-        let u_light: [_; W] =
-            Sampler::get_2d_lanes(lanes.each_mut().map(|l| l.as_mut().map(|l| &mut l.sampler)));
+        let (ux, uy) = samplers.get_2d(&lanes.each_ref().map(Option::is_some));
+        let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
         for i in 0..W {
-            let Some(lane) = &mut lanes[i] else { continue };
+            if lanes[i].is_none() {
+                continue;
+            }
             if let Some(hit) = &hits[i] {
-                if route.enter(i, scene, &lane.path, hit, u_light[i]) {
+                if route.enter(i, scene, &paths, hit, u_light[i]) {
                     continue;
                 }
             }
-            if !lane.path.shade(scene, hits[i].as_ref(), &mut vertices[i]) {
-                finish(&mut lanes[i], sums);
+            let mut path = paths.take(i);
+            if path.shade(scene, hits[i].as_ref(), &mut vertices[i]) {
+                off_route[i] = Some(path);
+            } else {
+                finish(lanes[i].take(), path, sums);
             }
         }
         Path::sample_lights(
             scene,
-            lanes.each_ref().map(|l| l.as_ref().map(|l| &l.path)),
+            off_route.each_ref().map(Option::as_ref),
             &hits,
             &mut vertices,
             &u_light,
             &mut scratch,
         );
-        route.sample_lights(
-            scene,
-            lanes.each_ref().map(|l| l.as_ref().map(|l| &l.path)),
-            &hits,
-        );
+        route.sample_lights(scene, &paths, &hits);
         // Only this step's vertices: a lane that is idle or whose path just ended traces none.
-        let shadows: [Option<(Ray, f32)>; W] = std::array::from_fn(|i| {
-            let shadow = if route.is_on(i) {
-                route.shadow(i)
-            } else {
-                vertices[i].as_ref().and_then(|v| v.shadow)
-            };
-            shadow.map(|s| (s.ray, s.t_max))
-        });
-        stats.rays += shadows.iter().flatten().count() as u64;
+        let mut shadows = SegmentLanes::<W>::new();
+        route.shadows(&mut shadows);
+        for (i, vertex) in vertices.iter().enumerate() {
+            if let Some(shadow) = vertex.as_ref().and_then(|v| v.shadow) {
+                shadows.set(i, &shadow.ray, shadow.t_max);
+            }
+        }
+        stats.rays += (0..W).filter(|&i| shadows.live.lane(i)).count() as u64;
         let blocked = scene.occluded_lanes(&shadows);
-        let mut scattering =
-            lanes
-                .iter_mut()
-                .zip(&vertices)
-                .enumerate()
-                .map(
-                    |(i, (lane, vertex))| match (lane, vertex.is_some() || route.is_on(i)) {
-                        (Some(lane), true) => Some(&mut lane.sampler),
-                        _ => None,
-                    },
-                );
-        let u_scatter: [_; W] =
-            Sampler::get_choice_2d_lanes(std::array::from_fn(|_| scattering.next().flatten()));
+        let scattering = std::array::from_fn(|i| vertices[i].is_some() || route.is_on(i));
+        let u_scatter = samplers.get_choice_2d(&scattering);
         let sampled = Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch);
-        let sampled_on_route = route.sample_bsdfs(&u_scatter);
+        let ended_on_route = route.scatter(&u_scatter, &blocked, &mut paths, &mut samplers);
         for i in 0..W {
             if route.is_on(i) {
-                let (Some(lane), Some(hit)) = (&mut lanes[i], &hits[i]) else {
-                    continue;
-                };
-                let shadow = (route.shadow(i), !blocked[i]);
-                if !lane
-                    .path
-                    .scatter_lambert(hit, shadow, sampled_on_route[i], &mut lane.sampler)
-                {
-                    finish(&mut lanes[i], sums);
+                if ended_on_route[i] {
+                    let path = paths.take(i);
+                    finish(lanes[i].take(), path, sums);
                 }
                 continue;
             }
-            let (Some(vertex), Some(lane), Some(hit)) = (&vertices[i], &mut lanes[i], &hits[i])
+            let (Some(vertex), Some(hit), Some(mut path)) =
+                (&vertices[i], &hits[i], off_route[i].take())
             else {
                 continue;
             };
-            let goes_on = lane.path.scatter(
+            let mut sampler = samplers.get(i);
+            let goes_on = path.scatter(
                 scene,
                 hit,
                 vertex,
                 !blocked[i],
                 sampled[i],
-                &mut lane.sampler,
+                &mut sampler,
                 stats,
             );
+            samplers.set(i, sampler);
             vertices[i] = None;
-            if !goes_on {
-                finish(&mut lanes[i], sums);
+            if goes_on {
+                paths.put(i, path);
+            } else {
+                finish(lanes[i].take(), path, sums);
             }
         }
     }
 }
 
-/// Adds the lane's finished path to its pixel's sums and frees the lane.
-fn finish(lane: &mut Option<Lane>, sums: &mut Sink) {
-    if let Some(lane) = lane.take() {
-        let aov = lane.path.aov.as_deref();
-        sums.add(lane.pixel, lane.index, lane.path.radiance(), aov);
+/// Adds the finished `path` of `lane` (taken from its slot, which is then free) to its
+/// pixel's sums.
+fn finish(lane: Option<Lane>, path: Path, sums: &mut Sink) {
+    if let Some(lane) = lane {
+        sums.add(lane.pixel, lane.index, path.radiance(), path.aov.as_deref());
     }
 }
 
-/// The next sample of the queue as a lane, its camera ray drawn; `None` when the queue is
-/// empty. Samples that trace no path in steps (the ray-cast preview's, or any with a depth of
-/// 0) are taken here whole.
+/// The next sample of the queue as a lane and its path, its camera ray drawn; `None` when the
+/// queue is empty. Samples that trace no path in steps (the ray-cast preview's, or any with a
+/// depth of 0) are taken here whole.
 fn next_lane(
     scene: &Scene,
     (x0, y0): (u32, u32),
@@ -201,7 +197,7 @@ fn next_lane(
     work: &[PixelWork],
     sums: &mut Sink,
     stats: &mut TraceStats,
-) -> Option<Lane> {
+) -> Option<(Lane, Sampler, Path)> {
     for (k, index) in queue {
         let (mut sampler, ray) = camera_sample(scene, x0 + work[k].x, y0 + work[k].y, index);
         match scene.settings.integrator {
@@ -210,12 +206,8 @@ fn next_lane(
                 if sums.wants_aovs() {
                     path.aov = Some(Box::default());
                 }
-                return Some(Lane {
-                    path,
-                    sampler,
-                    pixel: k,
-                    index,
-                });
+                let lane = Lane { pixel: k, index };
+                return Some((lane, sampler, path));
             }
             IntegratorKind::Path => sums.add(k, index, glam::Vec3::ZERO, None),
             IntegratorKind::Raycast => {

@@ -6,7 +6,7 @@ pub mod build;
 use crate::camera::Camera;
 use crate::environment::Environment;
 use crate::geometry::mesh::SurfaceLanes;
-use crate::geometry::{Accel, Geometry, RawHit, SurfaceHit};
+use crate::geometry::{Accel, Geometry, RawHit, SegmentLanes, SurfaceHit};
 use crate::light::Light;
 use crate::light_sampler::LightSampler;
 use crate::material::Material;
@@ -119,18 +119,17 @@ impl Scene {
         }
     }
 
-    /// Whether something blocks each of a wave's segments (a ray and its `t_max`, tested over
-    /// (0, `t_max`); `None` lanes are idle and report `false`), as
-    /// [`occluded`](Scene::occluded) finds it.
+    /// Whether something blocks each of a wave's segments (tested over (0, `t_max`); idle lanes
+    /// report `false`), as [`occluded`](Scene::occluded) finds it.
     #[inline]
-    pub fn occluded_lanes<const W: usize>(&self, segments: &[Option<(Ray, f32)>; W]) -> [bool; W] {
+    pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
         if !self.has_alpha {
             return self.geometry.occluded_lanes(segments);
         }
         std::array::from_fn(|i| {
-            segments[i]
-                .as_ref()
-                .is_some_and(|(ray, t_max)| self.occluded(ray, 0.0, *t_max))
+            segments
+                .get(i)
+                .is_some_and(|(ray, t_max)| self.occluded(&ray, 0.0, t_max))
         })
     }
 
