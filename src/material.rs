@@ -322,6 +322,27 @@ impl Material {
         Some((albedo, frame))
     }
 
+    /// For a Lambertian material seen at `hit`, whether its shading normal is the surface's
+    /// geometric one: no normal map, and the interpolated normal, turned to the geometric
+    /// normal's side, equals it (flat shading). There [`lambert`](Self::lambert)'s frame is
+    /// [`Frame::from_normal`] of that normal, whatever the view.
+    #[inline]
+    pub fn shades_flat(&self, hit: &SurfaceHit) -> bool {
+        let n = if hit.ns.dot(hit.ng) < 0.0 {
+            -hit.ns
+        } else {
+            hit.ns
+        };
+        self.normal_texture.is_none() && n == hit.ng
+    }
+
+    /// The albedo of a Lambertian material at `hit` (the first half of
+    /// [`lambert`](Self::lambert)).
+    #[inline]
+    pub fn lambert_albedo(&self, textures: &[Texture], hit: &SurfaceHit) -> Rgb {
+        self.base_color_at(textures, hit)
+    }
+
     /// Whether the material is Lambertian, lit and does not emit: a surface where a path only
     /// scatters diffusely and finds no light of its own (the common vertex of interiors, which
     /// the path tracer runs in SIMD lanes).

@@ -146,6 +146,27 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    /// [`from_normal`](Self::from_normal) in every lane, with its operations in its order (so
+    /// its bits): the axes s, t and n.
+    #[inline(always)]
+    pub fn from_normal_lanes<const W: usize>(n: crate::lanes::V3s<W>) -> [crate::lanes::V3s<W>; 3] {
+        use crate::lanes::{F32s, V3s};
+        let sign = F32s::splat(1.0).copysign(n.z);
+        let a = F32s::splat(-1.0) / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = V3s {
+            x: F32s::splat(1.0) + sign * n.x * n.x * a,
+            y: sign * b,
+            z: -sign * n.x,
+        };
+        let t = V3s {
+            x: b,
+            y: sign + n.y * n.y * a,
+            z: -n.y,
+        };
+        [s, t, n]
+    }
+
     /// World to local coordinates.
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {

@@ -590,6 +590,11 @@ pub struct LambertRoute<const W: usize> {
     on: [bool; W],
     /// The lanes on the route whose light sample runs in the light kernel.
     in_kernel: [bool; W],
+    /// The lanes on the route whose light is sampled one lane at a time.
+    deferred: [bool; W],
+    /// The lanes whose shading frame [`enter`](Self::enter) computed (the others' is computed
+    /// in lanes).
+    scalar_frame: Mask<W>,
     picked: [Option<Picked>; W],
     /// The lanes with a light sample: its shadow ray (over (0, `shadow_t`)) and its radiance.
     has_shadow: Mask<W>,
@@ -611,6 +616,8 @@ impl<const W: usize> LambertRoute<W> {
         LambertRoute {
             on: [false; W],
             in_kernel: [false; W],
+            deferred: [false; W],
+            scalar_frame: Mask::splat(false),
             picked: [None; W],
             has_shadow: Mask::splat(false),
             shadow_o: V3s::default(),
@@ -629,6 +636,7 @@ impl<const W: usize> LambertRoute<W> {
     pub fn clear(&mut self) {
         self.on = [false; W];
         self.in_kernel = [false; W];
+        self.deferred = [false; W];
         self.picked = [None; W];
         self.has_shadow = Mask::splat(false);
     }
@@ -674,47 +682,95 @@ impl<const W: usize> LambertRoute<W> {
             return false;
         }
         // What `shade` computes here: no light is found on the surface (it neither emits nor
-        // is unlit), and the BSDF is the material's Lambertian lobe.
-        let wo = -paths.ray_d.lane(i).normalize();
-        let Some((albedo, frame)) = material.lambert(&scene.textures, hit, wo) else {
-            return false;
-        };
+        // is unlit), and the BSDF is the material's Lambertian lobe. Its frame is computed
+        // here where the shading normal depends on the view, else for all lanes at once in
+        // `prepare`.
+        let flat = material.shades_flat(hit);
+        if !flat {
+            let wo = -paths.ray_d.lane(i).normalize();
+            let Some((_, frame)) = material.lambert(&scene.textures, hit, wo) else {
+                return false;
+            };
+            let b = &mut self.bsdf;
+            b.s.set(i, frame.s);
+            b.t.set(i, frame.t);
+            b.n.set(i, frame.n);
+        }
+        self.scalar_frame.set(i, !flat);
         self.on[i] = true;
-        self.albedo.set(i, albedo);
+        self.albedo
+            .set(i, material.lambert_albedo(&scene.textures, hit));
         self.p.set(i, hit.p);
         self.ns.set(i, hit.ns);
-        let beta = paths.beta.lane(i);
-        let b = &mut self.bsdf;
-        b.s.set(i, frame.s);
-        b.t.set(i, frame.t);
-        b.n.set(i, frame.n);
-        b.ng.set(i, hit.ng);
-        b.wo.set(i, wo);
+        self.bsdf.ng.set(i, hit.ng);
         let Some((pick, light)) = Picked::choose(scene, hit, u_light) else {
             return true;
         };
         self.picked[i] = Some(pick);
-        let Some((emission, two_sided)) = kernel_emission(scene, light) else {
-            let vertex = self.vertex(i, scene, hit);
-            let shadow = Path::light_sample((beta, None), scene, hit, &vertex, pick);
-            self.set_shadow(i, shadow);
-            return true;
-        };
-        self.in_kernel[i] = true;
-        let lane = LaneLight {
-            light,
-            emission: (emission, two_sided),
-            albedo,
-        };
-        let seen = LaneVertex {
-            frame_n: frame.n,
-            bsdf_ng: hit.ng,
-            wo,
-            split: 1.0,
-            beta,
-        };
-        self.lights.set(i, (pick, lane), hit, seen);
+        match kernel_emission(scene, light) {
+            Some(emission) => {
+                self.in_kernel[i] = true;
+                self.lights.set_light(i, pick, light, emission);
+            }
+            // Sampled one lane at a time once the vertex is complete (`prepare`).
+            None => self.deferred[i] = true,
+        }
         true
+    }
+
+    /// Completes the vertices of the lanes that [`enter`](Self::enter)ed: the direction to the
+    /// viewer and the shading frame of every lane at once (where `enter` left it), the light
+    /// kernel's inputs, and the light samples of lights the kernel does not take.
+    fn prepare(&mut self, scene: &Scene, paths: &PathLanes<W>, hits: &[Option<SurfaceHit>; W]) {
+        self.prepare_lanes(paths);
+        for (i, hit) in hits.iter().enumerate() {
+            let (true, Some(hit), Some(pick)) = (self.deferred[i], hit, self.picked[i]) else {
+                continue;
+            };
+            let vertex = self.vertex(i, scene, hit);
+            let beta = paths.beta.lane(i);
+            self.set_shadow(
+                i,
+                Path::light_sample((beta, None), scene, hit, &vertex, pick),
+            );
+        }
+    }
+
+    /// The vector part of [`prepare`](Self::prepare), compiled for the widest vector
+    /// instructions the CPU has that suit W lanes.
+    fn prepare_lanes(&mut self, paths: &PathLanes<W>) {
+        crate::lanes::widest!(
+            W,
+            (route: &mut LambertRoute<W>, paths: &PathLanes<W>) => (),
+            (self, paths),
+            route.prepare_here(paths)
+        )
+    }
+
+    /// The operations of `Material::lambert` and `Path::shade` for the view and the frame
+    /// (`-ray.d.normalize()`; [`Frame::from_normal`](crate::math::Frame::from_normal) of the
+    /// normal turned to the geometric normal's side), in their order, in every lane.
+    #[inline(always)]
+    fn prepare_here(&mut self, paths: &PathLanes<W>) {
+        let wo = -paths.ray_d.normalize();
+        let ng = self.bsdf.ng;
+        let n = V3s::select(self.ns.dot(ng).lt(F32s::splat(0.0)), -self.ns, self.ns);
+        let [s, t, n] = crate::math::Frame::from_normal_lanes(n);
+        let keep = self.scalar_frame;
+        let b = &mut self.bsdf;
+        b.s = V3s::select(keep, b.s, s);
+        b.t = V3s::select(keep, b.t, t);
+        b.n = V3s::select(keep, b.n, n);
+        b.wo = wo;
+        let l = &mut self.lights;
+        l.p = self.p;
+        l.ng = ng;
+        l.frame_n = b.n;
+        l.bsdf_ng = ng;
+        l.albedo = self.albedo;
+        l.wo = wo;
+        l.split = F32s::splat(1.0);
+        l.beta = paths.beta;
     }
 
     /// Lane `i`'s vertex as [`Path::shade`] would have made it, for the rare light samples
@@ -748,6 +804,10 @@ impl<const W: usize> LambertRoute<W> {
         paths: &PathLanes<W>,
         hits: &[Option<SurfaceHit>; W],
     ) {
+        if !self.on.contains(&true) {
+            return;
+        }
+        self.prepare(scene, paths, hits);
         if !self.in_kernel.contains(&true) {
             return;
         }
@@ -1023,6 +1083,23 @@ impl<const W: usize> LightLanes<W> {
             };
             self.set(i, (pick, lane), hit, seen);
         }
+    }
+
+    /// Sets lane `i`'s light: the triangle light `light` picked by `pick`, with the constant
+    /// emission `(radiance, two-sided)` of [`kernel_emission`] (the vertex's inputs are set
+    /// apart).
+    #[inline]
+    fn set_light(
+        &mut self,
+        i: usize,
+        pick: Picked,
+        light: &Light,
+        (emission, two_sided): (Rgb, bool),
+    ) {
+        self.triangles.set(i, light);
+        (self.u.0[i], self.u.1[i], self.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
+        self.emission.set(i, emission);
+        self.two_sided_emission.set(i, two_sided);
     }
 
     /// Sets lane `i` to the light `lane` picked by `pick`, sampled from `hit` whose vertex
