@@ -84,6 +84,22 @@ fn every_scene_renders_the_same_bits_at_every_lane_width() {
         same_at_every_width(file, |_| {}, false);
     }
     same_at_every_width(&scenes.join("cornell.json"), |_| {}, true);
+    // A thin lens (its rays are drawn one lane at a time, a pinhole's in SIMD lanes), and
+    // independent numbers (drawn one lane at a time) with and without it.
+    for (lens, sampler) in [
+        (0.05, lumo_schema::SamplerKind::Sobol),
+        (0.0, lumo_schema::SamplerKind::Independent),
+        (0.05, lumo_schema::SamplerKind::Independent),
+    ] {
+        same_at_every_width(
+            &scenes.join("cornell.json"),
+            |s| {
+                s.camera.aperture_radius = lens;
+                s.render.sampler = sampler;
+            },
+            false,
+        );
+    }
     // The ray-cast preview integrator too.
     same_at_every_width(
         &scenes.join("cornell_glass.json"),
