@@ -266,11 +266,7 @@ impl Material {
         wo: Vec3,
         specular_share: f32,
     ) -> Vec3 {
-        let mut n = if hit.ns.dot(hit.ng) < 0.0 {
-            -hit.ns
-        } else {
-            hit.ns
-        };
+        let mut n = front_shading_normal(hit);
         if let Some(map) = &self.normal_texture {
             n = Self::mapped_normal(textures, map, self.normal_scale, hit, n);
         } else if n == hit.ng {
@@ -328,12 +324,7 @@ impl Material {
     /// [`Frame::from_normal`] of that normal, whatever the view.
     #[inline]
     pub fn shades_flat(&self, hit: &SurfaceHit) -> bool {
-        let n = if hit.ns.dot(hit.ng) < 0.0 {
-            -hit.ns
-        } else {
-            hit.ns
-        };
-        self.normal_texture.is_none() && n == hit.ng
+        self.normal_texture.is_none() && front_shading_normal(hit) == hit.ng
     }
 
     /// The albedo of a Lambertian material at `hit` (the first half of
@@ -465,6 +456,16 @@ fn valid_reflection_normal(n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
         -m
     } else {
         m
+    }
+}
+
+/// The hit's interpolated normal turned to the side of its geometric normal.
+#[inline]
+fn front_shading_normal(hit: &SurfaceHit) -> Vec3 {
+    if hit.ns.dot(hit.ng) < 0.0 {
+        -hit.ns
+    } else {
+        hit.ns
     }
 }
 

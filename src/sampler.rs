@@ -234,7 +234,7 @@ macro_rules! lanes_dispatch {
 /// a sequential generator, one lane at a time). A lane's sampler is [`set`](Self::set) when its
 /// sample starts and [`get`](Self::get) out for the steps that run one lane at a time.
 pub struct SamplerLanes<const W: usize> {
-    /// Whether every lane's sampler draws scrambled Sobol points.
+    /// Each lane's sequence.
     kinds: [SamplerKind; W],
     rng: [Pcg32; W],
     pixel_seed: U32s<W>,
@@ -276,13 +276,13 @@ impl<const W: usize> SamplerLanes<W> {
         self.dimension[i] = sampler.dimension;
     }
 
-    /// One uniform number from lane `i`'s sampler ([`Sampler::get_1d`]).
+    /// `draw` on lane `i`'s sampler, which then moves on as `draw` moved it.
     #[inline]
-    pub fn get_1d(&mut self, i: usize) -> f32 {
+    pub fn with<T>(&mut self, i: usize, draw: impl FnOnce(&mut Sampler) -> T) -> T {
         let mut sampler = self.get(i);
-        let u = sampler.get_1d();
+        let out = draw(&mut sampler);
         self.set(i, sampler);
-        u
+        out
     }
 
     /// The next 2D point of the samplers of the `live` lanes ([`Sampler::get_2d`]; the others
@@ -291,9 +291,7 @@ impl<const W: usize> SamplerLanes<W> {
         if !self.all_sobol(live) {
             let mut out = (F32s::default(), F32s::default());
             for i in (0..W).filter(|&i| live[i]) {
-                let mut sampler = self.get(i);
-                let u = sampler.get_2d();
-                self.set(i, sampler);
+                let u = self.with(i, Sampler::get_2d);
                 (out.0[i], out.1[i]) = (u.x, u.y);
             }
             return out;
@@ -309,9 +307,7 @@ impl<const W: usize> SamplerLanes<W> {
         if !self.all_sobol(live) {
             let mut out = (F32s::default(), F32s::default(), F32s::default());
             for i in (0..W).filter(|&i| live[i]) {
-                let mut sampler = self.get(i);
-                let (choice, u) = sampler.get_choice_2d();
-                self.set(i, sampler);
+                let (choice, u) = self.with(i, Sampler::get_choice_2d);
                 (out.0[i], out.1[i], out.2[i]) = (choice, u.x, u.y);
             }
             return out;
@@ -688,7 +684,8 @@ mod tests {
                 bits(cy[i], v.y);
             }
             let rr = step % W;
-            assert_eq!(lanes.get_1d(rr).to_bits(), single[rr].get_1d().to_bits());
+            let u = lanes.with(rr, Sampler::get_1d);
+            assert_eq!(u.to_bits(), single[rr].get_1d().to_bits());
             for (i, s) in single.iter_mut().enumerate() {
                 assert_eq!(
                     lanes.get(i).get_1d().to_bits(),

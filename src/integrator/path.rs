@@ -306,8 +306,9 @@ impl Path {
     }
 
     /// The BSDF samples of a wave's vertices (`None` where a lane has none, or its BSDF
-    /// samples nothing), each with its lane's lobe choice and 2D point (lane i of `u`'s three: the vertex's
-    /// next sampler dimensions, drawn for every lane at once): for [`scatter`](Path::scatter).
+    /// samples nothing), each with its lane's lobe choice and 2D point (lane i of `u`'s three:
+    /// the vertex's next sampler dimensions, drawn for every lane at once): for
+    /// [`scatter`](Path::scatter).
     /// Lambertian lanes are sampled in SIMD lanes (from [`LANE_KERNELS_FROM`] lanes on), the
     /// others one at a time; a lane's bits are the same either way.
     pub fn sample_bsdfs<const W: usize>(
@@ -443,23 +444,30 @@ impl Path {
         self.prev_n = hit.ns;
         self.ray = spawn(hit, s.wi);
         if self.depth >= RR_DEPTH {
-            // Survival in proportion to the throughput without the refractions' 1/η′²: a
-            // path inside glass carries 1/1.5² of the radiance it will have again outside, and
-            // with the bare throughput 56 % of those paths were ended at each depth from
-            // `RR_DEPTH` on (GlassVaseFlowers, depth 8: 1.19-1.23× the variance per sample). Paths
-            // that keep their throughput always survive (pbrt-v4; Mitsuba 3 caps q at 0.95,
-            // which it needs for unbounded depths, but `max_depth` bounds every path here, and
-            // the cap cost GlassVaseFlowers' specular chains another 1.07-1.11× the variance). Any
-            // q > 0 is unbiased.
-            let q = (self.beta * self.eta_scale).max_element().min(1.0);
-            if sampler.get_1d() >= q {
+            let Some(beta) = russian_roulette(self.beta, self.eta_scale, sampler.get_1d()) else {
                 return false;
-            }
-            self.beta /= q;
+            };
+            self.beta = beta;
         }
         self.depth += 1;
         self.beta != Vec3::ZERO
     }
+}
+
+/// Russian roulette at a vertex from [`RR_DEPTH`] on, with the uniform number `u`: the
+/// throughput `beta` of a path that survives, reweighted, or `None` for one that ends.
+///
+/// Survival is in proportion to the throughput without the refractions' 1/η′² (`eta_scale`):
+/// a path inside glass carries 1/1.5² of the radiance it will have again outside, and with the
+/// bare throughput 56 % of those paths were ended at each depth from `RR_DEPTH` on
+/// (GlassVaseFlowers, depth 8: 1.19-1.23× the variance per sample). Paths that keep their
+/// throughput always survive (pbrt-v4; Mitsuba 3 caps q at 0.95, which it needs for unbounded
+/// depths, but `max_depth` bounds every path here, and the cap cost GlassVaseFlowers' specular
+/// chains another 1.07-1.11× the variance). Any q > 0 is unbiased.
+#[inline]
+fn russian_roulette(beta: Rgb, eta_scale: f32, u: f32) -> Option<Rgb> {
+    let q = (beta * eta_scale).max_element().min(1.0);
+    (u < q).then(|| beta / q)
 }
 
 /// The paths of a wave, one per lane, as a structure of arrays: what [`Path`] holds, kept in
@@ -724,16 +732,28 @@ impl<const W: usize> LambertRoute<W> {
     fn prepare(&mut self, scene: &Scene, paths: &PathLanes<W>, hits: &[Option<SurfaceHit>; W]) {
         self.prepare_lanes(paths);
         for (i, hit) in hits.iter().enumerate() {
-            let (true, Some(hit), Some(pick)) = (self.deferred[i], hit, self.picked[i]) else {
-                continue;
-            };
-            let vertex = self.vertex(i, scene, hit);
-            let beta = paths.beta.lane(i);
-            self.set_shadow(
-                i,
-                Path::light_sample((beta, None), scene, hit, &vertex, pick),
-            );
+            if let (true, Some(hit)) = (self.deferred[i], hit) {
+                self.sample_light_alone(i, scene, paths, hit);
+            }
         }
+    }
+
+    /// Lane `i`'s light sample (its vertex at `hit` complete), taken by [`Path::light_sample`]
+    /// one lane at a time: for lights the kernel does not take, and lanes it leaves undecided.
+    fn sample_light_alone(
+        &mut self,
+        i: usize,
+        scene: &Scene,
+        paths: &PathLanes<W>,
+        hit: &SurfaceHit,
+    ) {
+        let Some(pick) = self.picked[i] else { return };
+        let vertex = self.vertex(i, scene, hit);
+        let beta = paths.beta.lane(i);
+        self.set_shadow(
+            i,
+            Path::light_sample((beta, None), scene, hit, &vertex, pick),
+        );
     }
 
     /// The vector part of [`prepare`](Self::prepare), compiled for the widest vector
@@ -821,18 +841,9 @@ impl<const W: usize> LambertRoute<W> {
         self.shadow_radiance = V3s::select(lit, out.radiance, self.shadow_radiance);
         // The lanes the kernel left to the scalar code.
         for (i, hit) in hits.iter().enumerate() {
-            if !in_kernel.lane(i) || out.decided.lane(i) {
-                continue;
+            if let (true, false, Some(hit)) = (in_kernel.lane(i), out.decided.lane(i), hit) {
+                self.sample_light_alone(i, scene, paths, hit);
             }
-            let (Some(hit), Some(pick)) = (hit, self.picked[i]) else {
-                continue;
-            };
-            let vertex = self.vertex(i, scene, hit);
-            let beta = paths.beta.lane(i);
-            self.set_shadow(
-                i,
-                Path::light_sample((beta, None), scene, hit, &vertex, pick),
-            );
         }
     }
 
@@ -879,9 +890,9 @@ impl<const W: usize> LambertRoute<W> {
     /// Finishes the route's vertices, as [`Path::scatter`] does there (no split samples, no
     /// mirror ray, no render passes), on the lanes' paths in `paths`: adds each lane's light
     /// sample where its shadow ray was not `blocked`, samples the Lambertian lobe with the
-    /// lane's 2D point (`u`'s second and third lanes) in the BSDF kernel, and continues the path as
-    /// [`Path::go_on`] does, in SIMD lanes but for Russian roulette, which takes its number
-    /// from the lane's sampler (`samplers[i]`). Returns the lanes whose path ended.
+    /// lane's 2D point (`u`'s second and third lanes) in the BSDF kernel, and continues the
+    /// path as [`Path::go_on`] does, in SIMD lanes but for Russian roulette, which takes its
+    /// number from the lane's sampler in `samplers`. Returns the lanes whose path ended.
     pub fn scatter(
         &mut self,
         &(_, ux, uy): &(F32s<W>, F32s<W>, F32s<W>),
@@ -908,13 +919,12 @@ impl<const W: usize> LambertRoute<W> {
             paths.prev_delta[i] = false;
             paths.count_found[i] = true;
             if paths.depth[i] >= RR_DEPTH {
-                let beta = paths.beta.lane(i);
-                let q = (beta * paths.eta_scale[i]).max_element().min(1.0);
-                if samplers.get_1d(i) >= q {
+                let u = samplers.with(i, Sampler::get_1d);
+                let Some(beta) = russian_roulette(paths.beta.lane(i), paths.eta_scale[i], u) else {
                     *ended = true;
                     continue;
-                }
-                paths.beta.set(i, beta / q);
+                };
+                paths.beta.set(i, beta);
             }
             paths.depth[i] += 1;
             *ended = paths.beta.lane(i) == Vec3::ZERO;
@@ -1112,16 +1122,13 @@ impl<const W: usize> LightLanes<W> {
         hit: &SurfaceHit,
         seen: LaneVertex,
     ) {
-        let l = self;
         let LaneLight {
             light,
-            emission: (emission, two_sided),
+            emission,
             albedo,
         } = lane;
-        l.triangles.set(i, light);
-        (l.u.0[i], l.u.1[i], l.pmf[i]) = (pick.u.x, pick.u.y, pick.pmf);
-        l.emission.set(i, emission);
-        l.two_sided_emission.set(i, two_sided);
+        self.set_light(i, pick, light, emission);
+        let l = self;
         l.p.set(i, hit.p);
         l.ng.set(i, hit.ng);
         l.frame_n.set(i, seen.frame_n);

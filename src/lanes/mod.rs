@@ -131,29 +131,9 @@ pub fn default_width() -> usize {
 /// W ≥ 8 (by `#[target_feature]` copies of it), else the baseline. Every copy performs the same
 /// lane operations, so gives the same bits.
 macro_rules! widest {
-    ($w:ident, $arg:ident: &$ty:ty => $out:ty, $value:expr, $body:expr) => {{
-        #[cfg(target_arch = "x86_64")]
-        {
-            #[target_feature(enable = "avx512f")]
-            unsafe fn avx512<const $w: usize>($arg: &$ty) -> $out {
-                $body
-            }
-            #[target_feature(enable = "avx2")]
-            unsafe fn avx2<const $w: usize>($arg: &$ty) -> $out {
-                $body
-            }
-            if $w >= 16 && std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has AVX-512F.
-                return unsafe { avx512::<$w>($value) };
-            }
-            if $w >= 8 && std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has AVX2.
-                return unsafe { avx2::<$w>($value) };
-            }
-        }
-        let $arg: &$ty = $value;
-        $body
-    }};
+    ($w:ident, $arg:ident: &$ty:ty => $out:ty, $value:expr, $body:expr) => {
+        $crate::lanes::widest!($w, ($arg: &$ty) => $out, ($value), $body)
+    };
     // Several arguments: `($a: A, $b: B, …) => Out, ($x, $y, …)`.
     ($w:ident, ($($arg:ident: $ty:ty),+) => $out:ty, ($($value:expr),+), $body:expr) => {{
         #[cfg(target_arch = "x86_64")]
@@ -175,7 +155,7 @@ macro_rules! widest {
                 return unsafe { avx2::<$w>($($value),+) };
             }
         }
-        let ($($arg),+): ($($ty),+) = ($($value),+);
+        let ($($arg,)+): ($($ty,)+) = ($($value,)+);
         $body
     }};
 }

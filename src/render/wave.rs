@@ -158,17 +158,9 @@ fn run_wave<const W: usize>(
             else {
                 continue;
             };
-            let mut sampler = samplers.get(i);
-            let goes_on = path.scatter(
-                scene,
-                hit,
-                vertex,
-                !blocked[i],
-                sampled[i],
-                &mut sampler,
-                stats,
-            );
-            samplers.set(i, sampler);
+            let goes_on = samplers.with(i, |sampler| {
+                path.scatter(scene, hit, vertex, !blocked[i], sampled[i], sampler, stats)
+            });
             vertices[i] = None;
             if goes_on {
                 paths.put(i, path);
