@@ -521,12 +521,17 @@ impl<const W: usize> SurfaceLanes<W> {
             // normals by the normal map (X·x + Y·y) + Z·z, normalised.
             let [x, y, z, t] = self.to_world;
             let placed = x * p.x + y * p.y + z * p.z + t;
-            let [nx, ny, nz] = self.normal_to_world;
-            let normal = |n: V3s<W>| (nx * n.x + ny * n.y + nz * n.z).normalize();
+            // (A function, not a closure: closures do not inherit `widest!`'s target features,
+            // so their vector operations would become calls.)
+            #[inline(always)]
+            fn normal<const W: usize>([x, y, z]: [V3s<W>; 3], n: V3s<W>) -> V3s<W> {
+                (x * n.x + y * n.y + z * n.z).normalize()
+            }
+            let map = self.normal_to_world;
             (
                 V3s::select(self.transformed, placed, p),
-                V3s::select(self.transformed, normal(ng), ng),
-                V3s::select(self.transformed, normal(ns), ns),
+                V3s::select(self.transformed, normal(map, ng), ng),
+                V3s::select(self.transformed, normal(map, ns), ns),
             )
         } else {
             (p, ng, ns)

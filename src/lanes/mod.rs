@@ -418,16 +418,18 @@ impl Comparison {
     }
 }
 
-/// The f32 lanes' operations four lanes at a time in SSE2 registers (part of every x86-64),
-/// when W is a multiple of 4: the same IEEE-754 operations, so the same bits, in vector
-/// instructions whatever LLVM's vectoriser makes of the lane loops (it leaves some lanes of
-/// long expressions scalar). Inside functions compiled for AVX2 or AVX-512, LLVM may join
-/// neighbouring chunks into wider registers.
+/// The f32 lanes' operations in SSE2 registers (part of every x86-64) when W = 4: the same
+/// IEEE-754 operations, so the same bits, in vector instructions whatever LLVM's vectoriser
+/// makes of the lane loops (at W = 4 in baseline code it leaves some lanes of long expressions
+/// scalar). Wider waves keep the plain loops: inside the kernels compiled for AVX2 or AVX-512
+/// (`widest!`) LLVM turns them into `ymm` or `zmm` instructions, while it never joins SSE2
+/// chunks into wider registers (the W = 16 light kernel ran 2,071 of its 2,092 instructions on
+/// `xmm` registers in chunks; `docs/performance.md`, 2026-12-03).
 mod sse2 {
     /// Whether the operations run in SSE2 chunks.
     #[inline(always)]
     pub(super) const fn chunked<const W: usize>() -> bool {
-        cfg!(target_arch = "x86_64") && W.is_multiple_of(4) && W > 0
+        cfg!(target_arch = "x86_64") && W == 4
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -721,8 +723,8 @@ impl<const W: usize> F32s<W> {
     /// Lane-wise `x as i32`: toward zero, saturating at the `i32` range, NaN → 0.
     #[inline(always)]
     pub fn to_i32(self) -> I32s<W> {
-        // `a as i32` saturates, which LLVM leaves scalar; SSE2's truncation and two fix-ups
-        // give the same values four lanes at a time.
+        // `a as i32` saturates, which LLVM leaves scalar. At W = 4, SSE2's truncation and two
+        // fix-ups give the same values; wider waves take the loop below.
         let mut out = I32s([0; W]);
         #[cfg(target_arch = "x86_64")]
         if sse2::chunked::<W>() {
@@ -744,8 +746,22 @@ impl<const W: usize> F32s<W> {
             }
             return out;
         }
+        // `as i32` spelled out so that LLVM vectorises it: truncation of the lanes known to be
+        // in range (the others truncate 0), then the saturated ends; NaN fails both tests.
+        const TWO_31: f32 = 2_147_483_648.0;
         for (o, &a) in out.0.iter_mut().zip(&self.0) {
-            *o = a as i32;
+            let (high, low) = (a >= TWO_31, a < -TWO_31);
+            // Both tests, not `contains`'s short circuit, which LLVM leaves scalar.
+            #[allow(clippy::manual_range_contains)]
+            let in_range = if (a >= -TWO_31) & (a < TWO_31) {
+                a
+            } else {
+                0.0
+            };
+            // SAFETY: `in_range` lies in [−2³¹, 2³¹), so its truncation is an i32.
+            let t: i32 = unsafe { in_range.to_int_unchecked() };
+            let t = if high { i32::MAX } else { t };
+            *o = if low { i32::MIN } else { t };
         }
         out
     }

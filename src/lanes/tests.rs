@@ -647,6 +647,41 @@ fn lane_operations_follow_their_rules() {
         assert_eq!(one.to_i32()[0], v as i32);
         assert_eq!(one.sqrt()[0].to_bits(), v.sqrt().to_bits());
     }
+    // `to_i32` at every width (W = 4 runs SSE2 chunks, the others the vectorised loop),
+    // including the saturated ends, NaN and the values either side of ±2³¹.
+    let ends = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        2_147_483_648.0,
+        2_147_483_520.0,
+        -2_147_483_648.0,
+        -2_147_483_904.0,
+        -0.0,
+        0.999_999_9,
+        -1.5,
+        1e30,
+        -1e30,
+        7.0,
+        -7.9,
+        123_456.7,
+        -0.5,
+    ];
+    let edges: Vec<f32> = ends
+        .into_iter()
+        .chain(sweep().into_iter().step_by(89))
+        .collect();
+    fn check_to_i32<const W: usize>(values: &[f32]) {
+        for chunk in values.chunks_exact(W) {
+            let lanes = F32s::<W>(std::array::from_fn(|i| chunk[i])).to_i32();
+            for (i, &v) in chunk.iter().enumerate() {
+                assert_eq!(lanes[i], v as i32, "{v:e} at W = {W}");
+            }
+        }
+    }
+    check_to_i32::<4>(&edges);
+    check_to_i32::<8>(&edges);
+    check_to_i32::<16>(&edges);
     let m = F32s([1.0f32, 2.0, 3.0, 4.0]).lt(F32s::splat(2.5));
     assert!(m.lane(0) && m.lane(1) && !m.lane(2) && m.any() && !m.all());
     assert_eq!(
