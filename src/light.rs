@@ -617,6 +617,34 @@ impl<const W: usize> TriangleLanes<W> {
         }
     }
 
+    /// Sets the lanes of `lanes` to the triangle light `light` (as [`set`](Self::set) sets
+    /// one lane); other lights leave them as they are.
+    #[inline(always)]
+    pub fn set_where(&mut self, lanes: Mask<W>, light: &Light) {
+        if let Light::Triangle {
+            v,
+            n,
+            area,
+            two_sided,
+            sphere: (centroid, r2),
+            ..
+        } = light
+        {
+            for (vs, corner) in self.v.iter_mut().zip(v) {
+                *vs = V3s::select(lanes, V3s::splat(*corner), *vs);
+            }
+            self.n = V3s::select(lanes, V3s::splat(*n), self.n);
+            self.area = F32s::select(lanes, F32s::splat(*area), self.area);
+            self.two_sided = if *two_sided {
+                self.two_sided | lanes
+            } else {
+                self.two_sided.and_not(lanes)
+            };
+            self.centroid = V3s::select(lanes, V3s::splat(*centroid), self.centroid);
+            self.r2 = F32s::select(lanes, F32s::splat(*r2), self.r2);
+        }
+    }
+
     /// Each lane's unit normal (front side).
     #[inline(always)]
     pub fn normal(&self) -> V3s<W> {

@@ -3,6 +3,7 @@
 //! chosen by power. The choice and its probability (for MIS) come from the same two functions,
 //! so they agree.
 
+use crate::lanes::{F32s, Mask};
 use crate::light::Light;
 use crate::light_tree::{LightBounds, LightTree};
 use crate::math::Vec3;
@@ -62,6 +63,65 @@ impl PowerSampler {
         Some((i, p, remapped))
     }
 
+    /// [`pick`](Self::pick) in every lane, with its operations in their order (so its bits):
+    /// each lane's light index (as an exact `f32`), probability and remapped number, and the
+    /// lanes that picked a light (the others' values mean nothing). The light's index is the
+    /// count of cumulative weights at or below the target, which is what the binary search
+    /// finds in a non-decreasing table; one comparison per light, so for few lights.
+    #[inline(always)]
+    pub fn pick_lanes<const W: usize>(&self, u: F32s<W>) -> PickLanes<W> {
+        let none = PickLanes {
+            light: F32s::splat(0.0),
+            pmf: F32s::splat(0.0),
+            u: F32s::splat(0.0),
+            picked: Mask::splat(false),
+        };
+        if self.total <= 0.0 {
+            return none;
+        }
+        let target = u * self.total;
+        let mut count = F32s::splat(0.0);
+        for &c in &self.cdf {
+            count += F32s::select(
+                F32s::splat(c).le(target),
+                F32s::splat(1.0),
+                F32s::splat(0.0),
+            );
+        }
+        let last = (self.cdf.len() - 1) as f32;
+        let light = F32s::select(count.gt(F32s::splat(last)), F32s::splat(last), count);
+        // The chosen light's cumulative weight and the one before it.
+        let (mut hi, mut lo) = (F32s::splat(0.0), F32s::splat(0.0));
+        let mut before = 0.0;
+        for (k, &c) in self.cdf.iter().enumerate() {
+            let here = light.eq(F32s::splat(k as f32));
+            hi = F32s::select(here, F32s::splat(c), hi);
+            lo = F32s::select(here, F32s::splat(before), lo);
+            before = c;
+        }
+        let pmf = (hi - lo) / self.total;
+        let remapped = (target - lo) / (hi - lo);
+        let remapped = F32s::select(remapped.lt(F32s::splat(0.0)), F32s::splat(0.0), remapped);
+        let top = F32s::splat(1.0 - f32::EPSILON / 2.0);
+        PickLanes {
+            light,
+            pmf,
+            u: F32s::select(remapped.gt(top), top, remapped),
+            // `p <= 0.0` refuses: a NaN probability is kept, as there.
+            picked: !pmf.le(F32s::splat(0.0)),
+        }
+    }
+
+    /// The number of lights it chooses among.
+    pub fn len(&self) -> usize {
+        self.cdf.len()
+    }
+
+    /// Whether it has no light to choose.
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+
     /// Probability of picking light `i`.
     pub fn pmf(&self, i: usize) -> f32 {
         if self.total <= 0.0 || i >= self.cdf.len() {
@@ -70,6 +130,19 @@ impl PowerSampler {
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         (self.cdf[i] - lo) / self.total
     }
+}
+
+/// [`PowerSampler::pick_lanes`]' choices, lane by lane.
+#[derive(Debug, Clone, Copy)]
+pub struct PickLanes<const W: usize> {
+    /// The light's index (an exact integer).
+    pub light: F32s<W>,
+    /// The probability of choosing it.
+    pub pmf: F32s<W>,
+    /// The number remapped within its share, for sampling it.
+    pub u: F32s<W>,
+    /// The lanes that chose a light.
+    pub picked: Mask<W>,
 }
 
 /// Which light-selection strategy a [`LightSampler`] uses.
@@ -188,6 +261,14 @@ impl LightSampler {
         }
     }
 
+    /// The sampler by power, when that is how lights are chosen (whatever the shading point).
+    pub fn by_power(&self) -> Option<&PowerSampler> {
+        match self {
+            LightSampler::Power(s) => Some(s),
+            LightSampler::Tree { .. } => None,
+        }
+    }
+
     /// Probability that [`LightSampler::pick`] at `p`, `n` returns light `i`.
     #[inline]
     pub fn pmf(&self, p: Vec3, n: Vec3, i: usize) -> f32 {
@@ -212,6 +293,51 @@ impl LightSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Lane picks are the scalar picks, bit for bit, at every width: on tables with zero
+    /// weights (first, inside, last), one light, and numbers at the shares' edges.
+    #[test]
+    fn lane_picks_are_scalar_picks() {
+        fn check<const W: usize>(s: &PowerSampler, us: &[f32]) {
+            for chunk in us.chunks_exact(W) {
+                let lanes = s.pick_lanes(F32s::<W>(std::array::from_fn(|i| chunk[i])));
+                for (i, &u) in chunk.iter().enumerate() {
+                    match s.pick(u) {
+                        Some((light, pmf, v)) => {
+                            assert!(lanes.picked.lane(i), "u = {u}");
+                            assert_eq!(lanes.light[i], light as f32, "u = {u}");
+                            assert_eq!(lanes.pmf[i].to_bits(), pmf.to_bits(), "u = {u}");
+                            assert_eq!(lanes.u[i].to_bits(), v.to_bits(), "u = {u}");
+                        }
+                        None => assert!(!lanes.picked.lane(i), "u = {u}"),
+                    }
+                }
+            }
+        }
+        let tables: [&[f32]; 5] = [
+            &[1.0, 0.0, 3.0],
+            &[0.0, 2.0, 0.0, 0.0, 5.0, 0.0],
+            &[7.5],
+            &[1.0, 1.0],
+            &[0.0, 0.0],
+        ];
+        let mut state = 1u64;
+        let mut us: Vec<f32> = (0..4096)
+            .map(|_| crate::sampler::test_lcg(&mut state))
+            .collect();
+        us.extend([0.0, 0.125, 0.25, 0.5, 0.75, 1.0 - f32::EPSILON / 2.0]);
+        us.extend((0..10).map(|k| k as f32 / 9.0));
+        while !us.len().is_multiple_of(16) {
+            us.push(0.5);
+        }
+        for weights in tables {
+            let s = PowerSampler::weighted(weights.iter().copied());
+            check::<1>(&s, &us);
+            check::<4>(&s, &us);
+            check::<8>(&s, &us);
+            check::<16>(&s, &us);
+        }
+    }
 
     #[test]
     fn selection_follows_power() {

@@ -13,6 +13,7 @@ use crate::integrator::direct::{sample_light, Strategy};
 use crate::integrator::{spawn, TraceStats};
 use crate::lanes::{F32s, Mask, V3s};
 use crate::light::{Light, TriangleLanes};
+use crate::light_sampler::PowerSampler;
 use crate::material::Material;
 use crate::math::{offset_origin_lanes, Ray, Rgb, Vec3};
 use crate::sampler::{Sampler, SamplerLanes};
@@ -597,13 +598,17 @@ pub struct LambertRoute<const W: usize> {
     /// The lanes on the route this step.
     on: [bool; W],
     /// The lanes on the route whose light sample runs in the light kernel.
-    in_kernel: [bool; W],
+    in_kernel: Mask<W>,
     /// The lanes on the route whose light is sampled one lane at a time.
     deferred: [bool; W],
     /// The lanes whose shading frame [`enter`](Self::enter) computed (the others' is computed
     /// in lanes).
     scalar_frame: Mask<W>,
     picked: [Option<Picked>; W],
+    /// The scene's lights, when the route picks them in lanes.
+    power: Option<PowerLights>,
+    /// Where `power` is set: each lane's light (an exact integer).
+    light_index: F32s<W>,
     /// The lanes with a light sample: its shadow ray (over (0, `shadow_t`)) and its radiance.
     has_shadow: Mask<W>,
     shadow_o: V3s<W>,
@@ -619,14 +624,16 @@ pub struct LambertRoute<const W: usize> {
 }
 
 impl<const W: usize> LambertRoute<W> {
-    /// A route with no lane on it.
-    pub fn new() -> Self {
+    /// A route with no lane on it, for `scene`.
+    pub fn new(scene: &Scene) -> Self {
         LambertRoute {
             on: [false; W],
-            in_kernel: [false; W],
+            in_kernel: Mask::splat(false),
             deferred: [false; W],
             scalar_frame: Mask::splat(false),
             picked: [None; W],
+            power: PowerLights::of(scene),
+            light_index: F32s::default(),
             has_shadow: Mask::splat(false),
             shadow_o: V3s::default(),
             shadow_d: V3s::default(),
@@ -643,7 +650,7 @@ impl<const W: usize> LambertRoute<W> {
     /// Takes every lane off the route, for the wave's next step.
     pub fn clear(&mut self) {
         self.on = [false; W];
-        self.in_kernel = [false; W];
+        self.in_kernel = Mask::splat(false);
         self.deferred = [false; W];
         self.picked = [None; W];
         self.has_shadow = Mask::splat(false);
@@ -711,13 +718,17 @@ impl<const W: usize> LambertRoute<W> {
         self.p.set(i, hit.p);
         self.ns.set(i, hit.ns);
         self.bsdf.ng.set(i, hit.ng);
+        if self.power.is_some() {
+            // Picked in lanes, with the other lanes' lights (`choose_lights`).
+            return true;
+        }
         let Some((pick, light)) = Picked::choose(scene, hit, u_light) else {
             return true;
         };
         self.picked[i] = Some(pick);
         match kernel_emission(scene, light) {
             Some(emission) => {
-                self.in_kernel[i] = true;
+                self.in_kernel.set(i, true);
                 self.lights.set_light(i, pick, light, emission);
             }
             // Sampled one lane at a time once the vertex is complete (`prepare`).
@@ -747,7 +758,7 @@ impl<const W: usize> LambertRoute<W> {
         paths: &PathLanes<W>,
         hit: &SurfaceHit,
     ) {
-        let Some(pick) = self.picked[i] else { return };
+        let Some(pick) = self.pick(i) else { return };
         let vertex = self.vertex(i, scene, hit);
         let beta = paths.beta.lane(i);
         self.set_shadow(
@@ -816,23 +827,47 @@ impl<const W: usize> LambertRoute<W> {
         }
     }
 
+    /// Lane `i`'s light choice, wherever it was made.
+    fn pick(&self, i: usize) -> Option<Picked> {
+        if self.power.is_none() {
+            return self.picked[i];
+        }
+        self.in_kernel.lane(i).then(|| Picked {
+            light: self.light_index[i] as usize,
+            pmf: self.lights.pmf[i],
+            u: glam::Vec2::new(self.lights.u.0[i], self.lights.u.1[i]),
+        })
+    }
+
+    /// Picks the lights of the route's lanes with their light-sample points `u` (as
+    /// [`Picked::choose`] does one lane at a time) and sets the light kernel's inputs for
+    /// them, for all lanes at once, where the route has the scene's lights (`power`).
+    fn choose_lights(&mut self, u: (F32s<W>, F32s<W>)) {
+        let Some(power) = &self.power else { return };
+        let on = Mask::from_fn(|i| self.on[i]);
+        (self.in_kernel, self.light_index) = self.lights.choose(power, u, on);
+    }
+
     /// Runs the light kernel over the route's lanes that need it (`paths` and `hits`: the
-    /// wave's), leaving each lane's shadow ray for [`shadow`](Self::shadow).
+    /// wave's, `u_light` their light-sample points), leaving each lane's shadow ray for
+    /// [`shadow`](Self::shadow).
     pub fn sample_lights(
         &mut self,
         scene: &Scene,
         paths: &PathLanes<W>,
         hits: &[Option<SurfaceHit>; W],
+        u_light: (F32s<W>, F32s<W>),
     ) {
         if !self.on.contains(&true) {
             return;
         }
+        self.choose_lights(u_light);
         self.prepare(scene, paths, hits);
-        if !self.in_kernel.contains(&true) {
+        if !self.in_kernel.any() {
             return;
         }
         let out = self.lights.run();
-        let in_kernel = Mask::from_fn(|i| self.in_kernel[i]);
+        let in_kernel = self.in_kernel;
         let lit = in_kernel & out.decided & out.valid;
         self.has_shadow = self.has_shadow | lit;
         self.shadow_o = V3s::select(lit, out.origin, self.shadow_o);
@@ -933,9 +968,37 @@ impl<const W: usize> LambertRoute<W> {
     }
 }
 
-impl<const W: usize> Default for LambertRoute<W> {
-    fn default() -> Self {
-        Self::new()
+/// The most lights the route picks in lanes (one comparison and a few selects per light and
+/// lane).
+const POWER_LANES_MAX: usize = 8;
+
+/// The scene's lights when next-event estimation picks them by power alone, there are at most
+/// [`POWER_LANES_MAX`] of them, and each is a triangle of constant emission (the light kernel's
+/// case, [`kernel_emission`]): a Cornell box's quad. The route then picks every lane's light in
+/// lanes and sets the kernel's inputs by selects, instead of one lane at a time.
+struct PowerLights {
+    sampler: PowerSampler,
+    /// Each light with its emission (radiance, two-sided).
+    lights: Vec<(Light, (Rgb, bool))>,
+}
+
+impl PowerLights {
+    /// `scene`'s lights, when they are such.
+    fn of(scene: &Scene) -> Option<PowerLights> {
+        let sampler = scene.light_sampler.by_power()?;
+        let n = sampler.len();
+        if n == 0 || n > POWER_LANES_MAX || n != scene.lights.len() {
+            return None;
+        }
+        let lights = scene
+            .lights
+            .iter()
+            .map(|light| Some((light.clone(), kernel_emission(scene, light)?)))
+            .collect::<Option<Vec<_>>>()?;
+        Some(PowerLights {
+            sampler: sampler.clone(),
+            lights,
+        })
     }
 }
 
@@ -1093,6 +1156,53 @@ impl<const W: usize> LightLanes<W> {
             };
             self.set(i, (pick, lane), hit, seen);
         }
+    }
+
+    /// [`choose_here`](Self::choose_here), compiled for the widest vector instructions the
+    /// CPU has that suit W lanes.
+    fn choose(
+        &mut self,
+        power: &PowerLights,
+        u: (F32s<W>, F32s<W>),
+        on: Mask<W>,
+    ) -> (Mask<W>, F32s<W>) {
+        crate::lanes::widest!(
+            W,
+            (lights: &mut LightLanes<W>, power: &PowerLights, u: (F32s<W>, F32s<W>), on: Mask<W>)
+                => (Mask<W>, F32s<W>),
+            (self, power, u, on),
+            lights.choose_here(power, u, on)
+        )
+    }
+
+    /// Picks the light of each lane of `on` by power with its light-sample point `(ux, uy)`
+    /// and sets its inputs (as [`set_light`](Self::set_light) sets them one lane at a time).
+    /// Returns the lanes that picked a light and each lane's light.
+    #[inline(always)]
+    fn choose_here(
+        &mut self,
+        power: &PowerLights,
+        (ux, uy): (F32s<W>, F32s<W>),
+        on: Mask<W>,
+    ) -> (Mask<W>, F32s<W>) {
+        let pick = power.sampler.pick_lanes(ux);
+        let chosen = on & pick.picked;
+        self.u = (
+            F32s::select(chosen, pick.u, self.u.0),
+            F32s::select(chosen, uy, self.u.1),
+        );
+        self.pmf = F32s::select(chosen, pick.pmf, self.pmf);
+        for (k, (light, (emission, two_sided))) in power.lights.iter().enumerate() {
+            let here = chosen & pick.light.eq(F32s::splat(k as f32));
+            self.triangles.set_where(here, light);
+            self.emission = V3s::select(here, V3s::splat(*emission), self.emission);
+            self.two_sided_emission = if *two_sided {
+                self.two_sided_emission | here
+            } else {
+                self.two_sided_emission.and_not(here)
+            };
+        }
+        (chosen, pick.light)
     }
 
     /// Sets lane `i`'s light: the triangle light `light` picked by `pick`, with the constant

@@ -82,7 +82,7 @@ fn run_wave<const W: usize>(
     let mut hits: [Option<SurfaceHit>; W] = [None; W];
     let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
     let mut scratch = Box::new(Scratch::<W>::new());
-    let mut route = Box::new(LambertRoute::<W>::new());
+    let mut route = Box::new(LambertRoute::<W>::new(scene));
     let mut surfaces = Box::new(SurfaceLanes::<W>::new());
     loop {
         for (i, (lane, ray)) in lanes.iter_mut().zip(&mut rays).enumerate() {
@@ -130,7 +130,7 @@ fn run_wave<const W: usize>(
             &u_light,
             &mut scratch,
         );
-        route.sample_lights(scene, &paths, &hits);
+        route.sample_lights(scene, &paths, &hits, (ux, uy));
         // Only this step's vertices: a lane that is idle or whose path just ended traces none.
         let mut shadows = SegmentLanes::<W>::new();
         route.shadows(&mut shadows);
