@@ -742,6 +742,9 @@ impl<const W: usize> LambertRoute<W> {
     /// kernel's inputs, and the light samples of lights the kernel does not take.
     fn prepare(&mut self, scene: &Scene, paths: &PathLanes<W>, hits: &[Option<SurfaceHit>; W]) {
         self.prepare_lanes(paths);
+        if !self.deferred.contains(&true) {
+            return;
+        }
         for (i, hit) in hits.iter().enumerate() {
             if let (true, Some(hit)) = (self.deferred[i], hit) {
                 self.sample_light_alone(i, scene, paths, hit);
@@ -874,10 +877,14 @@ impl<const W: usize> LambertRoute<W> {
         self.shadow_d = V3s::select(lit, out.dir, self.shadow_d);
         self.shadow_t = F32s::select(lit, F32s::splat(1.0), self.shadow_t);
         self.shadow_radiance = V3s::select(lit, out.radiance, self.shadow_radiance);
-        // The lanes the kernel left to the scalar code.
-        for (i, hit) in hits.iter().enumerate() {
-            if let (true, false, Some(hit)) = (in_kernel.lane(i), out.decided.lane(i), hit) {
-                self.sample_light_alone(i, scene, paths, hit);
+        // The lanes the kernel left to the scalar code (seldom any: tested first, so that the
+        // loop, which keeps copying the masks around its calls, is seldom run).
+        let alone = in_kernel.and_not(out.decided);
+        if alone.any() {
+            for (i, hit) in hits.iter().enumerate() {
+                if let (true, Some(hit)) = (alone.lane(i), hit) {
+                    self.sample_light_alone(i, scene, paths, hit);
+                }
             }
         }
     }
