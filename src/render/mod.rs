@@ -249,11 +249,10 @@ where
             },
         };
         let pass_start = Instant::now();
-        let Some(pass) = context.render(&film, &counts) else {
+        if !context.render(&mut film, &counts) {
             interrupted = true;
             break;
-        };
-        film.merge(&pass);
+        }
         schedule.record_pass(samples, pass_start.elapsed(), &film);
         if let Some(on_pass) = options.on_pass {
             on_pass(&film);

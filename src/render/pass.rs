@@ -103,10 +103,12 @@ where
     }
 
     /// Takes `counts[i]` more samples of pixel i, tile by tile in parallel, continuing each
-    /// pixel's sample indices after those already in `film`; returns the new samples as a film,
-    /// or `None` when the render was cancelled before every tile was done (each thread finishes
-    /// at most the tile it is on).
-    pub(super) fn render(&self, film: &Film, counts: &[u32]) -> Option<Film> {
+    /// pixel's sample indices after those already in `film`, and adds them to `film` once every
+    /// tile is done; returns `false`, leaving `film` as it was, when the render was cancelled
+    /// before (each thread finishes at most the tile it is on). The tiles' sums go straight
+    /// into `film` (exact integer sums, so in any order), not through a film of the pass: a
+    /// 256² film is 7 MB, which would be freshly mapped and zeroed pass after pass.
+    pub(super) fn render(&self, film: &mut Film, counts: &[u32]) -> bool {
         let (w, h) = (film.width(), film.height());
         let tiles_x = w.div_ceil(TILE);
         let tiles_y = h.div_ceil(TILE);
@@ -123,19 +125,17 @@ where
             })
             .collect();
         if self.cancelled() {
-            return None;
+            return false;
         }
-        let mut pass = Film::with_aovs(w, h, self.aovs);
         for (tile, (sums, aov)) in results.into_iter().flatten() {
             for (i, ((x, y), sums)) in tile.pixels().zip(sums).enumerate() {
-                *pass.pixel_mut(x, y) = sums;
-                if let (Some(to), Some(from)) = (pass.sums_mut().1, &aov) {
-                    // The pass film's pass sums start at zero: adding sets them.
+                film.pixel_mut(x, y).merge(&sums);
+                if let (Some(to), Some(from)) = (film.sums_mut().1, &aov) {
                     to.merge_pixel((y * w + x) as usize, from, i);
                 }
             }
         }
-        Some(pass)
+        true
     }
 
     /// The new samples of one tile's pixels, row by row: all in one call, or, when timed, a
