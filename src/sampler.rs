@@ -326,10 +326,12 @@ impl<const W: usize> SamplerLanes<W> {
     /// Every lane's Sobol stream at its next dimension + `skip`.
     #[inline]
     fn sobol(&self, skip: u32) -> SobolLanes<W> {
+        let mut hash = U64s([0; W]);
+        for (i, h) in hash.0.iter_mut().enumerate() {
+            *h = u64::from(self.pixel_seed[i]) << 32 | u64::from(self.dimension[i] + skip);
+        }
         SobolLanes {
-            hash: U64s::from_fn(|i| {
-                u64::from(self.pixel_seed[i]) << 32 | u64::from(self.dimension[i] + skip)
-            }),
+            hash,
             reversed_index: self.reversed_index,
         }
     }
@@ -441,13 +443,16 @@ fn owen_sobol_2d_lanes<const W: usize>(shuffled: U32s<W>, hash: U64s<W>) -> (F32
 /// A Sobol dimension by byte tables ([`sobol_dim1_reversed`]) in every lane.
 #[inline(always)]
 fn table_lanes<const W: usize>(tables: &[[u32; 256]; 4], i: U32s<W>) -> U32s<W> {
-    U32s::from_fn(|l| {
-        let i = i.0[l];
-        tables[0][(i & 0xff) as usize]
+    // A loop, not `from_fn`'s closure, which would not inline into the kernels compiled for
+    // wider vectors (closures do not inherit their target features).
+    let mut out = U32s([0; W]);
+    for (o, &i) in out.0.iter_mut().zip(&i.0) {
+        *o = tables[0][(i & 0xff) as usize]
             ^ tables[1][((i >> 8) & 0xff) as usize]
             ^ tables[2][((i >> 16) & 0xff) as usize]
-            ^ tables[3][(i >> 24) as usize]
-    })
+            ^ tables[3][(i >> 24) as usize];
+    }
+    out
 }
 
 /// [`to_unit`] in every lane.
