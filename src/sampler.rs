@@ -431,7 +431,7 @@ fn scramble_seed_y_lanes<const W: usize>(hash: U64s<W>) -> U32s<W> {
 fn owen_sobol_2d_lanes<const W: usize>(shuffled: U32s<W>, hash: U64s<W>) -> (F32s<W>, F32s<W>) {
     let x = laine_karras_lanes(shuffled, (hash >> 32).low_u32());
     let y = laine_karras_lanes(
-        table_lanes(&SOBOL1_TABLES, shuffled),
+        sobol_dim1_reversed_lanes(shuffled),
         scramble_seed_y_lanes(hash),
     );
     (
@@ -440,7 +440,7 @@ fn owen_sobol_2d_lanes<const W: usize>(shuffled: U32s<W>, hash: U64s<W>) -> (F32
     )
 }
 
-/// A Sobol dimension by byte tables ([`sobol_dim1_reversed`]) in every lane.
+/// A Sobol dimension by byte tables ([`sobol_dim2_reversed`]) in every lane.
 #[inline(always)]
 fn table_lanes<const W: usize>(tables: &[[u32; 256]; 4], i: U32s<W>) -> U32s<W> {
     // A loop, not `from_fn`'s closure, which would not inline into the kernels compiled for
@@ -553,34 +553,37 @@ fn to_unit(v: u32) -> f32 {
     (v >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// Sobol dimension 1, bit-reversed: rev(sobol₁(i)). Dimension 1 has the generator matrix with
-/// direction numbers vₖ = vₖ₋₁ ⊕ (vₖ₋₁ ≫ 1), v₀ = 2³¹; the XOR over the index's set bits is done
-/// a byte at a time with precomputed tables of reversed direction numbers (identical to the bit
-/// loop, [`sobol_dim1_loop`], reversed, at a fraction of the cost for 32-bit scrambled indices).
+/// Sobol dimension 1, bit-reversed: rev(sobol₁(i)). Dimension 1 has the direction numbers
+/// vₖ = vₖ₋₁ ⊕ (vₖ₋₁ ≫ 1), v₀ = 2³¹, so reversed they are the rows of Pascal's triangle mod 2
+/// (bit j of rev vₖ is C(k, j) mod 2), and the XOR over the index's set bits is the product
+/// with Pascal's matrix mod 2. By Lucas' theorem that matrix is, in halves, [[P, P], [0, P]]:
+/// the low half of the result is the half-size matrix applied to low ⊕ high, the high half to
+/// high. Five shift-and-XOR steps apply every level at once (the bit loop,
+/// [`sobol_dim1_loop`], reversed, is the definition it is tested against).
 #[inline]
 fn sobol_dim1_reversed(i: u32) -> u32 {
-    SOBOL1_TABLES[0][(i & 0xff) as usize]
-        ^ SOBOL1_TABLES[1][((i >> 8) & 0xff) as usize]
-        ^ SOBOL1_TABLES[2][((i >> 16) & 0xff) as usize]
-        ^ SOBOL1_TABLES[3][(i >> 24) as usize]
+    let mut x = i;
+    x ^= x >> 16;
+    x ^= (x >> 8) & 0x00ff_00ff;
+    x ^= (x >> 4) & 0x0f0f_0f0f;
+    x ^= (x >> 2) & 0x3333_3333;
+    x ^ ((x >> 1) & 0x5555_5555)
 }
 
-/// The direction numbers of Sobol dimension 1, by index bit: vₖ = vₖ₋₁ ⊕ (vₖ₋₁ ≫ 1), v₀ = 2³¹.
-const fn sobol1_directions() -> [u32; 32] {
-    let mut v = [1u32 << 31; 32];
-    let mut k = 1;
-    while k < 32 {
-        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
-        k += 1;
-    }
-    v
+/// [`sobol_dim1_reversed`] in every lane.
+#[inline(always)]
+fn sobol_dim1_reversed_lanes<const W: usize>(i: U32s<W>) -> U32s<W> {
+    let mut x = i;
+    x = x ^ (x >> 16);
+    x = x ^ ((x >> 8) & U32s::splat(0x00ff_00ff));
+    x = x ^ ((x >> 4) & U32s::splat(0x0f0f_0f0f));
+    x = x ^ ((x >> 2) & U32s::splat(0x3333_3333));
+    x ^ ((x >> 1) & U32s::splat(0x5555_5555))
 }
 
-/// `SOBOL1_TABLES[b][x]`: XOR of the reversed direction numbers of the set bits of byte `x` at
-/// byte `b`.
-static SOBOL1_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&sobol1_directions());
-
-/// Sobol dimension 2, bit-reversed, by byte tables as [`sobol_dim1_reversed`].
+/// Sobol dimension 2, bit-reversed: the XOR over the index's set bits of the reversed direction
+/// numbers, a byte at a time by precomputed tables (identical to the bit loop at a fraction of
+/// the cost for 32-bit scrambled indices).
 #[inline]
 fn sobol_dim2_reversed(i: u32) -> u32 {
     SOBOL2_TABLES[0][(i & 0xff) as usize]
@@ -604,7 +607,8 @@ const fn sobol2_directions() -> [u32; 32] {
     v
 }
 
-/// `SOBOL2_TABLES[b][x]`: as [`SOBOL1_TABLES`], for dimension 2.
+/// `SOBOL2_TABLES[b][x]`: XOR of the reversed direction numbers of dimension 2 of the set bits
+/// of byte `x` at byte `b`.
 static SOBOL2_TABLES: [[u32; 256]; 4] = reversed_byte_tables(&sobol2_directions());
 
 /// For direction numbers `v` (index bit k ↦ v[k]): `[b][x]` = XOR of the reversed direction
@@ -809,18 +813,28 @@ mod tests {
         }
     }
 
+    /// Dimension 1 by shifts equals the definition: on every single-bit index (it is linear
+    /// over GF(2), so these decide every index), random ones, and in lanes.
     #[test]
-    fn sobol_tables_equal_the_definition() {
+    fn sobol_dimension_1_equals_the_definition() {
         let mut r = Pcg32::new(4, 4);
-        for i in (0..5000)
-            .map(|_| r.next_u32())
-            .chain([0, 1, 2, 3, u32::MAX, 1 << 31])
-        {
+        let indices: Vec<u32> = (0..32)
+            .map(|k| 1u32 << k)
+            .chain((0..5000).map(|_| r.next_u32()))
+            .chain([0, 3, u32::MAX])
+            .collect();
+        for &i in &indices {
             assert_eq!(
                 sobol_dim1_reversed(i),
                 sobol_dim1_loop(i).reverse_bits(),
                 "index {i}"
             );
+        }
+        for chunk in indices.chunks_exact(16) {
+            let lanes = sobol_dim1_reversed_lanes(U32s::<16>(std::array::from_fn(|l| chunk[l])));
+            for (l, &i) in chunk.iter().enumerate() {
+                assert_eq!(lanes.0[l], sobol_dim1_reversed(i), "index {i}");
+            }
         }
     }
 
