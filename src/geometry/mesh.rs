@@ -290,23 +290,22 @@ impl Mesh {
         i: usize,
         h: &MeshHit,
     ) {
-        let tri = self.data.triangles[h.prim as usize];
+        lanes.set_corners(i, &self.corner_data(h.prim), (h.b1, h.b2));
+    }
+
+    /// What [`gather_surface`](Self::gather_surface) reads of triangle `prim`: its corners,
+    /// and their vertex normals and texture coordinates where the mesh has them.
+    pub fn corner_data(&self, prim: u32) -> CornerData {
+        let tri = self.data.triangles[prim as usize];
         let p = &self.data.positions;
-        for (corner, &v) in lanes.corners.iter_mut().zip(&tri) {
-            corner.set(i, p[v as usize]);
-        }
-        (lanes.b1[i], lanes.b2[i]) = (h.b1, h.b2);
-        lanes.smooth.set(i, self.data.normals.is_some());
-        if let Some(n) = &self.data.normals {
-            for (corner, &v) in lanes.normals.iter_mut().zip(&tri) {
-                corner.set(i, n[v as usize]);
-            }
-        }
-        lanes.textured.set(i, self.data.uvs.is_some());
-        if let Some(uv) = &self.data.uvs {
-            for (corner, &v) in lanes.uvs.iter_mut().zip(&tri) {
-                (corner.0[i], corner.1[i]) = (uv[v as usize].x, uv[v as usize].y);
-            }
+        CornerData {
+            positions: tri.map(|v| p[v as usize]),
+            normals: self
+                .data
+                .normals
+                .as_ref()
+                .map(|n| tri.map(|v| n[v as usize])),
+            uvs: self.data.uvs.as_ref().map(|uv| tri.map(|v| uv[v as usize])),
         }
     }
 
@@ -416,6 +415,18 @@ pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     (positions, tris)
 }
 
+/// A triangle's corners as [`SurfaceLanes`] reads them: positions, and vertex normals and
+/// texture coordinates where its mesh has them (object space).
+#[derive(Debug, Clone, Copy)]
+pub struct CornerData {
+    /// The corners' positions.
+    pub positions: [Vec3; 3],
+    /// Their vertex normals.
+    pub normals: Option<[Vec3; 3]>,
+    /// Their texture coordinates.
+    pub uvs: Option<[Vec2; 3]>,
+}
+
 /// W hits on meshes, one per lane, for [`Mesh::surface`] in SIMD lanes (lanes set by
 /// [`Mesh::gather_surface`]; the others hold whatever they held, and their results mean
 /// nothing).
@@ -469,6 +480,27 @@ impl<const W: usize> SurfaceLanes<W> {
             transformed: Mask::splat(false),
             to_world: [V3s::default(); 4],
             normal_to_world: [V3s::default(); 3],
+        }
+    }
+
+    /// Puts lane `i` to a hit with barycentrics `(b1, b2)` on the triangle `corners`.
+    #[inline]
+    pub fn set_corners(&mut self, i: usize, corners: &CornerData, (b1, b2): (f32, f32)) {
+        for (lanes, &p) in self.corners.iter_mut().zip(&corners.positions) {
+            lanes.set(i, p);
+        }
+        (self.b1[i], self.b2[i]) = (b1, b2);
+        self.smooth.set(i, corners.normals.is_some());
+        if let Some(n) = &corners.normals {
+            for (lanes, &n) in self.normals.iter_mut().zip(n) {
+                lanes.set(i, n);
+            }
+        }
+        self.textured.set(i, corners.uvs.is_some());
+        if let Some(uv) = &corners.uvs {
+            for (lanes, uv) in self.uvs.iter_mut().zip(uv) {
+                (lanes.0[i], lanes.1[i]) = (uv.x, uv.y);
+            }
         }
     }
 

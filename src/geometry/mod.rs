@@ -291,6 +291,14 @@ impl RawHit {
     }
 }
 
+/// What the lanes read of a small set's triangle for its surfaces: its corners and its
+/// instance's maps (`None` for an untransformed instance).
+#[derive(Debug, Clone)]
+struct SmallSlot {
+    corners: mesh::CornerData,
+    maps: Option<(Affine3A, Mat3)>,
+}
+
 /// A ray's hit on a surface, in world space.
 #[derive(Debug, Clone, Copy)]
 pub struct SurfaceHit {
@@ -420,6 +428,11 @@ pub struct Geometry {
     /// The world-space triangles again, for waves of rays, when they are all the scene is and
     /// few ([`small_set::SMALL_SET_MAX`]).
     small: Option<SmallSet>,
+    /// What the lanes read of each triangle of the small set to compute its surfaces, slot
+    /// by slot, when they compute all of them (every triangle lies on a mesh without extra
+    /// vertex attributes): a hit then reads its slot's record, not its instance, mesh and
+    /// vertices in turn.
+    small_slots: Option<Vec<SmallSlot>>,
     top: Bvh,
     /// Instance index of each primitive of `top`.
     top_instances: Vec<u32>,
@@ -519,6 +532,18 @@ impl Geometry {
             && (1..=small_set::SMALL_SET_MAX).contains(&flat_count))
         .then(|| SmallSet::new(flat_count, corners, id))
         .flatten();
+        let small_slots = small.as_ref().and_then(|_| {
+            (0..flat_count)
+                .map(|slot| {
+                    let (k, prim, mesh) = locate(slot);
+                    let inst = &instances[k];
+                    (!mesh.has_attributes()).then(|| SmallSlot {
+                        corners: mesh.corner_data(prim),
+                        maps: (!inst.identity).then_some((inst.to_world, inst.normal_to_world)),
+                    })
+                })
+                .collect::<Option<Vec<_>>>()
+        });
         let flat_bvh = TriangleBvh::build(flat_count, corners, id, |i, stage| {
             let (_, prim, mesh) = locate(i);
             mesh.prefetch_corners(prim, stage);
@@ -527,6 +552,7 @@ impl Geometry {
         Geometry {
             flat: flat_bvh,
             small,
+            small_slots,
             top: Bvh::build(&top_boxes),
             top_instances,
             instances,
@@ -648,6 +674,44 @@ impl Geometry {
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
     ) {
+        if let (Some(small), Some(slots), true) = (
+            &self.small,
+            &self.small_slots,
+            W >= crate::lanes::KERNELS_FROM,
+        ) {
+            // The whole wave's hits, each lane's surface inputs from its slot's record.
+            let found = small.closest_slots(rays);
+            for i in 0..W {
+                if found.hit.lane(i) {
+                    let slot = &slots[found.slot[i] as usize];
+                    surfaces.set_corners(i, &slot.corners, (found.b1[i], found.b2[i]));
+                    surfaces.set_transform(i, slot.maps.as_ref().map(|(a, m)| (a, m)));
+                }
+            }
+            if !found.hit.any() {
+                hits.fill(None);
+                return;
+            }
+            let out = surfaces.run();
+            for (i, hit) in hits.iter_mut().enumerate() {
+                *hit = found.hit.lane(i).then(|| {
+                    let [instance, prim] = small.id(found.slot[i]);
+                    SurfaceHit {
+                        t: found.t[i],
+                        p: out.p.lane(i),
+                        ng: out.ng.lane(i),
+                        ns: out.ns.lane(i),
+                        uv: Vec2::new(out.uv.0[i], out.uv.1[i]),
+                        uv1: Vec2::ZERO,
+                        tangent: Vec4::ZERO,
+                        color: Vec4::ONE,
+                        instance,
+                        prim,
+                    }
+                });
+            }
+            return;
+        }
         // The small set's hits for the whole wave at once; otherwise each lane's is found just
         // before its surface is gathered.
         let small_hits = match &self.small {

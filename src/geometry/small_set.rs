@@ -27,7 +27,7 @@ use glam::Vec3A;
 use crate::geometry::triangle::shear_axes;
 use crate::geometry::triangle::{edge_functions_f64, TriHit};
 use crate::geometry::SegmentLanes;
-use crate::lanes::F32s;
+use crate::lanes::{F32s, Mask, U32s};
 use crate::math::Ray;
 
 /// Scenes of at most this many triangles (and nothing else) are tested by [`SmallSet`] in
@@ -114,6 +114,20 @@ impl<const W: usize> WaveRays<W> {
     }
 }
 
+/// A wave's closest hits on a [`SmallSet`], lane by lane.
+pub struct SlotHits<const W: usize> {
+    /// The lanes with a hit.
+    pub hit: Mask<W>,
+    /// The slot of the triangle hit (0 in lanes without a hit).
+    pub slot: U32s<W>,
+    /// The hit's distance.
+    pub t: F32s<W>,
+    /// Its barycentric coordinate of corner 1.
+    pub b1: F32s<W>,
+    /// Its barycentric coordinate of corner 2.
+    pub b2: F32s<W>,
+}
+
 /// The best hits of a wave's lanes: distance, barycentrics of corners 1 and 2, and the slot
 /// of the triangle in the set (−1 for none).
 struct WaveHits<const W: usize> {
@@ -163,13 +177,15 @@ impl SmallSet {
         })
     }
 
-    /// The closest hit of each lane's ray over (0, ∞) (`None` lanes are idle): the hit
-    /// triangle's id and the hit, as [`TriangleBvh::intersect`](super::TriangleBvh::intersect)
-    /// finds it.
-    pub fn closest_lanes<const W: usize>(
-        &self,
-        rays: &[Option<Ray>; W],
-    ) -> [Option<([u32; 2], TriHit)>; W] {
+    /// The id (instance, primitive) of the triangle in `slot`.
+    pub fn id(&self, slot: u32) -> [u32; 2] {
+        self.ids[slot as usize]
+    }
+
+    /// The closest hit of each lane's ray over (0, ∞) (`None` lanes are idle), lane by lane:
+    /// as [`closest_lanes`](Self::closest_lanes) finds it, with the triangle's slot (its id
+    /// is [`id`](Self::id)) instead of its id.
+    pub fn closest_slots<const W: usize>(&self, rays: &[Option<Ray>; W]) -> SlotHits<W> {
         let wave = WaveRays::<W>::new(|i| rays[i].map(|r| (r, f32::INFINITY)));
         let mut hits = WaveHits {
             t: wave.t_max,
@@ -178,16 +194,33 @@ impl SmallSet {
             slot: [-1.0; W],
         };
         self.run::<W, true>(&wave, &mut hits, &mut [false; W]);
+        let slot = F32s(hits.slot);
+        SlotHits {
+            hit: slot.ge(F32s::splat(0.0)),
+            // Lanes without a hit read slot 0, whose values mean nothing there.
+            slot: U32s(hits.slot.map(|s| if s >= 0.0 { s as u32 } else { 0 })),
+            t: F32s(hits.t),
+            b1: F32s(hits.b1),
+            b2: F32s(hits.b2),
+        }
+    }
+
+    /// The closest hit of each lane's ray over (0, ∞) (`None` lanes are idle): the hit
+    /// triangle's id and the hit, as [`TriangleBvh::intersect`](super::TriangleBvh::intersect)
+    /// finds it.
+    pub fn closest_lanes<const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+    ) -> [Option<([u32; 2], TriHit)>; W] {
+        let hits = self.closest_slots(rays);
         std::array::from_fn(|i| {
-            (hits.slot[i] >= 0.0).then(|| {
-                (
-                    self.ids[hits.slot[i] as usize],
-                    TriHit {
-                        t: hits.t[i],
-                        b1: hits.b1[i],
-                        b2: hits.b2[i],
-                    },
-                )
+            hits.hit.lane(i).then(|| {
+                let hit = TriHit {
+                    t: hits.t[i],
+                    b1: hits.b1[i],
+                    b2: hits.b2[i],
+                };
+                (self.id(hits.slot[i]), hit)
             })
         })
     }
