@@ -696,18 +696,7 @@ impl Geometry {
             for (i, hit) in hits.iter_mut().enumerate() {
                 *hit = found.hit.lane(i).then(|| {
                     let [instance, prim] = small.id(found.slot[i]);
-                    SurfaceHit {
-                        t: found.t[i],
-                        p: out.p.lane(i),
-                        ng: out.ng.lane(i),
-                        ns: out.ns.lane(i),
-                        uv: Vec2::new(out.uv.0[i], out.uv.1[i]),
-                        uv1: Vec2::ZERO,
-                        tangent: Vec4::ZERO,
-                        color: Vec4::ONE,
-                        instance,
-                        prim,
-                    }
+                    lane_surface(&out, i, found.t[i], (instance, prim))
                 });
             }
             return;
@@ -749,20 +738,33 @@ impl Geometry {
         let out = surfaces.run();
         for (i, (hit, lane)) in hits.iter_mut().zip(in_lanes).enumerate() {
             if let Some((k, raw)) = lane {
-                *hit = Some(SurfaceHit {
-                    t: raw.t,
-                    p: out.p.lane(i),
-                    ng: out.ng.lane(i),
-                    ns: out.ns.lane(i),
-                    uv: Vec2::new(out.uv.0[i], out.uv.1[i]),
-                    uv1: Vec2::ZERO,
-                    tangent: Vec4::ZERO,
-                    color: Vec4::ONE,
-                    instance: k,
-                    prim: raw.prim,
-                });
+                *hit = Some(lane_surface(&out, i, raw.t, (k, raw.prim)));
             }
         }
+    }
+}
+
+/// Lane `i` of the surface kernel's results as the hit at distance `t` on triangle `prim` of
+/// instance `instance` (a mesh without extra vertex attributes: no second texture
+/// coordinates, tangent or colour).
+#[inline]
+fn lane_surface<const W: usize>(
+    out: &mesh::SurfacesOut<W>,
+    i: usize,
+    t: f32,
+    (instance, prim): (u32, u32),
+) -> SurfaceHit {
+    SurfaceHit {
+        t,
+        p: out.p.lane(i),
+        ng: out.ng.lane(i),
+        ns: out.ns.lane(i),
+        uv: Vec2::new(out.uv.0[i], out.uv.1[i]),
+        uv1: Vec2::ZERO,
+        tangent: Vec4::ZERO,
+        color: Vec4::ONE,
+        instance,
+        prim,
     }
 }
 
