@@ -385,7 +385,7 @@ impl<const W: usize> SobolLanes<W> {
         let hash = mix64_lanes(self.hash);
         let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
         let seed_z = lowbias32_lanes(scramble_seed_y_lanes(hash) ^ U32s::splat(0x9e37_79b9));
-        let choice = laine_karras_lanes(table_lanes(&SOBOL2_TABLES, shuffled), seed_z);
+        let choice = laine_karras_lanes(sobol_dim2_reversed_lanes(shuffled), seed_z);
         let (x, y) = owen_sobol_2d_lanes(shuffled, hash);
         (to_unit_lanes(choice.reverse_bits()), x, y)
     }
@@ -440,17 +440,14 @@ fn owen_sobol_2d_lanes<const W: usize>(shuffled: U32s<W>, hash: U64s<W>) -> (F32
     )
 }
 
-/// A Sobol dimension by byte tables ([`sobol_dim2_reversed`]) in every lane.
+/// [`sobol_dim2_reversed`] in every lane.
 #[inline(always)]
-fn table_lanes<const W: usize>(tables: &[[u32; 256]; 4], i: U32s<W>) -> U32s<W> {
+fn sobol_dim2_reversed_lanes<const W: usize>(i: U32s<W>) -> U32s<W> {
     // A loop, not `from_fn`'s closure, which would not inline into the kernels compiled for
     // wider vectors (closures do not inherit their target features).
     let mut out = U32s([0; W]);
     for (o, &i) in out.0.iter_mut().zip(&i.0) {
-        *o = tables[0][(i & 0xff) as usize]
-            ^ tables[1][((i >> 8) & 0xff) as usize]
-            ^ tables[2][((i >> 16) & 0xff) as usize]
-            ^ tables[3][(i >> 24) as usize];
+        *o = sobol_dim2_reversed(i);
     }
     out
 }

@@ -202,6 +202,13 @@ impl Instance {
         }
     }
 
+    /// The maps that place its surfaces in the world (object → world, and the normals'),
+    /// `None` when it is untransformed: what [`mesh::SurfaceLanes::set_transform`] takes.
+    #[inline]
+    pub fn surface_maps(&self) -> Option<(&Affine3A, &Mat3)> {
+        (!self.identity).then_some((&self.to_world, &self.normal_to_world))
+    }
+
     /// The full surface description of a hit.
     pub fn surface(&self, ray: &Ray, raw: &RawHit, instance: u32) -> SurfaceHit {
         let r = self.local_ray(ray);
@@ -539,7 +546,7 @@ impl Geometry {
                     let inst = &instances[k];
                     (!mesh.has_attributes()).then(|| SmallSlot {
                         corners: mesh.corner_data(prim),
-                        maps: (!inst.identity).then_some((inst.to_world, inst.normal_to_world)),
+                        maps: inst.surface_maps().map(|(a, m)| (*a, *m)),
                     })
                 })
                 .collect::<Option<Vec<_>>>()
@@ -724,9 +731,7 @@ impl Geometry {
             match &instance.shape {
                 Shape::Mesh(m) if W >= crate::lanes::KERNELS_FROM && !m.has_attributes() => {
                     m.gather_surface(surfaces, i, &mesh::MeshHit::of_raw(&raw));
-                    let maps = (!instance.identity)
-                        .then_some((&instance.to_world, &instance.normal_to_world));
-                    surfaces.set_transform(i, maps);
+                    surfaces.set_transform(i, instance.surface_maps());
                     in_lanes[i] = Some((k, raw));
                 }
                 _ => hits[i] = Some(instance.surface(ray, &raw, k)),

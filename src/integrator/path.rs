@@ -675,8 +675,9 @@ impl<const W: usize> LambertRoute<W> {
     }
 
     /// Puts lane `i` on the route when the vertex of its path (in `paths`) at `hit` belongs
-    /// there, picking its light with the lane's `u_light` (as [`Path::sample_lights`] does);
-    /// returns whether it did. A lane left off takes [`Path::shade`] as before.
+    /// there, picking its light with the lane's `u_light` (as [`Path::sample_lights`] does;
+    /// where the route has the scene's lights, `power`, they are picked later for all lanes
+    /// at once); returns whether it did. A lane left off takes [`Path::shade`] as before.
     pub fn enter(
         &mut self,
         i: usize,
