@@ -342,6 +342,18 @@ impl Material {
         self.is_lambertian() && !self.unlit && !self.is_emissive()
     }
 
+    /// The albedo of every hit on a surface without vertex colours where the material is
+    /// plain Lambertian ([`is_plain_lambertian`](Self::is_plain_lambertian)) with neither a
+    /// base-colour texture nor a normal map: its base colour (as
+    /// [`lambert_albedo`](Self::lambert_albedo) gives it, a white vertex colour changing no
+    /// bit). `None` for other materials.
+    pub fn route_albedo(&self) -> Option<Rgb> {
+        (self.is_plain_lambertian()
+            && self.base_color_texture.is_none()
+            && self.normal_texture.is_none())
+        .then_some(self.base_color)
+    }
+
     /// The base colour at `hit`: factor × texture × vertex colour.
     #[inline]
     fn base_color_at(&self, textures: &[Texture], hit: &SurfaceHit) -> Rgb {

@@ -236,6 +236,9 @@ macro_rules! lanes_dispatch {
 pub struct SamplerLanes<const W: usize> {
     /// Each lane's sequence.
     kinds: [SamplerKind; W],
+    /// How many lanes draw independent numbers (mostly none: then every draw runs in lanes
+    /// without looking at the lanes' kinds).
+    independent_lanes: u32,
     rng: [Pcg32; W],
     pixel_seed: U32s<W>,
     reversed_index: U32s<W>,
@@ -247,6 +250,7 @@ impl<const W: usize> SamplerLanes<W> {
     pub fn new() -> Self {
         SamplerLanes {
             kinds: [SamplerKind::Sobol; W],
+            independent_lanes: 0,
             rng: [Pcg32 { state: 0, inc: 1 }; W],
             pixel_seed: U32s::default(),
             reversed_index: U32s::default(),
@@ -269,6 +273,9 @@ impl<const W: usize> SamplerLanes<W> {
     /// Makes `sampler` lane `i`'s.
     #[inline]
     pub fn set(&mut self, i: usize, sampler: Sampler) {
+        let independent = |kind| u32::from(kind == SamplerKind::Independent);
+        self.independent_lanes =
+            self.independent_lanes - independent(self.kinds[i]) + independent(sampler.kind);
         self.kinds[i] = sampler.kind;
         self.rng[i] = sampler.rng;
         self.pixel_seed[i] = sampler.pixel_seed;
@@ -301,6 +308,21 @@ impl<const W: usize> SamplerLanes<W> {
         out
     }
 
+    /// The next number of the samplers of the `live` lanes ([`Sampler::get_1d`]; the others
+    /// draw nothing and get numbers that mean nothing).
+    pub fn get_1d(&mut self, live: &[bool; W]) -> F32s<W> {
+        if !self.all_sobol(live) {
+            let mut out = F32s::default();
+            for i in (0..W).filter(|&i| live[i]) {
+                out[i] = self.with(i, Sampler::get_1d);
+            }
+            return out;
+        }
+        let out = self.sobol(0).point_1d();
+        self.advance(live, 1);
+        out
+    }
+
     /// The next lobe choice and 2D point of the samplers of the `live` lanes
     /// ([`Sampler::get_choice_2d`]; the others draw nothing and get numbers that mean nothing).
     pub fn get_choice_2d(&mut self, live: &[bool; W]) -> (F32s<W>, F32s<W>, F32s<W>) {
@@ -320,7 +342,8 @@ impl<const W: usize> SamplerLanes<W> {
     /// Whether every `live` lane draws scrambled Sobol points.
     #[inline]
     fn all_sobol(&self, live: &[bool; W]) -> bool {
-        (0..W).all(|i| !live[i] || self.kinds[i] == SamplerKind::Sobol)
+        self.independent_lanes == 0
+            || (0..W).all(|i| !live[i] || self.kinds[i] == SamplerKind::Sobol)
     }
 
     /// Every lane's Sobol stream at its next dimension + `skip`.
@@ -367,6 +390,12 @@ impl<const W: usize> SobolLanes<W> {
         lanes_dispatch!(W, self.point_2d_here(), (F32s<W>, F32s<W>))
     }
 
+    /// [`owen_sobol_x`] of the shuffled index in every lane: the number of
+    /// [`Sampler::get_1d`].
+    fn point_1d(&self) -> F32s<W> {
+        lanes_dispatch!(W, self.point_1d_here(), F32s<W>)
+    }
+
     /// [`owen_sobol_3d_shuffled`] of the shuffled index in every lane: the lobe choice and the
     /// 2D point of [`Sampler::get_choice_2d`].
     fn choice_2d(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
@@ -378,6 +407,14 @@ impl<const W: usize> SobolLanes<W> {
         let hash = mix64_lanes(self.hash);
         let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
         owen_sobol_2d_lanes(shuffled, hash)
+    }
+
+    #[inline(always)]
+    fn point_1d_here(&self) -> F32s<W> {
+        let hash = mix64_lanes(self.hash);
+        let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
+        let x = laine_karras_lanes(shuffled, (hash >> 32).low_u32());
+        to_unit_lanes(x.reverse_bits())
     }
 
     #[inline(always)]
@@ -689,6 +726,11 @@ mod tests {
                 bits(cx[i], v.x);
                 bits(cy[i], v.y);
             }
+            let drawn: [bool; W] = std::array::from_fn(|i| (i + 2 * step) % 5 < 3);
+            let r = lanes.get_1d(&drawn);
+            for i in (0..W).filter(|&i| drawn[i]) {
+                assert_eq!(r[i].to_bits(), single[i].get_1d().to_bits(), "lane {i}");
+            }
             let rr = step % W;
             let u = lanes.with(rr, Sampler::get_1d);
             assert_eq!(u.to_bits(), single[rr].get_1d().to_bits());
@@ -703,6 +745,52 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A wave whose lanes draw from both kinds of stream, lanes changing kind as new samples
+    /// take them, still gives each lane its own stream's numbers.
+    fn check_mixed_lanes<const W: usize>() {
+        let kind = |n: usize| {
+            if n.is_multiple_of(3) {
+                SamplerKind::Independent
+            } else {
+                SamplerKind::Sobol
+            }
+        };
+        let mut lanes = SamplerLanes::<W>::new();
+        let mut single: [Sampler; W] =
+            std::array::from_fn(|i| Sampler::with_kind(kind(i), 5, 40 + i as u64, i as u64));
+        for (i, s) in single.iter().enumerate() {
+            lanes.set(i, *s);
+        }
+        let all = [true; W];
+        for step in 0..3 * W {
+            // A new sample in one lane, of the other kind every third step.
+            let i = step % W;
+            single[i] = Sampler::with_kind(kind(i + step / W), 5, 40 + i as u64, step as u64);
+            lanes.set(i, single[i]);
+            let (x, _) = lanes.get_2d(&all);
+            let r = lanes.get_1d(&all);
+            for (i, s) in single.iter_mut().enumerate() {
+                assert_eq!(
+                    x[i].to_bits(),
+                    s.get_2d().x.to_bits(),
+                    "step {step}, lane {i}"
+                );
+                assert_eq!(
+                    r[i].to_bits(),
+                    s.get_1d().to_bits(),
+                    "step {step}, lane {i}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn sampler_lanes_of_mixed_kinds_draw_each_lanes_numbers() {
+        check_mixed_lanes::<4>();
+        check_mixed_lanes::<8>();
+        check_mixed_lanes::<16>();
     }
 
     #[test]

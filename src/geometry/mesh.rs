@@ -449,6 +449,7 @@ pub struct SurfaceLanes<const W: usize> {
 
 /// What [`SurfaceLanes::run`] computes in each lane: [`Mesh::surface`]'s point, geometric
 /// and shading normals and texture coordinates.
+#[derive(Clone, Copy, Default)]
 pub struct SurfacesOut<const W: usize> {
     /// The hit point.
     pub p: V3s<W>,

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use glam::{Vec3A, Vec4};
 
 use crate::bvh::{Bvh, TraversalRay};
-use crate::lanes::{F32s, Mask, V3s};
+use crate::lanes::{F32s, Mask, U32s, V3s};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
 pub use mesh::{Mesh, OpacityInputs};
 use small_set::SmallSet;
@@ -681,32 +681,43 @@ impl Geometry {
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
     ) {
+        let found = self.intersect_wave(rays, hits, surfaces);
+        found.fill(hits);
+    }
+
+    /// [`intersect_lanes`](Self::intersect_lanes) keeping the hits whose surfaces are computed
+    /// in SIMD lanes as lanes: those are returned (and their entries of `hits` are `None`),
+    /// the others' go into `hits`.
+    pub fn intersect_wave<const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+        hits: &mut [Option<SurfaceHit>; W],
+        surfaces: &mut mesh::SurfaceLanes<W>,
+    ) -> LaneSurfaces<W> {
+        let mut found = LaneSurfaces::none();
         if let (Some(small), Some(slots), true) = (
             &self.small,
             &self.small_slots,
             W >= crate::lanes::KERNELS_FROM,
         ) {
             // The whole wave's hits, each lane's surface inputs from its slot's record.
-            let found = small.closest_slots(rays);
+            let slot_hits = small.closest_slots(rays);
+            hits.fill(None);
+            if !slot_hits.hit.any() {
+                return found;
+            }
             for i in 0..W {
-                if found.hit.lane(i) {
-                    let slot = &slots[found.slot[i] as usize];
-                    surfaces.set_corners(i, &slot.corners, (found.b1[i], found.b2[i]));
+                if slot_hits.hit.lane(i) {
+                    let slot = &slots[slot_hits.slot[i] as usize];
+                    surfaces.set_corners(i, &slot.corners, (slot_hits.b1[i], slot_hits.b2[i]));
                     surfaces.set_transform(i, slot.maps.as_ref().map(|(a, m)| (a, m)));
+                    [found.instance[i], found.prim[i]] = small.id(slot_hits.slot[i]);
                 }
             }
-            if !found.hit.any() {
-                hits.fill(None);
-                return;
-            }
-            let out = surfaces.run();
-            for (i, hit) in hits.iter_mut().enumerate() {
-                *hit = found.hit.lane(i).then(|| {
-                    let [instance, prim] = small.id(found.slot[i]);
-                    lane_surface(&out, i, found.t[i], (instance, prim))
-                });
-            }
-            return;
+            found.in_lanes = slot_hits.hit;
+            found.t = slot_hits.t;
+            found.out = surfaces.run();
+            return found;
         }
         // The small set's hits for the whole wave at once; otherwise each lane's is found just
         // before its surface is gathered.
@@ -714,7 +725,6 @@ impl Geometry {
             Some(small) if W >= crate::lanes::KERNELS_FROM => Some(small.closest_lanes(rays)),
             _ => None,
         };
-        let mut in_lanes: [Option<(u32, RawHit)>; W] = [None; W];
         for i in 0..W {
             hits[i] = None;
             let Some(ray) = &rays[i] else { continue };
@@ -732,18 +742,67 @@ impl Geometry {
                 Shape::Mesh(m) if W >= crate::lanes::KERNELS_FROM && !m.has_attributes() => {
                     m.gather_surface(surfaces, i, &mesh::MeshHit::of_raw(&raw));
                     surfaces.set_transform(i, instance.surface_maps());
-                    in_lanes[i] = Some((k, raw));
+                    found.in_lanes.set(i, true);
+                    found.t[i] = raw.t;
+                    (found.instance[i], found.prim[i]) = (k, raw.prim);
                 }
                 _ => hits[i] = Some(instance.surface(ray, &raw, k)),
             }
         }
-        if in_lanes.iter().all(Option::is_none) {
+        if found.in_lanes.any() {
+            found.out = surfaces.run();
+        }
+        found
+    }
+}
+
+/// The hits of a wave whose surfaces were computed in SIMD lanes
+/// ([`Geometry::intersect_wave`]), as lanes: each on a mesh without extra vertex attributes.
+pub struct LaneSurfaces<const W: usize> {
+    /// The lanes with such a hit (the others' values mean nothing).
+    pub in_lanes: Mask<W>,
+    /// The hits' distances.
+    pub t: F32s<W>,
+    /// Their instances.
+    pub instance: U32s<W>,
+    /// Their triangles in their instances' meshes.
+    pub prim: U32s<W>,
+    /// Their surfaces.
+    pub out: mesh::SurfacesOut<W>,
+}
+
+impl<const W: usize> LaneSurfaces<W> {
+    /// No lane.
+    pub fn none() -> Self {
+        LaneSurfaces {
+            in_lanes: Mask::splat(false),
+            t: F32s::default(),
+            instance: U32s::default(),
+            prim: U32s::default(),
+            out: mesh::SurfacesOut::default(),
+        }
+    }
+
+    /// Lane `i`'s hit (`i` in [`in_lanes`](Self::in_lanes)).
+    #[inline]
+    pub fn hit(&self, i: usize) -> SurfaceHit {
+        lane_surface(&self.out, i, self.t[i], (self.instance[i], self.prim[i]))
+    }
+
+    /// Lane `i`'s hit where it is one of these lanes.
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<SurfaceHit> {
+        self.in_lanes.lane(i).then(|| self.hit(i))
+    }
+
+    /// Puts these lanes' hits into `hits`.
+    pub fn fill(&self, hits: &mut [Option<SurfaceHit>; W]) {
+        if !self.in_lanes.any() {
             return;
         }
-        let out = surfaces.run();
-        for (i, (hit, lane)) in hits.iter_mut().zip(in_lanes).enumerate() {
-            if let Some((k, raw)) = lane {
-                *hit = Some(lane_surface(&out, i, raw.t, (k, raw.prim)));
+        for (i, hit) in hits.iter_mut().enumerate() {
+            if self.in_lanes.lane(i) {
+                *hit = Some(self.hit(i));
             }
         }
     }

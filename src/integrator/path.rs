@@ -8,7 +8,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use crate::aov::AovSample;
 use crate::bsdf::{Bsdf, BsdfSample, LambertLanes, Lobes};
-use crate::geometry::{SegmentLanes, SurfaceHit};
+use crate::geometry::{LaneSurfaces, SegmentLanes, SurfaceHit};
 use crate::integrator::direct::{sample_light, Strategy};
 use crate::integrator::{spawn, TraceStats};
 use crate::lanes::{F32s, Mask, V3s};
@@ -596,7 +596,7 @@ impl<const W: usize> Default for Scratch<W> {
 /// general route. Used from [`LANE_KERNELS_FROM`] lanes on.
 pub struct LambertRoute<const W: usize> {
     /// The lanes on the route this step.
-    on: [bool; W],
+    on: Mask<W>,
     /// The lanes on the route whose light sample runs in the light kernel.
     in_kernel: Mask<W>,
     /// The lanes on the route whose light is sampled one lane at a time.
@@ -609,6 +609,9 @@ pub struct LambertRoute<const W: usize> {
     power: Option<PowerLights>,
     /// Where `power` is set: each lane's light (an exact integer).
     light_index: F32s<W>,
+    /// Per instance, whether every hit on it whose surface is computed in lanes belongs on
+    /// the route, and then its albedo ([`Material::route_albedo`]).
+    instance_albedo: Vec<(bool, Rgb)>,
     /// The lanes with a light sample: its shadow ray (over (0, `shadow_t`)) and its radiance.
     has_shadow: Mask<W>,
     shadow_o: V3s<W>,
@@ -627,13 +630,22 @@ impl<const W: usize> LambertRoute<W> {
     /// A route with no lane on it, for `scene`.
     pub fn new(scene: &Scene) -> Self {
         LambertRoute {
-            on: [false; W],
+            on: Mask::splat(false),
             in_kernel: Mask::splat(false),
             deferred: [false; W],
             scalar_frame: Mask::splat(false),
             picked: [None; W],
             power: PowerLights::of(scene),
             light_index: F32s::default(),
+            instance_albedo: scene
+                .geometry
+                .instances
+                .iter()
+                .map(|instance| {
+                    let albedo = scene.materials[instance.material as usize].route_albedo();
+                    (albedo.is_some(), albedo.unwrap_or(Rgb::ZERO))
+                })
+                .collect(),
             has_shadow: Mask::splat(false),
             shadow_o: V3s::default(),
             shadow_d: V3s::default(),
@@ -649,7 +661,7 @@ impl<const W: usize> LambertRoute<W> {
 
     /// Takes every lane off the route, for the wave's next step.
     pub fn clear(&mut self) {
-        self.on = [false; W];
+        self.on = Mask::splat(false);
         self.in_kernel = Mask::splat(false);
         self.deferred = [false; W];
         self.picked = [None; W];
@@ -668,10 +680,16 @@ impl<const W: usize> LambertRoute<W> {
         }
     }
 
+    /// The lanes on the route this step.
+    #[inline]
+    pub fn on_lanes(&self) -> Mask<W> {
+        self.on
+    }
+
     /// Whether lane `i` is on the route this step.
     #[inline]
     pub fn is_on(&self, i: usize) -> bool {
-        self.on[i]
+        self.on.lane(i)
     }
 
     /// Puts lane `i` on the route when the vertex of its path (in `paths`) at `hit` belongs
@@ -713,18 +731,83 @@ impl<const W: usize> LambertRoute<W> {
             b.n.set(i, frame.n);
         }
         self.scalar_frame.set(i, !flat);
-        self.on[i] = true;
+        self.on.set(i, true);
         self.albedo
             .set(i, material.lambert_albedo(&scene.textures, hit));
         self.p.set(i, hit.p);
         self.ns.set(i, hit.ns);
         self.bsdf.ng.set(i, hit.ng);
-        if self.power.is_some() {
-            // Picked in lanes, with the other lanes' lights (`choose_lights`).
-            return true;
+        if self.power.is_none() {
+            self.choose_light(i, scene, hit, u_light);
         }
+        true
+    }
+
+    /// Puts the lanes of `found` (the wave's hits whose surfaces were computed in lanes) on
+    /// the route where their vertices belong there, as [`enter`](Self::enter) would one lane
+    /// at a time (`u_light`: the lanes' light-sample points), and returns them. Their
+    /// materials come from a table per instance, and their points and normals are taken as
+    /// vectors.
+    pub fn enter_lanes(
+        &mut self,
+        scene: &Scene,
+        paths: &PathLanes<W>,
+        found: &LaneSurfaces<W>,
+        u_light: &[glam::Vec2; W],
+    ) -> Mask<W> {
+        let mut on = Mask::splat(false);
+        if W < LANE_KERNELS_FROM || !found.in_lanes.any() {
+            return on;
+        }
+        let max_depth = scene.settings.max_depth;
+        for i in found.in_lanes.iter() {
+            let (plain, albedo) = self.instance_albedo[found.instance[i] as usize];
+            let general =
+                paths.aov[i].is_some() | paths.medium[i].is_some() | (paths.depth[i] == max_depth);
+            on.set(i, plain & !general);
+            self.albedo.set(i, albedo);
+        }
+        if !on.any() {
+            return on;
+        }
+        // As `Material::shades_flat`: the interpolated normal, turned to the geometric
+        // normal's side, is the geometric normal.
+        let out = &found.out;
+        let turned = V3s::select(out.ns.dot(out.ng).lt(F32s::splat(0.0)), -out.ns, out.ns);
+        let flat = turned.x.eq(out.ng.x) & turned.y.eq(out.ng.y) & turned.z.eq(out.ng.z);
+        let bent = on.and_not(flat);
+        for i in bent.iter() {
+            let hit = found.hit(i);
+            let wo = -paths.ray_d.lane(i).normalize();
+            match scene.material(&hit).lambert(&scene.textures, &hit, wo) {
+                Some((_, frame)) => {
+                    let b = &mut self.bsdf;
+                    b.s.set(i, frame.s);
+                    b.t.set(i, frame.t);
+                    b.n.set(i, frame.n);
+                }
+                None => on.set(i, false),
+            }
+        }
+        self.scalar_frame = bent | self.scalar_frame.and_not(on);
+        self.p = V3s::select(on, out.p, self.p);
+        self.ns = V3s::select(on, out.ns, self.ns);
+        self.bsdf.ng = V3s::select(on, out.ng, self.bsdf.ng);
+        self.on = self.on | on;
+        if self.power.is_none() {
+            for i in on.iter() {
+                self.choose_light(i, scene, &found.hit(i), u_light[i]);
+            }
+        }
+        on
+    }
+
+    /// Picks lane `i`'s light at `hit` with its light-sample point `u_light`, one lane at a
+    /// time (where the route does not pick them in lanes), and sets the light kernel's inputs
+    /// for it or defers its light sample.
+    fn choose_light(&mut self, i: usize, scene: &Scene, hit: &SurfaceHit, u_light: glam::Vec2) {
         let Some((pick, light)) = Picked::choose(scene, hit, u_light) else {
-            return true;
+            return;
         };
         self.picked[i] = Some(pick);
         match kernel_emission(scene, light) {
@@ -735,20 +818,19 @@ impl<const W: usize> LambertRoute<W> {
             // Sampled one lane at a time once the vertex is complete (`prepare`).
             None => self.deferred[i] = true,
         }
-        true
     }
 
     /// Completes the vertices of the lanes that [`enter`](Self::enter)ed: the direction to the
     /// viewer and the shading frame of every lane at once (where `enter` left it), the light
     /// kernel's inputs, and the light samples of lights the kernel does not take.
-    fn prepare(&mut self, scene: &Scene, paths: &PathLanes<W>, hits: &[Option<SurfaceHit>; W]) {
+    fn prepare(&mut self, scene: &Scene, paths: &PathLanes<W>, hits: WaveHits<'_, W>) {
         self.prepare_lanes(paths);
         if !self.deferred.contains(&true) {
             return;
         }
-        for (i, hit) in hits.iter().enumerate() {
-            if let (true, Some(hit)) = (self.deferred[i], hit) {
-                self.sample_light_alone(i, scene, paths, hit);
+        for i in 0..W {
+            if let (true, Some(hit)) = (self.deferred[i], hits.get(i)) {
+                self.sample_light_alone(i, scene, paths, &hit);
             }
         }
     }
@@ -848,7 +930,7 @@ impl<const W: usize> LambertRoute<W> {
     /// them, for all lanes at once, where the route has the scene's lights (`power`).
     fn choose_lights(&mut self, u: (F32s<W>, F32s<W>)) {
         let Some(power) = &self.power else { return };
-        let on = Mask::from_fn(|i| self.on[i]);
+        let on = self.on;
         (self.in_kernel, self.light_index) = self.lights.choose(power, u, on);
     }
 
@@ -859,10 +941,10 @@ impl<const W: usize> LambertRoute<W> {
         &mut self,
         scene: &Scene,
         paths: &PathLanes<W>,
-        hits: &[Option<SurfaceHit>; W],
+        hits: WaveHits<'_, W>,
         u_light: (F32s<W>, F32s<W>),
     ) {
-        if !self.on.contains(&true) {
+        if !self.on.any() {
             return;
         }
         self.choose_lights(u_light);
@@ -882,9 +964,9 @@ impl<const W: usize> LambertRoute<W> {
         // loop, which keeps copying the masks around its calls, is seldom run).
         let alone = in_kernel.and_not(out.decided);
         if alone.any() {
-            for (i, hit) in hits.iter().enumerate() {
-                if let (true, Some(hit)) = (alone.lane(i), hit) {
-                    self.sample_light_alone(i, scene, paths, hit);
+            for i in 0..W {
+                if let (true, Some(hit)) = (alone.lane(i), hits.get(i)) {
+                    self.sample_light_alone(i, scene, paths, &hit);
                 }
             }
         }
@@ -934,45 +1016,75 @@ impl<const W: usize> LambertRoute<W> {
     /// mirror ray, no render passes), on the lanes' paths in `paths`: adds each lane's light
     /// sample where its shadow ray was not `blocked`, samples the Lambertian lobe with the
     /// lane's 2D point (`u`'s second and third lanes) in the BSDF kernel, and continues the
-    /// path as [`Path::go_on`] does, in SIMD lanes but for Russian roulette, which takes its
-    /// number from the lane's sampler in `samplers`. Returns the lanes whose path ended.
+    /// path as [`Path::go_on`] does, in SIMD lanes, Russian roulette included (its numbers
+    /// drawn from the lanes' samplers in `samplers` in lanes, only by the lanes that play it).
+    /// Returns the lanes whose path ended.
     pub fn scatter(
         &mut self,
         &(_, ux, uy): &(F32s<W>, F32s<W>, F32s<W>),
         blocked: &[bool; W],
         paths: &mut PathLanes<W>,
         samplers: &mut SamplerLanes<W>,
-    ) -> [bool; W] {
-        let mut ended = [false; W];
-        if !self.on.contains(&true) {
-            return ended;
+    ) -> Mask<W> {
+        if !self.on.any() {
+            return Mask::splat(false);
         }
         self.bsdf.u = (ux, uy);
-        let on = Mask::from_fn(|i| self.on[i]);
-        let lit = self.has_shadow & on & !Mask::from_fn(|i| blocked[i]);
+        let on = self.on;
+        let lit = self.has_shadow & on & !Mask::from_bools(blocked);
         let go = self.advance(paths, on, lit);
-        for (i, ended) in ended.iter_mut().enumerate() {
-            if !self.on[i] {
-                continue;
+        // Russian roulette (`russian_roulette`) in the lanes that go on from its depth.
+        let roulette: [bool; W] =
+            std::array::from_fn(|i| go.lane(i) & (paths.depth[i] >= RR_DEPTH));
+        let mut survive = go;
+        if roulette.contains(&true) {
+            let u = samplers.get_1d(&roulette);
+            let roulette = Mask::from_fn(|i| roulette[i]);
+            let b = paths.beta;
+            let e = paths.eta_scale;
+            // `(beta * eta_scale).max_element().min(1.0)`: std's `min` gives the lanes' bits,
+            // its second argument never being NaN.
+            let q = V3s {
+                x: b.x * e,
+                y: b.y * e,
+                z: b.z * e,
             }
-            if !go.lane(i) {
-                *ended = true;
-                continue;
-            }
-            paths.prev_delta[i] = false;
-            paths.count_found[i] = true;
-            if paths.depth[i] >= RR_DEPTH {
-                let u = samplers.with(i, Sampler::get_1d);
-                let Some(beta) = russian_roulette(paths.beta.lane(i), paths.eta_scale[i], u) else {
-                    *ended = true;
-                    continue;
-                };
-                paths.beta.set(i, beta);
-            }
-            paths.depth[i] += 1;
-            *ended = paths.beta.lane(i) == Vec3::ZERO;
+            .max_element()
+            .min(F32s::splat(1.0));
+            let kept = u.lt(q);
+            paths.beta = V3s::select(roulette & kept, paths.beta / q, paths.beta);
+            survive = go.and_not(roulette.and_not(kept));
         }
-        ended
+        let zero = F32s::splat(0.0);
+        let b = paths.beta;
+        let black = b.x.eq(zero) & b.y.eq(zero) & b.z.eq(zero);
+        for i in 0..W {
+            let (go, survive) = (go.lane(i), survive.lane(i));
+            paths.prev_delta[i] &= !go;
+            paths.count_found[i] |= go;
+            paths.depth[i] += u32::from(survive);
+        }
+        on.and_not(survive.and_not(black))
+    }
+}
+
+/// A wave's hits: those whose surfaces were computed in lanes, and the others lane by lane.
+#[derive(Clone, Copy)]
+pub struct WaveHits<'a, const W: usize> {
+    /// The hits kept as lanes.
+    pub found: &'a LaneSurfaces<W>,
+    /// The others (`None` in the lanes of `found`).
+    pub hits: &'a [Option<SurfaceHit>; W],
+}
+
+impl<const W: usize> WaveHits<'_, W> {
+    /// Lane `i`'s hit, if it has one.
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<SurfaceHit> {
+        match &self.hits[i] {
+            Some(hit) => Some(*hit),
+            None => self.found.get(i),
+        }
     }
 }
 

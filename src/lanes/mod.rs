@@ -960,6 +960,57 @@ impl<const W: usize> Mask<W> {
     pub fn and_not(self, rhs: Self) -> Self {
         self & !rhs
     }
+
+    /// Bit i set where lane i holds (W ≤ 64).
+    #[inline(always)]
+    pub fn bits(self) -> u64 {
+        let mut bits = 0;
+        for (i, &m) in self.0.iter().enumerate() {
+            bits |= u64::from(m & 1) << i;
+        }
+        bits
+    }
+
+    /// The lanes that hold, in increasing order: a loop over them runs without a branch per
+    /// lane on the lanes' values (such branches, taken at random, are what a wave's loops
+    /// over its lanes mostly cost).
+    #[inline(always)]
+    pub fn iter(self) -> SetLanes {
+        SetLanes(self.bits())
+    }
+
+    /// Mask of the lanes `flags` holds.
+    #[inline(always)]
+    pub fn from_bools(flags: &[bool; W]) -> Self {
+        let mut out = Self::splat(false);
+        for (m, &b) in out.0.iter_mut().zip(flags) {
+            *m = 0u32.wrapping_sub(u32::from(b));
+        }
+        out
+    }
+
+    /// How many lanes hold.
+    #[inline(always)]
+    pub fn count(self) -> u32 {
+        self.bits().count_ones()
+    }
+}
+
+/// The lanes of a [`Mask`] that hold ([`Mask::iter`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SetLanes(u64);
+
+impl Iterator for SetLanes {
+    type Item = usize;
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let i = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(i)
+    }
 }
 
 impl<const W: usize> BitAnd for Mask<W> {

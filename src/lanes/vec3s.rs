@@ -72,6 +72,13 @@ impl<const W: usize> V3s<W> {
         self.dot(self)
     }
 
+    /// The largest component, `max(max(x, y), z)` with the lanes' maximum (as
+    /// `glam::Vec3::max_element`).
+    #[inline(always)]
+    pub fn max_element(self) -> F32s<W> {
+        self.x.max(self.y).max(self.z)
+    }
+
     /// `if_true` in the lanes where `mask` holds, `if_false` in the others.
     #[inline(always)]
     pub fn select(mask: Mask<W>, if_true: Self, if_false: Self) -> Self {

@@ -16,8 +16,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use super::film::Sink;
 use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::{SegmentLanes, SurfaceHit};
-use crate::integrator::path::{LambertRoute, Path, PathLanes, Scratch, Vertex};
+use crate::integrator::path::{LambertRoute, Path, PathLanes, Scratch, Vertex, WaveHits};
 use crate::integrator::{raycast, TraceStats};
+use crate::lanes::Mask;
 use crate::math::{Ray, Vec2};
 use crate::sampler::{Sampler, SamplerLanes};
 use crate::scene::{IntegratorKind, Scene};
@@ -102,15 +103,21 @@ fn run_wave<const W: usize>(
             return;
         }
         stats.rays += traced as u64;
-        scene.intersect_lanes(&rays, &mut hits, &mut surfaces);
+        let found = scene.intersect_wave(&rays, &mut hits, &mut surfaces);
         let (ux, uy) = samplers.get_2d(&lanes.each_ref().map(Option::is_some));
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
-        for i in 0..W {
-            if lanes[i].is_none() {
-                continue;
-            }
-            if let Some(hit) = &hits[i] {
+        // The hits kept in lanes that belong on the route stay there; the others' are taken
+        // out lane by lane.
+        let entered = route.enter_lanes(scene, &paths, &found, &u_light);
+        let live = Mask::from_fn(|i| lanes[i].is_some());
+        // The lanes whose vertex takes the general route (`Path::shade`).
+        let mut general = Mask::splat(false);
+        for i in live.and_not(entered).iter() {
+            if found.in_lanes.lane(i) {
+                // Left off the route by `enter_lanes`.
+                hits[i] = Some(found.hit(i));
+            } else if let Some(hit) = &hits[i] {
                 if route.enter(i, scene, &paths, hit, u_light[i]) {
                     continue;
                 }
@@ -118,41 +125,49 @@ fn run_wave<const W: usize>(
             let mut path = paths.take(i);
             if path.shade(scene, hits[i].as_ref(), &mut vertices[i]) {
                 off_route[i] = Some(path);
+                general.set(i, true);
             } else {
                 finish(lanes[i].take(), path, sums);
             }
         }
-        Path::sample_lights(
-            scene,
-            off_route.each_ref().map(Option::as_ref),
-            &hits,
-            &mut vertices,
-            &u_light,
-            &mut scratch,
-        );
-        route.sample_lights(scene, &paths, &hits, (ux, uy));
+        if general.any() {
+            Path::sample_lights(
+                scene,
+                off_route.each_ref().map(Option::as_ref),
+                &hits,
+                &mut vertices,
+                &u_light,
+                &mut scratch,
+            );
+        }
+        let wave_hits = WaveHits {
+            found: &found,
+            hits: &hits,
+        };
+        route.sample_lights(scene, &paths, wave_hits, (ux, uy));
         // Only this step's vertices: a lane that is idle or whose path just ended traces none.
         let mut shadows = SegmentLanes::<W>::new();
         route.shadows(&mut shadows);
-        for (i, vertex) in vertices.iter().enumerate() {
-            if let Some(shadow) = vertex.as_ref().and_then(|v| v.shadow) {
+        for i in general.iter() {
+            if let Some(shadow) = vertices[i].as_ref().and_then(|v| v.shadow) {
                 shadows.set(i, &shadow.ray, shadow.t_max);
             }
         }
-        stats.rays += (0..W).filter(|&i| shadows.live.lane(i)).count() as u64;
+        stats.rays += u64::from(shadows.live.count());
         let blocked = scene.occluded_lanes(&shadows);
-        let scattering = std::array::from_fn(|i| vertices[i].is_some() || route.is_on(i));
-        let u_scatter = samplers.get_choice_2d(&scattering);
-        let sampled = Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch);
+        let scattering = general | route.on_lanes();
+        let u_scatter = samplers.get_choice_2d(&std::array::from_fn(|i| scattering.lane(i)));
+        let sampled = if general.any() {
+            Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch)
+        } else {
+            [None; W]
+        };
         let ended_on_route = route.scatter(&u_scatter, &blocked, &mut paths, &mut samplers);
-        for i in 0..W {
-            if route.is_on(i) {
-                if ended_on_route[i] {
-                    let path = paths.take(i);
-                    finish(lanes[i].take(), path, sums);
-                }
-                continue;
-            }
+        for i in ended_on_route.iter() {
+            let path = paths.take(i);
+            finish(lanes[i].take(), path, sums);
+        }
+        for i in general.iter() {
             let (Some(vertex), Some(hit), Some(mut path)) =
                 (&vertices[i], &hits[i], off_route[i].take())
             else {

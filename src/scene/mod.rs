@@ -6,7 +6,7 @@ pub mod build;
 use crate::camera::Camera;
 use crate::environment::Environment;
 use crate::geometry::mesh::SurfaceLanes;
-use crate::geometry::{Accel, Geometry, RawHit, SegmentLanes, SurfaceHit};
+use crate::geometry::{Accel, Geometry, LaneSurfaces, RawHit, SegmentLanes, SurfaceHit};
 use crate::light::Light;
 use crate::light_sampler::LightSampler;
 use crate::material::Material;
@@ -117,6 +117,23 @@ impl Scene {
                 .as_ref()
                 .and_then(|ray| self.intersect(ray, 0.0, f32::INFINITY));
         }
+    }
+
+    /// [`intersect_lanes`](Scene::intersect_lanes) keeping the hits whose surfaces are computed
+    /// in SIMD lanes as lanes ([`Geometry::intersect_wave`](crate::geometry::Geometry::intersect_wave)):
+    /// those are returned, the others go into `hits`.
+    #[inline]
+    pub fn intersect_wave<const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+        hits: &mut [Option<SurfaceHit>; W],
+        surfaces: &mut SurfaceLanes<W>,
+    ) -> LaneSurfaces<W> {
+        if !self.has_alpha {
+            return self.geometry.intersect_wave(rays, hits, surfaces);
+        }
+        self.intersect_lanes(rays, hits, surfaces);
+        LaneSurfaces::none()
     }
 
     /// Whether something blocks each of a wave's segments (tested over (0, `t_max`); idle lanes
