@@ -97,7 +97,11 @@ impl Sampler {
         let key = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)));
         Sampler {
             kind,
-            rng: Pcg32::new(mix64(key ^ sample), key),
+            // Only independent numbers follow the generator.
+            rng: match kind {
+                SamplerKind::Independent => Pcg32::new(mix64(key ^ sample), key),
+                SamplerKind::Sobol => Pcg32 { state: 0, inc: 1 },
+            },
             pixel_seed: (key >> 32) as u32 ^ key as u32,
             reversed_index: (sample as u32).reverse_bits(),
             dimension: 0,

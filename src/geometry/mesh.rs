@@ -509,23 +509,37 @@ impl<const W: usize> SurfaceLanes<W> {
     /// (as [`Instance::surface`](super::Instance::surface) places it).
     #[inline]
     pub fn set_transform(&mut self, i: usize, maps: Option<(&Affine3A, &Mat3)>) {
-        self.transformed.set(i, maps.is_some());
-        if let Some((to_world, normals)) = maps {
-            let m = &to_world.matrix3;
-            for (column, v) in
-                self.to_world
-                    .iter_mut()
-                    .zip([m.x_axis, m.y_axis, m.z_axis, to_world.translation])
-            {
-                column.set(i, v.into());
-            }
-            for (column, v) in self.normal_to_world.iter_mut().zip([
-                normals.x_axis,
-                normals.y_axis,
-                normals.z_axis,
-            ]) {
-                column.set(i, v);
-            }
+        match maps {
+            Some(maps) => self.set_maps(i, true, maps),
+            None => self.transformed.set(i, false),
+        }
+    }
+
+    /// Places lane `i`'s surface by the maps `(to_world, normals)` where `transformed`, as
+    /// [`set_transform`](Self::set_transform) does, without a branch on `transformed`: the maps
+    /// are stored either way (lanes not `transformed` do not apply them).
+    #[inline]
+    pub fn set_maps(
+        &mut self,
+        i: usize,
+        transformed: bool,
+        (to_world, normals): (&Affine3A, &Mat3),
+    ) {
+        self.transformed.set(i, transformed);
+        let m = &to_world.matrix3;
+        for (column, v) in
+            self.to_world
+                .iter_mut()
+                .zip([m.x_axis, m.y_axis, m.z_axis, to_world.translation])
+        {
+            column.set(i, v.into());
+        }
+        for (column, v) in
+            self.normal_to_world
+                .iter_mut()
+                .zip([normals.x_axis, normals.y_axis, normals.z_axis])
+        {
+            column.set(i, v);
         }
     }
 

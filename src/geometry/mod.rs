@@ -299,11 +299,14 @@ impl RawHit {
 }
 
 /// What the lanes read of a small set's triangle for its surfaces: its corners and its
-/// instance's maps (`None` for an untransformed instance).
+/// instance's maps.
 #[derive(Debug, Clone)]
 struct SmallSlot {
     corners: mesh::CornerData,
-    maps: Option<(Affine3A, Mat3)>,
+    /// Whether the instance is placed by a transform, and then its maps (else the identity's,
+    /// which the lanes do not apply).
+    transformed: bool,
+    maps: (Affine3A, Mat3),
 }
 
 /// A ray's hit on a surface, in world space.
@@ -355,6 +358,17 @@ impl<const W: usize> SegmentLanes<W> {
             d: V3s::default(),
             t_max: F32s::default(),
         }
+    }
+
+    /// The rays `rays[i]` over (0, ∞) (`None` lanes idle).
+    pub fn of_rays(rays: &[Option<Ray>; W]) -> Self {
+        let mut out = Self::new();
+        for (i, ray) in rays.iter().enumerate() {
+            if let Some(ray) = ray {
+                out.set(i, ray, f32::INFINITY);
+            }
+        }
+        out
     }
 
     /// The segments `segments[i]` (`None` lanes idle).
@@ -546,7 +560,8 @@ impl Geometry {
                     let inst = &instances[k];
                     (!mesh.has_attributes()).then(|| SmallSlot {
                         corners: mesh.corner_data(prim),
-                        maps: inst.surface_maps().map(|(a, m)| (*a, *m)),
+                        transformed: !inst.identity,
+                        maps: (inst.to_world, inst.normal_to_world),
                     })
                 })
                 .collect::<Option<Vec<_>>>()
@@ -681,16 +696,17 @@ impl Geometry {
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
     ) {
-        let found = self.intersect_wave(rays, hits, surfaces);
+        let found = self.intersect_wave(&SegmentLanes::of_rays(rays), hits, surfaces);
         found.fill(hits);
     }
 
-    /// [`intersect_lanes`](Self::intersect_lanes) keeping the hits whose surfaces are computed
-    /// in SIMD lanes as lanes: those are returned (and their entries of `hits` are `None`),
-    /// the others' go into `hits`.
+    /// [`intersect_lanes`](Self::intersect_lanes) of the rays of `rays`' live lanes (over
+    /// (0, ∞) whatever their `t_max`), keeping the hits whose surfaces are computed in SIMD
+    /// lanes as lanes: those are returned (and their entries of `hits` are `None`), the
+    /// others' go into `hits`.
     pub fn intersect_wave<const W: usize>(
         &self,
-        rays: &[Option<Ray>; W],
+        rays: &SegmentLanes<W>,
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
     ) -> LaneSurfaces<W> {
@@ -706,13 +722,11 @@ impl Geometry {
             if !slot_hits.hit.any() {
                 return found;
             }
-            for i in 0..W {
-                if slot_hits.hit.lane(i) {
-                    let slot = &slots[slot_hits.slot[i] as usize];
-                    surfaces.set_corners(i, &slot.corners, (slot_hits.b1[i], slot_hits.b2[i]));
-                    surfaces.set_transform(i, slot.maps.as_ref().map(|(a, m)| (a, m)));
-                    [found.instance[i], found.prim[i]] = small.id(slot_hits.slot[i]);
-                }
+            for i in slot_hits.hit.iter() {
+                let slot = &slots[slot_hits.slot[i] as usize];
+                surfaces.set_corners(i, &slot.corners, (slot_hits.b1[i], slot_hits.b2[i]));
+                surfaces.set_maps(i, slot.transformed, (&slot.maps.0, &slot.maps.1));
+                [found.instance[i], found.prim[i]] = small.id(slot_hits.slot[i]);
             }
             found.in_lanes = slot_hits.hit;
             found.t = slot_hits.t;
@@ -725,14 +739,14 @@ impl Geometry {
             Some(small) if W >= crate::lanes::KERNELS_FROM => Some(small.closest_lanes(rays)),
             _ => None,
         };
-        for i in 0..W {
-            hits[i] = None;
-            let Some(ray) = &rays[i] else { continue };
+        hits.fill(None);
+        for i in rays.live.iter() {
+            let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
             let closest = match &small_hits {
                 Some(small_hits) => {
                     small_hits[i].map(|(id, h)| (id[0], RawHit::of_triangle(id, &h)))
                 }
-                None => self.closest(ray, 0.0, f32::INFINITY),
+                None => self.closest(&ray, 0.0, f32::INFINITY),
             };
             let Some((k, raw)) = closest else {
                 continue;
@@ -746,7 +760,7 @@ impl Geometry {
                     found.t[i] = raw.t;
                     (found.instance[i], found.prim[i]) = (k, raw.prim);
                 }
-                _ => hits[i] = Some(instance.surface(ray, &raw, k)),
+                _ => hits[i] = Some(instance.surface(&ray, &raw, k)),
             }
         }
         if found.in_lanes.any() {

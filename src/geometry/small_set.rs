@@ -28,7 +28,6 @@ use crate::geometry::triangle::shear_axes;
 use crate::geometry::triangle::{edge_functions_f64, TriHit};
 use crate::geometry::SegmentLanes;
 use crate::lanes::{F32s, Mask, U32s};
-use crate::math::Ray;
 
 /// Scenes of at most this many triangles (and nothing else) are tested by [`SmallSet`] in
 /// waves of four lanes or more. On variants of the Cornell box the kernels beat the BVH by a
@@ -69,29 +68,6 @@ struct WaveRays<const W: usize> {
     o: [[f32; W]; 3],
     d: [[f32; W]; 3],
     t_max: [f32; W],
-}
-
-impl<const W: usize> WaveRays<W> {
-    /// `segments(i)`: lane i's ray and the end of its segment, or `None` for an idle lane.
-    #[inline(always)]
-    fn new(segments: impl Fn(usize) -> Option<(Ray, f32)>) -> WaveRays<W> {
-        let mut rays = WaveRays {
-            o: [[0.0; W]; 3],
-            // Idle lanes look along +z: no division by zero in their shear.
-            d: [[0.0; W], [0.0; W], [1.0; W]],
-            t_max: [0.0; W],
-        };
-        for i in 0..W {
-            if let Some((ray, t_max)) = segments(i) {
-                for a in 0..3 {
-                    rays.o[a][i] = ray.o[a];
-                    rays.d[a][i] = ray.d[a];
-                }
-                rays.t_max[i] = t_max;
-            }
-        }
-        rays
-    }
 }
 
 impl<const W: usize> WaveRays<W> {
@@ -185,8 +161,8 @@ impl SmallSet {
     /// The closest hit of each lane's ray over (0, ∞) (`None` lanes are idle), lane by lane:
     /// as [`closest_lanes`](Self::closest_lanes) finds it, with the triangle's slot (its id
     /// is [`id`](Self::id)) instead of its id.
-    pub fn closest_slots<const W: usize>(&self, rays: &[Option<Ray>; W]) -> SlotHits<W> {
-        let wave = WaveRays::<W>::new(|i| rays[i].map(|r| (r, f32::INFINITY)));
+    pub fn closest_slots<const W: usize>(&self, rays: &SegmentLanes<W>) -> SlotHits<W> {
+        let wave = WaveRays::<W>::of_segments(rays);
         let mut hits = WaveHits {
             t: wave.t_max,
             b1: [0.0; W],
@@ -210,7 +186,7 @@ impl SmallSet {
     /// finds it.
     pub fn closest_lanes<const W: usize>(
         &self,
-        rays: &[Option<Ray>; W],
+        rays: &SegmentLanes<W>,
     ) -> [Option<([u32; 2], TriHit)>; W] {
         let hits = self.closest_slots(rays);
         std::array::from_fn(|i| {
@@ -903,7 +879,7 @@ mod x86 {
 mod tests {
     use super::*;
     use crate::geometry::{TriRay, TriangleBvh};
-    use crate::math::Vec3;
+    use crate::math::{Ray, Vec3};
 
     /// A small random generator (xorshift), for reproducible soups.
     struct Rng(u64);
@@ -958,7 +934,7 @@ mod tests {
     }
 
     fn check_wave<const W: usize>(bvh: &TriangleBvh, set: &SmallSet, wave: &[Option<Ray>; W]) {
-        let got = set.closest_lanes(wave);
+        let got = set.closest_lanes(&SegmentLanes::of_rays(wave));
         for (ray, got) in wave.iter().zip(got) {
             let want = ray.and_then(|r| bvh.intersect(&TriRay::new(r.o, r.d), 0.0, f32::INFINITY));
             let bits = |h: Option<([u32; 2], TriHit)>| {

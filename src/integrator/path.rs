@@ -549,6 +549,17 @@ impl<const W: usize> PathLanes<W> {
         }
     }
 
+    /// The rays of the `live` lanes to their next vertices, over (0, ∞).
+    #[inline]
+    pub fn rays(&self, live: Mask<W>) -> SegmentLanes<W> {
+        SegmentLanes {
+            live,
+            o: self.ray_o,
+            d: self.ray_d,
+            t_max: F32s::splat(f32::INFINITY),
+        }
+    }
+
     /// Lane `i`'s ray to its next vertex.
     #[inline]
     pub fn ray(&self, i: usize) -> Ray {

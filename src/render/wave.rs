@@ -79,38 +79,38 @@ fn run_wave<const W: usize>(
     let mut samplers = Box::new(SamplerLanes::<W>::new());
     // The paths of the lanes off the Lambertian route, taken out of `paths` for the step.
     let mut off_route: [Option<Path>; W] = std::array::from_fn(|_| None);
-    let mut rays: [Option<Ray>; W] = [None; W];
     let mut hits: [Option<SurfaceHit>; W] = [None; W];
     let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
     let mut scratch = Box::new(Scratch::<W>::new());
     let mut route = Box::new(LambertRoute::<W>::new(scene));
     let mut surfaces = Box::new(SurfaceLanes::<W>::new());
+    let mut queue_empty = false;
     loop {
-        for (i, (lane, ray)) in lanes.iter_mut().zip(&mut rays).enumerate() {
-            if lane.is_none() {
-                if let Some((next, sampler, path)) =
+        if !queue_empty {
+            for i in Mask::<W>::from_fn(|i| lanes[i].is_none()).iter() {
+                let Some((next, sampler, path)) =
                     next_lane(scene, origin, &mut queue, work, sums, stats)
-                {
-                    *lane = Some(next);
-                    samplers.set(i, sampler);
-                    paths.put(i, path);
-                }
+                else {
+                    queue_empty = true;
+                    break;
+                };
+                lanes[i] = Some(next);
+                samplers.set(i, sampler);
+                paths.put(i, path);
             }
-            *ray = lane.as_ref().map(|_| paths.ray(i));
         }
-        let traced = rays.iter().flatten().count();
-        if traced == 0 || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        let live = Mask::<W>::from_fn(|i| lanes[i].is_some());
+        if !live.any() || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             return;
         }
-        stats.rays += traced as u64;
-        let found = scene.intersect_wave(&rays, &mut hits, &mut surfaces);
+        stats.rays += u64::from(live.count());
+        let found = scene.intersect_wave(&paths.rays(live), &mut hits, &mut surfaces);
         let (ux, uy) = samplers.get_2d(&lanes.each_ref().map(Option::is_some));
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
         // The hits kept in lanes that belong on the route stay there; the others' are taken
         // out lane by lane.
         let entered = route.enter_lanes(scene, &paths, &found, &u_light);
-        let live = Mask::from_fn(|i| lanes[i].is_some());
         // The lanes whose vertex takes the general route (`Path::shade`).
         let mut general = Mask::splat(false);
         for i in live.and_not(entered).iter() {

@@ -119,20 +119,21 @@ impl Scene {
         }
     }
 
-    /// [`intersect_lanes`](Scene::intersect_lanes) keeping the hits whose surfaces are computed
-    /// in SIMD lanes as lanes ([`Geometry::intersect_wave`](crate::geometry::Geometry::intersect_wave)):
+    /// [`intersect_lanes`](Scene::intersect_lanes) of the rays of `rays`' live lanes (over
+    /// (0, ∞)), keeping the hits whose surfaces are computed in SIMD lanes as lanes ([`Geometry::intersect_wave`](crate::geometry::Geometry::intersect_wave)):
     /// those are returned, the others go into `hits`.
     #[inline]
     pub fn intersect_wave<const W: usize>(
         &self,
-        rays: &[Option<Ray>; W],
+        rays: &SegmentLanes<W>,
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut SurfaceLanes<W>,
     ) -> LaneSurfaces<W> {
         if !self.has_alpha {
             return self.geometry.intersect_wave(rays, hits, surfaces);
         }
-        self.intersect_lanes(rays, hits, surfaces);
+        let rays = std::array::from_fn(|i| rays.get(i).map(|(ray, _)| ray));
+        self.intersect_lanes(&rays, hits, surfaces);
         LaneSurfaces::none()
     }
 
