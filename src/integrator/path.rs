@@ -8,6 +8,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use crate::aov::AovSample;
 use crate::bsdf::{Bsdf, BsdfSample, LambertLanes, Lobes};
+use crate::geometry::mesh::SurfacesOut;
 use crate::geometry::{LaneSurfaces, SegmentLanes, SurfaceHit};
 use crate::integrator::direct::{sample_light, Strategy};
 use crate::integrator::{spawn, TraceStats};
@@ -781,11 +782,7 @@ impl<const W: usize> LambertRoute<W> {
         if !on.any() {
             return on;
         }
-        // As `Material::shades_flat`: the interpolated normal, turned to the geometric
-        // normal's side, is the geometric normal.
-        let out = &found.out;
-        let turned = V3s::select(out.ns.dot(out.ng).lt(F32s::splat(0.0)), -out.ns, out.ns);
-        let flat = turned.x.eq(out.ng.x) & turned.y.eq(out.ng.y) & turned.z.eq(out.ng.z);
+        let flat = self.take_surfaces(on, &found.out);
         let bent = on.and_not(flat);
         for i in bent.iter() {
             let hit = found.hit(i);
@@ -801,9 +798,6 @@ impl<const W: usize> LambertRoute<W> {
             }
         }
         self.scalar_frame = bent | self.scalar_frame.and_not(on);
-        self.p = V3s::select(on, out.p, self.p);
-        self.ns = V3s::select(on, out.ns, self.ns);
-        self.bsdf.ng = V3s::select(on, out.ng, self.bsdf.ng);
         self.on = self.on | on;
         if self.power.is_none() {
             for i in on.iter() {
@@ -811,6 +805,29 @@ impl<const W: usize> LambertRoute<W> {
             }
         }
         on
+    }
+
+    /// [`take_surfaces_here`](Self::take_surfaces_here), compiled for the widest vector
+    /// instructions the CPU has that suit W lanes.
+    fn take_surfaces(&mut self, on: Mask<W>, out: &SurfacesOut<W>) -> Mask<W> {
+        crate::lanes::widest!(
+            W,
+            (route: &mut LambertRoute<W>, on: Mask<W>, out: &SurfacesOut<W>) => Mask<W>,
+            (self, on, out),
+            route.take_surfaces_here(on, out)
+        )
+    }
+
+    /// Takes the points and normals of the `on` lanes' hits from `out`; returns the lanes
+    /// whose shading is flat (as `Material::shades_flat`: the interpolated normal, turned to
+    /// the geometric normal's side, is the geometric normal).
+    #[inline(always)]
+    fn take_surfaces_here(&mut self, on: Mask<W>, out: &SurfacesOut<W>) -> Mask<W> {
+        self.p = V3s::select(on, out.p, self.p);
+        self.ns = V3s::select(on, out.ns, self.ns);
+        self.bsdf.ng = V3s::select(on, out.ng, self.bsdf.ng);
+        let turned = V3s::select(out.ns.dot(out.ng).lt(F32s::splat(0.0)), -out.ns, out.ns);
+        turned.x.eq(out.ng.x) & turned.y.eq(out.ng.y) & turned.z.eq(out.ng.z)
     }
 
     /// Picks lane `i`'s light at `hit` with its light-sample point `u_light`, one lane at a
@@ -965,12 +982,7 @@ impl<const W: usize> LambertRoute<W> {
         }
         let out = self.lights.run();
         let in_kernel = self.in_kernel;
-        let lit = in_kernel & out.decided & out.valid;
-        self.has_shadow = self.has_shadow | lit;
-        self.shadow_o = V3s::select(lit, out.origin, self.shadow_o);
-        self.shadow_d = V3s::select(lit, out.dir, self.shadow_d);
-        self.shadow_t = F32s::select(lit, F32s::splat(1.0), self.shadow_t);
-        self.shadow_radiance = V3s::select(lit, out.radiance, self.shadow_radiance);
+        self.take_light_samples(&out);
         // The lanes the kernel left to the scalar code (seldom any: tested first, so that the
         // loop, which keeps copying the masks around its calls, is seldom run).
         let alone = in_kernel.and_not(out.decided);
@@ -1014,8 +1026,39 @@ impl<const W: usize> LambertRoute<W> {
         go
     }
 
+    /// Takes the light kernel's samples (`out`) of the lanes it decided, compiled for the
+    /// widest vector instructions the CPU has that suit W lanes.
+    fn take_light_samples(&mut self, out: &LightLanesOut<W>) {
+        crate::lanes::widest!(
+            W,
+            (route: &mut LambertRoute<W>, out: &LightLanesOut<W>) => (),
+            (self, out),
+            route.take_light_samples_here(out)
+        )
+    }
+
+    #[inline(always)]
+    fn take_light_samples_here(&mut self, out: &LightLanesOut<W>) {
+        let lit = self.in_kernel & out.decided & out.valid;
+        self.has_shadow = self.has_shadow | lit;
+        self.shadow_o = V3s::select(lit, out.origin, self.shadow_o);
+        self.shadow_d = V3s::select(lit, out.dir, self.shadow_d);
+        self.shadow_t = F32s::select(lit, F32s::splat(1.0), self.shadow_t);
+        self.shadow_radiance = V3s::select(lit, out.radiance, self.shadow_radiance);
+    }
+
     /// Puts the shadow rays of the route's light samples in their lanes of `segments`.
     pub fn shadows(&self, segments: &mut SegmentLanes<W>) {
+        crate::lanes::widest!(
+            W,
+            (route: &LambertRoute<W>, segments: &mut SegmentLanes<W>) => (),
+            (self, segments),
+            route.shadows_here(segments)
+        )
+    }
+
+    #[inline(always)]
+    fn shadows_here(&self, segments: &mut SegmentLanes<W>) {
         let lit = self.has_shadow;
         segments.live = segments.live | lit;
         segments.o = V3s::select(lit, self.shadow_o, segments.o);
@@ -1050,24 +1093,11 @@ impl<const W: usize> LambertRoute<W> {
         let mut survive = go;
         if roulette.contains(&true) {
             let u = samplers.get_1d(&roulette);
-            let roulette = Mask::from_fn(|i| roulette[i]);
-            let b = paths.beta;
-            let e = paths.eta_scale;
-            // `(beta * eta_scale).max_element().min(1.0)`: std's `min` gives the lanes' bits,
-            // its second argument never being NaN.
-            let q = V3s {
-                x: b.x * e,
-                y: b.y * e,
-                z: b.z * e,
-            }
-            .max_element()
-            .min(F32s::splat(1.0));
-            let kept = u.lt(q);
-            paths.beta = V3s::select(roulette & kept, paths.beta / q, paths.beta);
-            survive = go.and_not(roulette.and_not(kept));
+            let roulette = Mask::from_bools(&roulette);
+            survive = go.and_not(roulette.and_not(russian_roulette_lanes(paths, roulette, u)));
         }
-        let zero = F32s::splat(0.0);
         let b = paths.beta;
+        let zero = F32s::splat(0.0);
         let black = b.x.eq(zero) & b.y.eq(zero) & b.z.eq(zero);
         for i in 0..W {
             let (go, survive) = (go.lane(i), survive.lane(i));
@@ -1077,6 +1107,43 @@ impl<const W: usize> LambertRoute<W> {
         }
         on.and_not(survive.and_not(black))
     }
+}
+
+/// [`russian_roulette`] in the `playing` lanes of `paths` with their numbers `u`, compiled for
+/// the widest vector instructions the CPU has that suit W lanes: the survivors' throughputs
+/// divided by their chance; returns the lanes that survive.
+fn russian_roulette_lanes<const W: usize>(
+    paths: &mut PathLanes<W>,
+    playing: Mask<W>,
+    u: F32s<W>,
+) -> Mask<W> {
+    crate::lanes::widest!(
+        W,
+        (paths: &mut PathLanes<W>, playing: Mask<W>, u: F32s<W>) => Mask<W>,
+        (paths, playing, u),
+        russian_roulette_here(paths, playing, u)
+    )
+}
+
+#[inline(always)]
+fn russian_roulette_here<const W: usize>(
+    paths: &mut PathLanes<W>,
+    playing: Mask<W>,
+    u: F32s<W>,
+) -> Mask<W> {
+    let (b, e) = (paths.beta, paths.eta_scale);
+    // `(beta * eta_scale).max_element().min(1.0)`: std's `min` gives the lanes' bits, its
+    // second argument never being NaN.
+    let q = V3s {
+        x: b.x * e,
+        y: b.y * e,
+        z: b.z * e,
+    }
+    .max_element()
+    .min(F32s::splat(1.0));
+    let kept = u.lt(q);
+    paths.beta = V3s::select(playing & kept, b / q, b);
+    kept
 }
 
 /// A wave's hits: those whose surfaces were computed in lanes, and the others lane by lane.
