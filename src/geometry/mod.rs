@@ -696,21 +696,23 @@ impl Geometry {
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
     ) {
-        let found = self.intersect_wave(&SegmentLanes::of_rays(rays), hits, surfaces);
+        let mut found = LaneSurfaces::none();
+        self.intersect_wave(&SegmentLanes::of_rays(rays), hits, surfaces, &mut found);
         found.fill(hits);
     }
 
     /// [`intersect_lanes`](Self::intersect_lanes) of the rays of `rays`' live lanes (over
     /// (0, ∞) whatever their `t_max`), keeping the hits whose surfaces are computed in SIMD
-    /// lanes as lanes: those are returned (and their entries of `hits` are `None`), the
-    /// others' go into `hits`.
+    /// lanes as lanes: those go into `found` (and their entries of `hits` are `None`), the
+    /// others' into `hits`.
     pub fn intersect_wave<const W: usize>(
         &self,
         rays: &SegmentLanes<W>,
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut mesh::SurfaceLanes<W>,
-    ) -> LaneSurfaces<W> {
-        let mut found = LaneSurfaces::none();
+        found: &mut LaneSurfaces<W>,
+    ) {
+        found.in_lanes = Mask::splat(false);
         if let (Some(small), Some(slots), true) = (
             &self.small,
             &self.small_slots,
@@ -720,7 +722,7 @@ impl Geometry {
             let slot_hits = small.closest_slots(rays);
             hits.fill(None);
             if !slot_hits.hit.any() {
-                return found;
+                return;
             }
             for i in slot_hits.hit.iter() {
                 let slot = &slots[slot_hits.slot[i] as usize];
@@ -731,7 +733,7 @@ impl Geometry {
             found.in_lanes = slot_hits.hit;
             found.t = slot_hits.t;
             found.out = surfaces.run();
-            return found;
+            return;
         }
         // The small set's hits for the whole wave at once; otherwise each lane's is found just
         // before its surface is gathered.
@@ -766,7 +768,6 @@ impl Geometry {
         if found.in_lanes.any() {
             found.out = surfaces.run();
         }
-        found
     }
 }
 

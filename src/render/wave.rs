@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::Sink;
 use crate::geometry::mesh::SurfaceLanes;
-use crate::geometry::{SegmentLanes, SurfaceHit};
+use crate::geometry::{LaneSurfaces, SegmentLanes, SurfaceHit};
 use crate::integrator::path::{LambertRoute, Path, PathLanes, Scratch, Vertex, WaveHits};
 use crate::integrator::{raycast, TraceStats};
 use crate::lanes::Mask;
@@ -84,6 +84,7 @@ fn run_wave<const W: usize>(
     let mut scratch = Box::new(Scratch::<W>::new());
     let mut route = Box::new(LambertRoute::<W>::new(scene));
     let mut surfaces = Box::new(SurfaceLanes::<W>::new());
+    let mut found = Box::new(LaneSurfaces::<W>::none());
     let mut queue_empty = false;
     loop {
         if !queue_empty {
@@ -104,7 +105,7 @@ fn run_wave<const W: usize>(
             return;
         }
         stats.rays += u64::from(live.count());
-        let found = scene.intersect_wave(&paths.rays(live), &mut hits, &mut surfaces);
+        scene.intersect_wave(&paths.rays(live), &mut hits, &mut surfaces, &mut found);
         let (ux, uy) = samplers.get_2d(&lanes.each_ref().map(Option::is_some));
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();

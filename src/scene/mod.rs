@@ -7,6 +7,7 @@ use crate::camera::Camera;
 use crate::environment::Environment;
 use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::{Accel, Geometry, LaneSurfaces, RawHit, SegmentLanes, SurfaceHit};
+use crate::lanes::Mask;
 use crate::light::Light;
 use crate::light_sampler::LightSampler;
 use crate::material::Material;
@@ -120,7 +121,7 @@ impl Scene {
     }
 
     /// [`intersect_lanes`](Scene::intersect_lanes) of the rays of `rays`' live lanes (over
-    /// (0, ∞)), keeping the hits whose surfaces are computed in SIMD lanes as lanes ([`Geometry::intersect_wave`](crate::geometry::Geometry::intersect_wave)):
+    /// (0, ∞)), keeping the hits whose surfaces are computed in SIMD lanes as lanes in `found` ([`Geometry::intersect_wave`](crate::geometry::Geometry::intersect_wave)):
     /// those are returned, the others go into `hits`.
     #[inline]
     pub fn intersect_wave<const W: usize>(
@@ -128,13 +129,14 @@ impl Scene {
         rays: &SegmentLanes<W>,
         hits: &mut [Option<SurfaceHit>; W],
         surfaces: &mut SurfaceLanes<W>,
-    ) -> LaneSurfaces<W> {
+        found: &mut LaneSurfaces<W>,
+    ) {
         if !self.has_alpha {
-            return self.geometry.intersect_wave(rays, hits, surfaces);
+            return self.geometry.intersect_wave(rays, hits, surfaces, found);
         }
+        found.in_lanes = Mask::splat(false);
         let rays = std::array::from_fn(|i| rays.get(i).map(|(ray, _)| ray));
         self.intersect_lanes(&rays, hits, surfaces);
-        LaneSurfaces::none()
     }
 
     /// Whether something blocks each of a wave's segments (tested over (0, `t_max`); idle lanes
