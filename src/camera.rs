@@ -1,5 +1,6 @@
 //! Perspective cameras: a pinhole, or a thin lens with depth of field.
 
+use crate::lanes::{F32s, V3s};
 use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::concentric_disk;
 
@@ -65,6 +66,19 @@ impl Camera {
         let lens = concentric_disk(u_lens) * self.lens_radius;
         let origin = self.position + self.right * lens.x + self.up * lens.y;
         Ray::new(origin, (focus - origin).normalize())
+    }
+
+    /// The directions of [`ray`](Self::ray) through the film positions `(x, y)` of W lanes, for
+    /// a pinhole camera (their origin is `position`), with the same operations in every lane.
+    #[inline(always)]
+    pub fn pinhole_directions<const W: usize>(&self, (x, y): (F32s<W>, F32s<W>)) -> V3s<W> {
+        let one = F32s::splat(1.0);
+        let two = F32s::splat(2.0);
+        let tan = F32s::splat(self.tan_half_fov_y);
+        let sx = (two * x - one) * tan * F32s::splat(self.aspect);
+        let sy = (one - two * y) * tan;
+        let dir = V3s::splat(self.forward) + V3s::splat(self.right) * sx + V3s::splat(self.up) * sy;
+        dir.normalize()
     }
 
     /// Film position in [0, 1]² of a world point in front of the camera (pinhole projection).

@@ -327,6 +327,18 @@ impl<const W: usize> SamplerLanes<W> {
         out
     }
 
+    /// Leaves out the next 2D point of the samplers of the `live` lanes
+    /// ([`Sampler::skip_2d`]).
+    pub fn skip_2d(&mut self, live: &[bool; W]) {
+        if !self.all_sobol(live) {
+            for i in (0..W).filter(|&i| live[i]) {
+                self.with(i, Sampler::skip_2d);
+            }
+            return;
+        }
+        self.advance(live, 1);
+    }
+
     /// The next lobe choice and 2D point of the samplers of the `live` lanes
     /// ([`Sampler::get_choice_2d`]; the others draw nothing and get numbers that mean nothing).
     pub fn get_choice_2d(&mut self, live: &[bool; W]) -> (F32s<W>, F32s<W>, F32s<W>) {

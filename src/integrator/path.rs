@@ -531,6 +531,30 @@ impl<const W: usize> PathLanes<W> {
         self.aov[i] = path.aov;
     }
 
+    /// Puts in each `fresh` lane a path leaving the camera along `o + t·d` ([`Path::new`],
+    /// without render passes).
+    #[inline(always)]
+    pub fn start(&mut self, fresh: Mask<W>, o: V3s<W>, d: V3s<W>) {
+        self.ray_o = V3s::select(fresh, o, self.ray_o);
+        self.ray_d = V3s::select(fresh, d, self.ray_d);
+        self.prev_p = V3s::select(fresh, o, self.prev_p);
+        self.l = V3s::select(fresh, V3s::default(), self.l);
+        self.beta = V3s::select(fresh, V3s::splat(Vec3::ONE), self.beta);
+        self.prev_pdf = F32s::select(fresh, F32s::splat(0.0), self.prev_pdf);
+        self.prev_n = V3s::select(fresh, V3s::default(), self.prev_n);
+        self.eta_scale = F32s::select(fresh, F32s::splat(1.0), self.eta_scale);
+        for i in 0..W {
+            let fresh = fresh.lane(i);
+            self.depth[i] = if fresh { 1 } else { self.depth[i] };
+            self.prev_delta[i] |= fresh;
+            self.count_found[i] |= fresh;
+        }
+        for i in fresh.iter() {
+            self.medium[i] = None;
+            self.aov[i] = None;
+        }
+    }
+
     /// Takes lane `i`'s path out (the lane then means nothing until a path is put there).
     #[inline]
     pub fn take(&mut self, i: usize) -> Path {

@@ -18,9 +18,9 @@ use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::{LaneSurfaces, SegmentLanes, SurfaceHit};
 use crate::integrator::path::{LambertRoute, Path, PathLanes, Scratch, Vertex, WaveHits};
 use crate::integrator::{raycast, TraceStats};
-use crate::lanes::Mask;
+use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{Ray, Vec2};
-use crate::sampler::{Sampler, SamplerLanes};
+use crate::sampler::{Sampler, SamplerKind, SamplerLanes};
 use crate::scene::{IntegratorKind, Scene};
 
 /// A pixel's share of a pass: pixel (x, y) takes the samples with `indices`.
@@ -86,18 +86,40 @@ fn run_wave<const W: usize>(
     let mut surfaces = Box::new(SurfaceLanes::<W>::new());
     let mut found = Box::new(LaneSurfaces::<W>::none());
     let mut queue_empty = false;
+    // Samples whose camera rays are drawn for all new lanes at once (the common case: Sobol
+    // points through a pinhole, no render passes); the others one lane at a time.
+    let in_lanes = W >= crate::lanes::KERNELS_FROM
+        && scene.settings.sampler == SamplerKind::Sobol
+        && scene.camera.lens_radius <= 0.0
+        && !sums.wants_aovs();
     loop {
         if !queue_empty {
+            let mut fresh = Mask::<W>::splat(false);
+            let mut film = (F32s::<W>::default(), F32s::<W>::default());
             for i in Mask::<W>::from_fn(|i| lanes[i].is_none()).iter() {
-                let Some((next, sampler, path)) =
-                    next_lane(scene, origin, &mut queue, work, sums, stats)
+                let Some((lane, (x, y))) = next_lane(scene, origin, &mut queue, work, sums, stats)
                 else {
                     queue_empty = true;
                     break;
                 };
-                lanes[i] = Some(next);
-                samplers.set(i, sampler);
-                paths.put(i, path);
+                let index = lane.index;
+                lanes[i] = Some(lane);
+                if in_lanes {
+                    samplers.set(i, pixel_sampler(scene, x, y, index));
+                    (film.0[i], film.1[i]) = (x as f32, y as f32);
+                    fresh.set(i, true);
+                } else {
+                    let (sampler, ray) = camera_sample(scene, x, y, index);
+                    let mut path = Path::new(ray);
+                    if sums.wants_aovs() {
+                        path.aov = Some(Box::default());
+                    }
+                    samplers.set(i, sampler);
+                    paths.put(i, path);
+                }
+            }
+            if fresh.any() {
+                start_in_lanes(scene, fresh, film, &mut samplers, &mut paths);
             }
         }
         let live = Mask::<W>::from_fn(|i| lanes[i].is_some());
@@ -195,9 +217,9 @@ fn finish(lane: Option<Lane>, path: Path, sums: &mut Sink) {
     }
 }
 
-/// The next sample of the queue as a lane and its path, its camera ray drawn; `None` when the
-/// queue is empty. Samples that trace no path in steps (the ray-cast preview's, or any with a
-/// depth of 0) are taken here whole.
+/// The next sample of the queue that traces a path in steps, as a lane and its pixel's
+/// position in the image; `None` when the queue is empty. Samples that trace no path in steps
+/// (the ray-cast preview's, or any with a depth of 0) are taken here whole.
 fn next_lane(
     scene: &Scene,
     (x0, y0): (u32, u32),
@@ -205,20 +227,16 @@ fn next_lane(
     work: &[PixelWork],
     sums: &mut Sink,
     stats: &mut TraceStats,
-) -> Option<(Lane, Sampler, Path)> {
+) -> Option<(Lane, (u32, u32))> {
     for (k, index) in queue {
-        let (mut sampler, ray) = camera_sample(scene, x0 + work[k].x, y0 + work[k].y, index);
+        let (x, y) = (x0 + work[k].x, y0 + work[k].y);
         match scene.settings.integrator {
             IntegratorKind::Path if scene.settings.max_depth > 0 => {
-                let mut path = Path::new(ray);
-                if sums.wants_aovs() {
-                    path.aov = Some(Box::default());
-                }
-                let lane = Lane { pixel: k, index };
-                return Some((lane, sampler, path));
+                return Some((Lane { pixel: k, index }, (x, y)));
             }
             IntegratorKind::Path => sums.add(k, index, glam::Vec3::ZERO, None),
             IntegratorKind::Raycast => {
+                let (mut sampler, ray) = camera_sample(scene, x, y, index);
                 let value = raycast::radiance(scene, ray, &mut sampler, stats);
                 sums.add(k, index, value, None);
             }
@@ -227,12 +245,57 @@ fn next_lane(
     None
 }
 
+/// Starts the samples of the `fresh` lanes, whose samplers are set (pixel (x, y) in the lanes
+/// of `xy`), as [`camera_sample`] does one at a time, for all of them at once: the jitter,
+/// the film position and the pinhole camera's ray (the lens point left out).
+fn start_in_lanes<const W: usize>(
+    scene: &Scene,
+    fresh: Mask<W>,
+    xy: (F32s<W>, F32s<W>),
+    samplers: &mut SamplerLanes<W>,
+    paths: &mut PathLanes<W>,
+) {
+    let drawing = std::array::from_fn(|i| fresh.lane(i));
+    let jitter = samplers.get_2d(&drawing);
+    samplers.skip_2d(&drawing);
+    crate::lanes::widest!(
+        W,
+        (scene: &Scene, fresh: Mask<W>, xy: (F32s<W>, F32s<W>), jitter: (F32s<W>, F32s<W>), paths: &mut PathLanes<W>) => (),
+        (scene, fresh, xy, jitter, paths),
+        start_here(scene, fresh, xy, jitter, paths)
+    )
+}
+
+/// The arithmetic of [`start_in_lanes`], in every lane.
+#[inline(always)]
+fn start_here<const W: usize>(
+    scene: &Scene,
+    fresh: Mask<W>,
+    (x, y): (F32s<W>, F32s<W>),
+    (jx, jy): (F32s<W>, F32s<W>),
+    paths: &mut PathLanes<W>,
+) {
+    let s = &scene.settings;
+    let film = (
+        (x + jx) / F32s::splat(s.width as f32),
+        (y + jy) / F32s::splat(s.height as f32),
+    );
+    let d = scene.camera.pinhole_directions(film);
+    paths.start(fresh, V3s::splat(scene.camera.position), d);
+}
+
+/// The sampler of sample `index` of pixel (x, y).
+fn pixel_sampler(scene: &Scene, x: u32, y: u32, index: u32) -> Sampler {
+    let s = &scene.settings;
+    let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
+    Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(index))
+}
+
 /// Sample `index` of pixel (x, y): its sampler, and its camera ray through a jittered point of
 /// the pixel (and of the lens).
 fn camera_sample(scene: &Scene, x: u32, y: u32, index: u32) -> (Sampler, Ray) {
     let s = &scene.settings;
-    let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
-    let mut sampler = Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(index));
+    let mut sampler = pixel_sampler(scene, x, y, index);
     let jitter = sampler.get_2d();
     let film = Vec2::new(
         (x as f32 + jitter.x) / s.width as f32,
