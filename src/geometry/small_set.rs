@@ -354,9 +354,15 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
             return;
         }
         let mut best_t = V::load(hits.t.as_ptr().add(k));
-        let mut best_b1 = V::load(hits.b1.as_ptr().add(k));
-        let mut best_b2 = V::load(hits.b2.as_ptr().add(k));
+        // The best hit's edge functions v, w and 1 / det: its barycentrics are computed once,
+        // after the loop, with the same operations (v · (1 / det), w · (1 / det)).
+        let mut best_v = V::load(hits.b1.as_ptr().add(k));
+        let mut best_w = V::load(hits.b2.as_ptr().add(k));
+        let mut best_inv_det = V::splat(1.0);
         let mut best_slot = V::load(hits.slot.as_ptr().add(k));
+        // The slot as a float, counted along (exact: slots are small integers).
+        let mut slot_number = V::splat(0.0);
+        let one = V::splat(1.0);
         let mut blocked_bits = 0u32;
         // Every vertex in every lane's sheared frame, once.
         let mut frame = [MaybeUninit::<[V; 3]>::uninit(); MAX_VERTICES];
@@ -364,7 +370,7 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
         for (out, vertex) in frame.iter_mut().zip(&set.vertices) {
             out.write(sheared(&ray, vertex));
         }
-        for (slot, corners) in set.triangles.iter().enumerate() {
+        for corners in &set.triangles {
             // SAFETY: the first `vertices.len()` entries are written, and the indices point
             // into `vertices`.
             let [ax, ay, az] = frame.get_unchecked(usize::from(corners[0])).assume_init();
@@ -402,9 +408,11 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
             let hit = V::and(inside, V::and(t.gt(zero), t.lt(bound)));
             if CLOSEST {
                 best_t = V::select(hit, t, best_t);
-                best_b1 = V::select(hit, v.mul(inv_det), best_b1);
-                best_b2 = V::select(hit, w.mul(inv_det), best_b2);
-                best_slot = V::select(hit, V::splat(slot as f32), best_slot);
+                best_v = V::select(hit, v, best_v);
+                best_w = V::select(hit, w, best_w);
+                best_inv_det = V::select(hit, inv_det, best_inv_det);
+                best_slot = V::select(hit, slot_number, best_slot);
+                slot_number = slot_number.add(one);
             } else {
                 blocked_bits |= V::bits(hit);
                 if blocked_bits == all_live {
@@ -413,9 +421,10 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
             }
         }
         if CLOSEST {
+            // Lanes without a hit keep what they held (their v and w, times 1).
             best_t.store(hits.t.as_mut_ptr().add(k));
-            best_b1.store(hits.b1.as_mut_ptr().add(k));
-            best_b2.store(hits.b2.as_mut_ptr().add(k));
+            best_v.mul(best_inv_det).store(hits.b1.as_mut_ptr().add(k));
+            best_w.mul(best_inv_det).store(hits.b2.as_mut_ptr().add(k));
             best_slot.store(hits.slot.as_mut_ptr().add(k));
         } else {
             for (i, b) in blocked[k..k + V::LANES].iter_mut().enumerate() {
