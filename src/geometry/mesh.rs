@@ -231,6 +231,13 @@ impl Mesh {
             })
     }
 
+    /// Whether the mesh has nothing but positions (no normals, texture coordinates or other
+    /// attributes): a hit's surface inputs are then its triangle's corners alone.
+    #[inline]
+    pub fn has_positions_only(&self) -> bool {
+        !self.has_attributes() && self.data.normals.is_none() && self.data.uvs.is_none()
+    }
+
     /// Whether the mesh has any of the attributes [`Mesh::attributes`] interpolates.
     #[inline]
     pub fn has_attributes(&self) -> bool {

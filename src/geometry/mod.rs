@@ -742,31 +742,82 @@ impl Geometry {
             _ => None,
         };
         hits.fill(None);
+        // A scene of nothing but world-space triangles (no shared meshes, spheres, lathes or
+        // planes): its closest hits are the flat tree's.
+        let flat_only = small_hits.is_none()
+            && W >= crate::lanes::KERNELS_FROM
+            && self.top_instances.is_empty()
+            && self.unbounded.is_empty();
         for i in rays.live.iter() {
             let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
+            if flat_only {
+                // The hit's corners from the packet it was found in, which holds them as the
+                // mesh does where the instance is untransformed.
+                let Some((id, h, corners)) =
+                    self.flat
+                        .intersect_corners(&TriRay::new(ray.o, ray.d), 0.0, f32::INFINITY)
+                else {
+                    continue;
+                };
+                let (k, raw) = (id[0], RawHit::of_triangle(id, &h));
+                let instance = &self.instances[k as usize];
+                match &instance.shape {
+                    Shape::Mesh(m) if instance.identity && m.has_positions_only() => {
+                        let corners = mesh::CornerData {
+                            positions: corners,
+                            normals: None,
+                            uvs: None,
+                        };
+                        surfaces.set_corners(i, &corners, (h.b1, h.b2));
+                        surfaces.set_transform(i, None);
+                        found.in_lanes.set(i, true);
+                        found.t[i] = raw.t;
+                        (found.instance[i], found.prim[i]) = (k, raw.prim);
+                        continue;
+                    }
+                    _ => {}
+                }
+                self.surface_of(&ray, (k, raw), i, hits, surfaces, found);
+                continue;
+            }
             let closest = match &small_hits {
                 Some(small_hits) => {
                     small_hits[i].map(|(id, h)| (id[0], RawHit::of_triangle(id, &h)))
                 }
                 None => self.closest(&ray, 0.0, f32::INFINITY),
             };
-            let Some((k, raw)) = closest else {
-                continue;
-            };
-            let instance = &self.instances[k as usize];
-            match &instance.shape {
-                Shape::Mesh(m) if W >= crate::lanes::KERNELS_FROM && !m.has_attributes() => {
-                    m.gather_surface(surfaces, i, &mesh::MeshHit::of_raw(&raw));
-                    surfaces.set_transform(i, instance.surface_maps());
-                    found.in_lanes.set(i, true);
-                    found.t[i] = raw.t;
-                    (found.instance[i], found.prim[i]) = (k, raw.prim);
-                }
-                _ => hits[i] = Some(instance.surface(&ray, &raw, k)),
+            if let Some(hit) = closest {
+                self.surface_of(&ray, hit, i, hits, surfaces, found);
             }
         }
         if found.in_lanes.any() {
             found.out = surfaces.run();
+        }
+    }
+
+    /// Lane `i`'s hit `(k, raw)` (on instance k) of `ray`: its surface's inputs into
+    /// `surfaces` and the hit into `found` where the lanes compute it (a mesh without extra
+    /// vertex attributes), else its surface into `hits`.
+    #[inline]
+    fn surface_of<const W: usize>(
+        &self,
+        ray: &Ray,
+        (k, raw): (u32, RawHit),
+        i: usize,
+        hits: &mut [Option<SurfaceHit>; W],
+        surfaces: &mut mesh::SurfaceLanes<W>,
+        found: &mut LaneSurfaces<W>,
+    ) {
+        let instance = &self.instances[k as usize];
+        match &instance.shape {
+            Shape::Mesh(m) if W >= crate::lanes::KERNELS_FROM && !m.has_attributes() => {
+                m.gather_surface(surfaces, i, &mesh::MeshHit::of_raw(&raw));
+                surfaces.set_transform(i, instance.surface_maps());
+                found.in_lanes.set(i, true);
+                found.t[i] = raw.t;
+                (found.instance[i], found.prim[i]) = (k, raw.prim);
+            }
+            _ => hits[i] = Some(instance.surface(ray, &raw, k)),
         }
     }
 }

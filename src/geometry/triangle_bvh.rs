@@ -125,6 +125,13 @@ impl PacketHits {
 }
 
 impl Packet {
+    /// The corners of the triangle in `lane`.
+    #[inline(always)]
+    fn corners(&self, lane: usize) -> [Vec3; 3] {
+        let v = &self.v;
+        [0, 1, 2].map(|c| Vec3::new(v[3 * c][lane], v[3 * c + 1][lane], v[3 * c + 2][lane]))
+    }
+
     /// The lanes holding triangles of their own (not repeating lane 0), as a mask.
     #[inline(always)]
     fn own_lanes(&self) -> u32 {
@@ -251,10 +258,12 @@ pub(crate) fn tie_bound(t: f32) -> f32 {
 /// same distance (a ray through coincident triangles) the lowest id wins, so the answer does
 /// not depend on the order the traversal meets them in: after a hit at t the bound becomes
 /// [`tie_bound`]`(t)`, which lets later hits at t through to the comparison.
-struct Closest<'a> {
+struct Closest<'a, const CORNERS: bool> {
     ray: &'a TriRay,
     t_min: f32,
     best: Option<([u32; 2], TriHit)>,
+    /// Where `CORNERS`: the best hit's triangle's corners, as its packet holds them.
+    corners: [Vec3; 3],
 }
 
 /// Whether a hit at distance `t` on the primitive named `key` comes before one at `other_t` on
@@ -272,7 +281,7 @@ fn precedes(t: f32, id: [u32; 2], best: &Option<([u32; 2], TriHit)>) -> bool {
         .is_none_or(|(b, bh)| comes_before(t, id, bh.t, *b))
 }
 
-impl Leaf for Closest<'_> {
+impl<const CORNERS: bool> Leaf for Closest<'_, CORNERS> {
     #[inline(always)]
     fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
@@ -292,6 +301,9 @@ impl Leaf for Closest<'_> {
             if precedes(nearest, p.ids[lane], &self.best) {
                 self.best = Some((p.ids[lane], h.hit(lane)));
                 *t_max = tie_bound(nearest);
+                if CORNERS {
+                    self.corners = p.corners(lane);
+                }
             }
         }
         false
@@ -714,6 +726,27 @@ impl TriangleBvh {
         unsafe { self.intersect_with::<Sse>(ray, t_min, t_max) }
     }
 
+    /// [`intersect`](Self::intersect), with the hit triangle's corners as the tree stores
+    /// them (read from the packet the hit was found in, not from its mesh).
+    #[inline]
+    pub fn intersect_corners(
+        &self,
+        ray: &TriRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<([u32; 2], TriHit, [Vec3; 3])> {
+        if self.is_empty() {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is only set when the CPU has AVX2.
+            return unsafe { self.intersect_corners_avx2(ray, t_min, t_max) };
+        }
+        // SAFETY: as in `intersect`.
+        unsafe { self.closest_with::<Sse, true>(ray, t_min, t_max) }
+    }
+
     /// Whether any triangle is hit within (t_min, t_max).
     #[inline]
     pub fn occluded(&self, ray: &TriRay, t_min: f32, t_max: f32) -> bool {
@@ -812,6 +845,19 @@ impl TriangleBvh {
         unsafe { self.intersect_with::<Avx2>(ray, t_min, t_max) }
     }
 
+    /// [`TriangleBvh::intersect_corners`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn intersect_corners_avx2(
+        &self,
+        ray: &TriRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<([u32; 2], TriHit, [Vec3; 3])> {
+        // SAFETY: this function runs only on CPUs with AVX2.
+        unsafe { self.closest_with::<Avx2, true>(ray, t_min, t_max) }
+    }
+
     /// [`TriangleBvh::occluded`] compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
@@ -831,15 +877,32 @@ impl TriangleBvh {
         t_min: f32,
         t_max: f32,
     ) -> Option<([u32; 2], TriHit)> {
-        let mut closest = Closest {
+        // SAFETY: passed on from the caller.
+        unsafe { self.closest_with::<B, false>(ray, t_min, t_max) }.map(|(id, h, _)| (id, h))
+    }
+
+    /// The closest hit with box test `B`, with its triangle's corners where `CORNERS` (else
+    /// zeros).
+    ///
+    /// # Safety
+    /// The CPU must support `B`'s instructions.
+    #[inline(always)]
+    unsafe fn closest_with<B: BoxTest, const CORNERS: bool>(
+        &self,
+        ray: &TriRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<([u32; 2], TriHit, [Vec3; 3])> {
+        let mut closest = Closest::<CORNERS> {
             ray,
             t_min,
             best: None,
+            corners: [Vec3::ZERO; 3],
         };
         let mut t_max = t_max;
         // SAFETY: passed on from the caller.
         unsafe { self.traverse::<B, true>(ray, t_min, &mut t_max, &mut closest) };
-        closest.best
+        closest.best.map(|(id, h)| (id, h, closest.corners))
     }
 
     /// Any hit with box test `B`.
@@ -1079,6 +1142,23 @@ mod tests {
 
     fn check(bvh: &TriangleBvh, tris: &[[Vec3; 3]], o: Vec3, d: Vec3) -> bool {
         let fast = bvh.intersect(&TriRay::new(o, d), 0.0, f32::INFINITY);
+        // The query that also gives the hit triangle's corners finds the same hit, and the
+        // corners are that triangle's, bit for bit.
+        let with_corners = bvh.intersect_corners(&TriRay::new(o, d), 0.0, f32::INFINITY);
+        let bits = |h: &TriHit| (h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits());
+        assert_eq!(
+            with_corners.map(|(id, h, _)| (id, bits(&h))),
+            fast.map(|(id, h)| (id, bits(&h))),
+            "ray {o} {d}"
+        );
+        if let Some((id, _, corners)) = with_corners {
+            let want = tris[id[1] as usize].map(|c| c.to_array().map(f32::to_bits));
+            assert_eq!(
+                corners.map(|c| c.to_array().map(f32::to_bits)),
+                want,
+                "ray {o} {d}"
+            );
+        }
         let slow = brute(tris, o, d, f32::INFINITY);
         match (fast, slow) {
             (Some((id, f)), Some((i, s))) => {
