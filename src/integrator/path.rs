@@ -531,8 +531,9 @@ impl<const W: usize> PathLanes<W> {
         self.aov[i] = path.aov;
     }
 
-    /// Puts in each `fresh` lane a path leaving the camera along `o + t·d` ([`Path::new`],
-    /// without render passes).
+    /// Puts in each `fresh` lane a path leaving the camera along `o + t·d`: the state
+    /// [`Path::new`] sets (without render passes), written as selects (`tests/lane_widths.rs`
+    /// holds the two to the same bits).
     #[inline(always)]
     pub fn start(&mut self, fresh: Mask<W>, o: V3s<W>, d: V3s<W>) {
         self.ray_o = V3s::select(fresh, o, self.ray_o);
@@ -583,6 +584,14 @@ impl<const W: usize> PathLanes<W> {
             d: self.ray_d,
             t_max: F32s::splat(f32::INFINITY),
         }
+    }
+
+    /// Whether lane `i`'s next vertex takes the general route whatever its material: its path
+    /// records render passes, runs inside a medium, or has reached its last vertex
+    /// (`max_depth`). Without short-circuits, so with no branch per condition.
+    #[inline]
+    pub fn needs_general_route(&self, i: usize, max_depth: u32) -> bool {
+        self.aov[i].is_some() | self.medium[i].is_some() | (self.depth[i] == max_depth)
     }
 
     /// Lane `i`'s ray to its next vertex.
@@ -636,7 +645,7 @@ pub struct LambertRoute<const W: usize> {
     /// The lanes on the route whose light sample runs in the light kernel.
     in_kernel: Mask<W>,
     /// The lanes on the route whose light is sampled one lane at a time.
-    deferred: [bool; W],
+    deferred: Mask<W>,
     /// The lanes whose shading frame [`enter`](Self::enter) computed (the others' is computed
     /// in lanes).
     scalar_frame: Mask<W>,
@@ -668,7 +677,7 @@ impl<const W: usize> LambertRoute<W> {
         LambertRoute {
             on: Mask::splat(false),
             in_kernel: Mask::splat(false),
-            deferred: [false; W],
+            deferred: Mask::splat(false),
             scalar_frame: Mask::splat(false),
             picked: [None; W],
             power: PowerLights::of(scene),
@@ -699,7 +708,7 @@ impl<const W: usize> LambertRoute<W> {
     pub fn clear(&mut self) {
         self.on = Mask::splat(false);
         self.in_kernel = Mask::splat(false);
-        self.deferred = [false; W];
+        self.deferred = Mask::splat(false);
         self.picked = [None; W];
         self.has_shadow = Mask::splat(false);
     }
@@ -740,11 +749,7 @@ impl<const W: usize> LambertRoute<W> {
         hit: &SurfaceHit,
         u_light: glam::Vec2,
     ) -> bool {
-        if W < LANE_KERNELS_FROM
-            || paths.aov[i].is_some()
-            || paths.medium[i].is_some()
-            || paths.depth[i] == scene.settings.max_depth
-        {
+        if W < LANE_KERNELS_FROM || paths.needs_general_route(i, scene.settings.max_depth) {
             return false;
         }
         let material = scene.material(hit);
@@ -798,9 +803,7 @@ impl<const W: usize> LambertRoute<W> {
         let max_depth = scene.settings.max_depth;
         for i in found.in_lanes.iter() {
             let (plain, albedo) = self.instance_albedo[found.instance[i] as usize];
-            let general =
-                paths.aov[i].is_some() | paths.medium[i].is_some() | (paths.depth[i] == max_depth);
-            on.set(i, plain & !general);
+            on.set(i, plain & !paths.needs_general_route(i, max_depth));
             self.albedo.set(i, albedo);
         }
         if !on.any() {
@@ -851,7 +854,7 @@ impl<const W: usize> LambertRoute<W> {
         self.ns = V3s::select(on, out.ns, self.ns);
         self.bsdf.ng = V3s::select(on, out.ng, self.bsdf.ng);
         let turned = V3s::select(out.ns.dot(out.ng).lt(F32s::splat(0.0)), -out.ns, out.ns);
-        turned.x.eq(out.ng.x) & turned.y.eq(out.ng.y) & turned.z.eq(out.ng.z)
+        turned.eq(out.ng)
     }
 
     /// Picks lane `i`'s light at `hit` with its light-sample point `u_light`, one lane at a
@@ -868,7 +871,7 @@ impl<const W: usize> LambertRoute<W> {
                 self.lights.set_light(i, pick, light, emission);
             }
             // Sampled one lane at a time once the vertex is complete (`prepare`).
-            None => self.deferred[i] = true,
+            None => self.deferred.set(i, true),
         }
     }
 
@@ -877,11 +880,26 @@ impl<const W: usize> LambertRoute<W> {
     /// kernel's inputs, and the light samples of lights the kernel does not take.
     fn prepare(&mut self, scene: &Scene, paths: &PathLanes<W>, hits: WaveHits<'_, W>) {
         self.prepare_lanes(paths);
-        if !self.deferred.contains(&true) {
+        self.sample_lights_alone(self.deferred, scene, paths, hits);
+    }
+
+    /// The light samples of the `lanes` one lane at a time ([`sample_light_alone`]): seldom
+    /// any, so tested first.
+    ///
+    /// [`sample_light_alone`]: Self::sample_light_alone
+    #[inline(always)]
+    fn sample_lights_alone(
+        &mut self,
+        lanes: Mask<W>,
+        scene: &Scene,
+        paths: &PathLanes<W>,
+        hits: WaveHits<'_, W>,
+    ) {
+        if !lanes.any() {
             return;
         }
-        for i in 0..W {
-            if let (true, Some(hit)) = (self.deferred[i], hits.get(i)) {
+        for i in lanes.iter() {
+            if let Some(hit) = hits.get(i) {
                 self.sample_light_alone(i, scene, paths, &hit);
             }
         }
@@ -1007,16 +1025,8 @@ impl<const W: usize> LambertRoute<W> {
         let out = self.lights.run();
         let in_kernel = self.in_kernel;
         self.take_light_samples(&out);
-        // The lanes the kernel left to the scalar code (seldom any: tested first, so that the
-        // loop, which keeps copying the masks around its calls, is seldom run).
-        let alone = in_kernel.and_not(out.decided);
-        if alone.any() {
-            for i in 0..W {
-                if let (true, Some(hit)) = (alone.lane(i), hits.get(i)) {
-                    self.sample_light_alone(i, scene, paths, &hit);
-                }
-            }
-        }
+        // The lanes the kernel left to the scalar code (seldom any).
+        self.sample_lights_alone(in_kernel.and_not(out.decided), scene, paths, hits);
     }
 
     /// [`advance_here`](Self::advance_here), compiled for the widest vector instructions the
@@ -1120,9 +1130,7 @@ impl<const W: usize> LambertRoute<W> {
             let roulette = Mask::from_bools(&roulette);
             survive = go.and_not(roulette.and_not(russian_roulette_lanes(paths, roulette, u)));
         }
-        let b = paths.beta;
-        let zero = F32s::splat(0.0);
-        let black = b.x.eq(zero) & b.y.eq(zero) & b.z.eq(zero);
+        let black = paths.beta.is_zero();
         for i in 0..W {
             let (go, survive) = (go.lane(i), survive.lane(i));
             paths.prev_delta[i] &= !go;
@@ -1158,13 +1166,7 @@ fn russian_roulette_here<const W: usize>(
     let (b, e) = (paths.beta, paths.eta_scale);
     // `(beta * eta_scale).max_element().min(1.0)`: std's `min` gives the lanes' bits, its
     // second argument never being NaN.
-    let q = V3s {
-        x: b.x * e,
-        y: b.y * e,
-        z: b.z * e,
-    }
-    .max_element()
-    .min(F32s::splat(1.0));
+    let q = (b * e).max_element().min(F32s::splat(1.0));
     let kept = u.lt(q);
     paths.beta = V3s::select(playing & kept, b / q, b);
     kept

@@ -114,11 +114,17 @@ impl<const W: usize> V3s<W> {
         V3s::select(ok, self * rcp, V3s::default())
     }
 
+    /// The lanes where every component equals `rhs`'s (`Vec3 == Vec3`: −0 equals +0, NaN
+    /// nothing).
+    #[inline(always)]
+    pub fn eq(self, rhs: Self) -> Mask<W> {
+        self.x.eq(rhs.x) & self.y.eq(rhs.y) & self.z.eq(rhs.z)
+    }
+
     /// The lanes where every component is zero (`== Vec3::ZERO`: −0 counts, NaN does not).
     #[inline(always)]
     pub fn is_zero(self) -> Mask<W> {
-        let zero = F32s::splat(0.0);
-        self.x.eq(zero) & self.y.eq(zero) & self.z.eq(zero)
+        self.eq(V3s::default())
     }
 }
 
