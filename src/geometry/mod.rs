@@ -362,13 +362,7 @@ impl<const W: usize> SegmentLanes<W> {
 
     /// The rays `rays[i]` over (0, ∞) (`None` lanes idle).
     pub fn of_rays(rays: &[Option<Ray>; W]) -> Self {
-        let mut out = Self::new();
-        for (i, ray) in rays.iter().enumerate() {
-            if let Some(ray) = ray {
-                out.set(i, ray, f32::INFINITY);
-            }
-        }
-        out
+        Self::from_options(&rays.map(|ray| ray.map(|ray| (ray, f32::INFINITY))))
     }
 
     /// The segments `segments[i]` (`None` lanes idle).
@@ -770,9 +764,7 @@ impl Geometry {
                         };
                         surfaces.set_corners(i, &corners, (h.b1, h.b2));
                         surfaces.set_transform(i, None);
-                        found.in_lanes.set(i, true);
-                        found.t[i] = raw.t;
-                        (found.instance[i], found.prim[i]) = (k, raw.prim);
+                        found.set(i, raw.t, (k, raw.prim));
                         continue;
                     }
                     _ => {}
@@ -813,9 +805,7 @@ impl Geometry {
             Shape::Mesh(m) if W >= crate::lanes::KERNELS_FROM && !m.has_attributes() => {
                 m.gather_surface(surfaces, i, &mesh::MeshHit::of_raw(&raw));
                 surfaces.set_transform(i, instance.surface_maps());
-                found.in_lanes.set(i, true);
-                found.t[i] = raw.t;
-                (found.instance[i], found.prim[i]) = (k, raw.prim);
+                found.set(i, raw.t, (k, raw.prim));
             }
             _ => hits[i] = Some(instance.surface(ray, &raw, k)),
         }
@@ -847,6 +837,15 @@ impl<const W: usize> LaneSurfaces<W> {
             prim: U32s::default(),
             out: mesh::SurfacesOut::default(),
         }
+    }
+
+    /// Makes lane `i` a hit at distance `t` on triangle `prim` of instance `instance` (its
+    /// surface is the kernel's lane `i`).
+    #[inline]
+    pub fn set(&mut self, i: usize, t: f32, (instance, prim): (u32, u32)) {
+        self.in_lanes.set(i, true);
+        self.t[i] = t;
+        (self.instance[i], self.prim[i]) = (instance, prim);
     }
 
     /// Lane `i`'s hit (`i` in [`in_lanes`](Self::in_lanes)).
