@@ -128,8 +128,14 @@ impl Packet {
     /// The corners of the triangle in `lane`.
     #[inline(always)]
     fn corners(&self, lane: usize) -> [Vec3; 3] {
+        // Spelled out: a closure (as in `[0, 1, 2].map`) does not inherit the AVX2 target
+        // feature of the traversal, and its calls are not inlined into it.
         let v = &self.v;
-        [0, 1, 2].map(|c| Vec3::new(v[3 * c][lane], v[3 * c + 1][lane], v[3 * c + 2][lane]))
+        [
+            Vec3::new(v[0][lane], v[1][lane], v[2][lane]),
+            Vec3::new(v[3][lane], v[4][lane], v[5][lane]),
+            Vec3::new(v[6][lane], v[7][lane], v[8][lane]),
+        ]
     }
 
     /// The lanes holding triangles of their own (not repeating lane 0), as a mask.
@@ -237,10 +243,10 @@ impl Packet {
 }
 
 /// What a traversal does with the packets it reaches.
-trait Leaf {
+trait Leaf<'a> {
     /// Tests packet `p` within (t_min, *t_max), shrinking `*t_max` on a closer hit; `true` stops
     /// the traversal.
-    fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool;
+    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool;
 }
 
 /// The culling bound after a closest hit at `t`: a little beyond t, so that boxes and shapes
@@ -262,8 +268,9 @@ struct Closest<'a, const CORNERS: bool> {
     ray: &'a TriRay,
     t_min: f32,
     best: Option<([u32; 2], TriHit)>,
-    /// Where `CORNERS`: the best hit's triangle's corners, as its packet holds them.
-    corners: [Vec3; 3],
+    /// Where `CORNERS`: the packet and lane of the best hit, whose corners are read once the
+    /// walk is over (not at every closer hit on the way).
+    found_in: Option<(&'a Packet, usize)>,
 }
 
 /// Whether a hit at distance `t` on the primitive named `key` comes before one at `other_t` on
@@ -281,9 +288,9 @@ fn precedes(t: f32, id: [u32; 2], best: &Option<([u32; 2], TriHit)>) -> bool {
         .is_none_or(|(b, bh)| comes_before(t, id, bh.t, *b))
 }
 
-impl<const CORNERS: bool> Leaf for Closest<'_, CORNERS> {
+impl<'a, const CORNERS: bool> Leaf<'a> for Closest<'a, CORNERS> {
     #[inline(always)]
-    fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
         if h.mask != 0 {
             let nearest = h.t.min_element();
@@ -302,7 +309,7 @@ impl<const CORNERS: bool> Leaf for Closest<'_, CORNERS> {
                 self.best = Some((p.ids[lane], h.hit(lane)));
                 *t_max = tie_bound(nearest);
                 if CORNERS {
-                    self.corners = p.corners(lane);
+                    self.found_in = Some((p, lane));
                 }
             }
         }
@@ -322,9 +329,9 @@ struct ClosestAccepted<'a> {
     best: Option<([u32; 2], TriHit)>,
 }
 
-impl Leaf for ClosestAccepted<'_> {
+impl<'a> Leaf<'a> for ClosestAccepted<'_> {
     #[inline(always)]
-    fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
         let mut mask = h.mask & p.own_lanes();
         while mask != 0 {
@@ -361,9 +368,9 @@ struct AnyAccepted<'a> {
     accept: &'a mut dyn FnMut([u32; 2], &TriHit) -> bool,
 }
 
-impl Leaf for AnyAccepted<'_> {
+impl<'a> Leaf<'a> for AnyAccepted<'_> {
     #[inline(always)]
-    fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
         let mut mask = h.mask & p.own_lanes();
         while mask != 0 {
@@ -384,9 +391,9 @@ struct AnyHit<'a> {
     t_min: f32,
 }
 
-impl Leaf for AnyHit<'_> {
+impl<'a> Leaf<'a> for AnyHit<'_> {
     #[inline(always)]
-    fn visit(&mut self, p: &Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
         p.hits(self.ray, self.t_min, *t_max).mask != 0
     }
 }
@@ -665,9 +672,10 @@ impl TriangleBvh {
             prefetch: nodes_bytes + packets_bytes > PREFETCH_BYTES,
         };
         crate::phases::mark(&format!(
-            "bvh: leaf packets ({} triangles, {binary_nodes} binary nodes, {} packets, {} 8-wide \
+            "bvh: leaf packets ({} triangles, depth {}, {binary_nodes} binary nodes, {} packets, {} 8-wide \
              and {} 4-wide nodes)",
             out.triangles,
+            out.depth,
             out.packets.len(),
             out.nodes.len(),
             out.narrow.len()
@@ -820,12 +828,12 @@ impl TriangleBvh {
     /// The traversal with AVX2 box tests, for the queries with an `accept` function.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn traverse_avx2<const ORDERED: bool>(
-        &self,
+    unsafe fn traverse_avx2<'s, const ORDERED: bool>(
+        &'s self,
         r: &TriRay,
         t_min: f32,
         t_max: &mut f32,
-        leaf: &mut impl Leaf,
+        leaf: &mut impl Leaf<'s>,
     ) -> bool {
         // SAFETY: this function runs only on CPUs with AVX2.
         unsafe { self.traverse::<Avx2, ORDERED>(r, t_min, t_max, leaf) }
@@ -897,12 +905,16 @@ impl TriangleBvh {
             ray,
             t_min,
             best: None,
-            corners: [Vec3::ZERO; 3],
+            found_in: None,
         };
         let mut t_max = t_max;
         // SAFETY: passed on from the caller.
         unsafe { self.traverse::<B, true>(ray, t_min, &mut t_max, &mut closest) };
-        closest.best.map(|(id, h)| (id, h, closest.corners))
+        let corners = match closest.found_in {
+            Some((p, lane)) if CORNERS => p.corners(lane),
+            _ => [Vec3::ZERO; 3],
+        };
+        closest.best.map(|(id, h)| (id, h, corners))
     }
 
     /// Any hit with box test `B`.
@@ -924,12 +936,12 @@ impl TriangleBvh {
     /// # Safety
     /// The CPU must support `B`'s instructions.
     #[inline(always)]
-    unsafe fn traverse<B: BoxTest, const ORDERED: bool>(
-        &self,
+    unsafe fn traverse<'s, B: BoxTest, const ORDERED: bool>(
+        &'s self,
         r: &TriRay,
         t_min: f32,
         t_max: &mut f32,
-        leaf: &mut impl Leaf,
+        leaf: &mut impl Leaf<'s>,
     ) -> bool {
         // A node pushes at most seven children, so 7·depth + 1 entries always suffice.
         // Left uninitialised: only entries below the stack pointer are read, each written first.
@@ -989,16 +1001,17 @@ impl TriangleBvh {
     /// The CPU must support `B`'s instructions.
     #[inline(always)]
     unsafe fn traverse_with<
+        's,
         B: BoxTest,
         const ROBUST: bool,
         const NARROW_NODES: bool,
         const ORDERED: bool,
     >(
-        &self,
+        &'s self,
         r: &B::Ray,
         t_min: f32,
         t_max: &mut f32,
-        leaf: &mut impl Leaf,
+        leaf: &mut impl Leaf<'s>,
         stack: &mut [MaybeUninit<(u32, f32)>],
     ) -> bool {
         let mut sp = 0usize;
