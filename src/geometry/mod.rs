@@ -422,6 +422,65 @@ pub const FLATTEN_MAX_SHARED_TRIANGLES: usize = 256;
 /// one of its instances a transform and a second traversal.
 pub const FLATTEN_SHARED_BUDGET: usize = 1 << 20;
 
+/// Which trees of world-space triangles a query of [`Geometry`] looks in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Trees {
+    /// The small set's and the rest's.
+    Both,
+    /// The rest's only (the small set's hits are known from its kernels).
+    Flat,
+}
+
+/// A world-space triangle whose box has at least this share of the scene's box's surface area
+/// is big: it goes to the small set (at most [`small_set::SMALL_SET_MAX`] of them, the biggest
+/// first) rather than the tree. A tree cannot bound such triangles tightly (a Cornell box's
+/// walls span the scene), so nearly every ray opens the leaves that hold them; a wave tests
+/// them in SIMD lanes for less (the Cornell box with a 5k-triangle bunny: walls in the tree
+/// cost 1.43 s at 64 spp, in the small set 0.83 s).
+pub const BIG_TRIANGLE_SHARE: f32 = 1.0 / 16.0;
+
+/// The big triangles of the world-space set `flat` ((instance, first triangle, mesh) of each
+/// flattened instance; `corners` gives triangle i of the set in world space): at most
+/// [`small_set::SMALL_SET_MAX`], as indices into the set, increasing. Only meshes of at most
+/// that many triangles are looked at, so that large meshes cost nothing here.
+fn big_triangles(
+    instances: &[Instance],
+    flat: &[(usize, usize, &Mesh)],
+    corners: impl Fn(usize) -> [Vec3A; 3],
+) -> Vec<usize> {
+    let scene = flat
+        .iter()
+        .filter_map(|&(k, _, _)| instances[k].bounds())
+        .fold(Aabb::EMPTY, Aabb::union);
+    if scene.is_empty() {
+        return Vec::new();
+    }
+    let least = scene.half_area() * BIG_TRIANGLE_SHARE;
+    let mut big: Vec<(f32, usize)> = Vec::new();
+    for &(_, first, mesh) in flat {
+        let count = mesh.data.triangles.len();
+        if count > small_set::SMALL_SET_MAX {
+            continue;
+        }
+        for i in first..first + count {
+            let [a, b, c] = corners(i);
+            let area = Aabb {
+                min: a.min(b).min(c).into(),
+                max: a.max(b).max(c).into(),
+            }
+            .half_area();
+            if area >= least {
+                big.push((area, i));
+            }
+        }
+    }
+    big.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+    big.truncate(small_set::SMALL_SET_MAX);
+    let mut chosen: Vec<usize> = big.into_iter().map(|(_, i)| i).collect();
+    chosen.sort_unstable();
+    chosen
+}
+
 /// All instances of a scene, in two parts:
 ///
 /// - a single BVH over world-space triangles ([`TriangleBvh`]) holding every mesh instance
@@ -439,10 +498,15 @@ pub const FLATTEN_SHARED_BUDGET: usize = 1 << 20;
 pub struct Geometry {
     /// The instances.
     pub instances: Vec<Instance>,
+    /// The world-space triangles the small set does not hold.
     flat: TriangleBvh,
-    /// The world-space triangles again, for waves of rays, when they are all the scene is and
-    /// few ([`small_set::SMALL_SET_MAX`]).
+    /// Some world-space triangles, tested against a whole wave of rays at once: all of them
+    /// when they are the whole scene and few ([`small_set::SMALL_SET_MAX`]), else the big ones
+    /// (see [`BIG_TRIANGLE_SHARE`]), which would otherwise lie across a tree's nodes and be
+    /// reached by nearly every ray.
     small: Option<SmallSet>,
+    /// The small set's triangles as a tree, for queries of one ray at a time.
+    small_tree: TriangleBvh,
     /// What the lanes read of each triangle of the small set to compute its surfaces, slot
     /// by slot, when they compute all of them (every triangle lies on a mesh without extra
     /// vertex attributes): a hit then reads its slot's record, not its instance, mesh and
@@ -542,15 +606,25 @@ impl Geometry {
             let (k, prim, _) = locate(i);
             [k as u32, prim]
         };
-        let small = (top_instances.is_empty()
+        // The triangles the small set takes, as indices into the set, increasing: all of them
+        // when they are the whole scene and few, else its big triangles (if any).
+        let chosen: Vec<usize> = if top_instances.is_empty()
             && unbounded.is_empty()
-            && (1..=small_set::SMALL_SET_MAX).contains(&flat_count))
-        .then(|| SmallSet::new(flat_count, corners, id))
-        .flatten();
+            && (1..=small_set::SMALL_SET_MAX).contains(&flat_count)
+        {
+            (0..flat_count).collect()
+        } else {
+            big_triangles(&instances, &flat, corners)
+        };
+        let small = (!chosen.is_empty())
+            .then(|| SmallSet::new(chosen.len(), |s| corners(chosen[s]), |s| id(chosen[s])))
+            .flatten();
+        let chosen = if small.is_some() { chosen } else { Vec::new() };
         let small_slots = small.as_ref().and_then(|_| {
-            (0..flat_count)
-                .map(|slot| {
-                    let (k, prim, mesh) = locate(slot);
+            chosen
+                .iter()
+                .map(|&i| {
+                    let (k, prim, mesh) = locate(i);
                     let inst = &instances[k];
                     (!mesh.has_attributes()).then(|| SmallSlot {
                         corners: mesh.corner_data(prim),
@@ -560,13 +634,31 @@ impl Geometry {
                 })
                 .collect::<Option<Vec<_>>>()
         });
-        let flat_bvh = TriangleBvh::build(flat_count, corners, id, |i, stage| {
-            let (_, prim, mesh) = locate(i);
-            mesh.prefetch_corners(prim, stage);
-        });
+        // The small set's triangles again as a tree, for queries one ray at a time.
+        let small_tree = TriangleBvh::build(
+            chosen.len(),
+            |s| corners(chosen[s]),
+            |s| id(chosen[s]),
+            |_, _| {},
+        );
+        // Triangle j of the tree is triangle `rest(j)` of the set, which skips the chosen: as
+        // the chosen increase, so does chosen[c] - c, and j is preceded by those c with
+        // chosen[c] - c <= j.
+        let shifted: Vec<usize> = chosen.iter().enumerate().map(|(c, &i)| i - c).collect();
+        let rest = |j: usize| j + shifted.partition_point(|&x| x <= j);
+        let flat_bvh = TriangleBvh::build(
+            flat_count - chosen.len(),
+            |j| corners(rest(j)),
+            |j| id(rest(j)),
+            |j, stage| {
+                let (_, prim, mesh) = locate(rest(j));
+                mesh.prefetch_corners(prim, stage);
+            },
+        );
         drop(flat);
         Geometry {
             flat: flat_bvh,
+            small_tree,
             small,
             small_slots,
             top: Bvh::build(&top_boxes),
@@ -578,7 +670,10 @@ impl Geometry {
 
     /// Bounds of all bounded instances.
     pub fn bounds(&self) -> Aabb {
-        let (a, b) = (self.flat.bounds(), self.top.bounds());
+        let (a, b) = (
+            self.flat.bounds().union(self.small_tree.bounds()),
+            self.top.bounds(),
+        );
         match (a.is_empty(), b.is_empty()) {
             (true, _) => b,
             (_, true) => a,
@@ -586,36 +681,50 @@ impl Geometry {
         }
     }
 
-    fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, RawHit)> {
+    fn closest(&self, ray: &Ray, t_min: f32, t_max: f32, trees: Trees) -> Option<(u32, RawHit)> {
         self.closest_with(
-            ray,
-            t_min,
-            t_max,
+            (ray, t_min, t_max),
+            trees,
             &mut (),
             |bvh, r, t_max, _| bvh.intersect(r, t_min, t_max),
             |inst, _, t_max, _| inst.intersect(ray, t_min, t_max),
         )
     }
 
-    /// The nearest hit over both levels: `flat(bvh, ray, t_max, state)` queries the world-space
-    /// triangles, `shape(instance, k, t_max, state)` one instance (`state` is what both share,
-    /// such as an accept function).
+    /// The world-space triangle trees `trees` names, those not empty.
+    #[inline(always)]
+    fn trees(&self, trees: Trees) -> impl Iterator<Item = &TriangleBvh> {
+        let small = match trees {
+            Trees::Both => Some(&self.small_tree),
+            Trees::Flat => None,
+        };
+        small
+            .into_iter()
+            .chain([&self.flat])
+            .filter(|tree| !tree.is_empty())
+    }
+
+    /// The nearest hit over both levels, of `ray` within (t_min, t_max): `flat(bvh, ray, t_max,
+    /// state)` queries a tree of world-space triangles (those of `trees`),
+    /// `shape(instance, k, t_max, state)` one instance (`state` is what both share, such as an
+    /// accept function).
     #[inline(always)]
     fn closest_with<S: ?Sized>(
         &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
+        (ray, t_min, t_max): (&Ray, f32, f32),
+        trees: Trees,
         state: &mut S,
-        flat: impl FnOnce(&TriangleBvh, &TriRay, f32, &mut S) -> Option<([u32; 2], TriHit)>,
+        flat: impl Fn(&TriangleBvh, &TriRay, f32, &mut S) -> Option<([u32; 2], TriHit)>,
         shape: impl Fn(&Instance, u32, f32, &mut S) -> Option<RawHit>,
     ) -> Option<(u32, RawHit)> {
         // After a hit at t the bound is a little beyond t, so that hits as near reach `keep`,
         // which breaks the tie by (instance, primitive), whatever the order they are met in.
         let mut best: Option<(u32, RawHit)> = None;
         let mut t_max = t_max;
-        if !self.flat.is_empty() {
-            if let Some((id, h)) = flat(&self.flat, &TriRay::new(ray.o, ray.d), t_max, state) {
+        let mut tri_ray = None;
+        for tree in self.trees(trees) {
+            let r = tri_ray.get_or_insert_with(|| TriRay::new(ray.o, ray.d));
+            if let Some((id, h)) = flat(tree, r, t_max, state) {
                 keep(&mut best, &mut t_max, id[0], RawHit::of_triangle(id, &h));
             }
         }
@@ -641,20 +750,23 @@ impl Geometry {
         best
     }
 
-    /// Whether anything lies within (t_min, t_max) over both levels, with `flat` and `shape`
-    /// as in [`closest_with`](Self::closest_with).
+    /// Whether anything lies within (t_min, t_max) over both levels, with `trees`, `flat` and
+    /// `shape` as in [`closest_with`](Self::closest_with).
     #[inline(always)]
     fn occluded_with<S: ?Sized>(
         &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
+        (ray, t_min, t_max): (&Ray, f32, f32),
+        trees: Trees,
         state: &mut S,
-        flat: impl FnOnce(&TriangleBvh, &TriRay, f32, &mut S) -> bool,
+        flat: impl Fn(&TriangleBvh, &TriRay, f32, &mut S) -> bool,
         shape: impl Fn(&Instance, u32, f32, &mut S) -> bool,
     ) -> bool {
-        if !self.flat.is_empty() && flat(&self.flat, &TriRay::new(ray.o, ray.d), t_max, state) {
-            return true;
+        let mut tri_ray = None;
+        for tree in self.trees(trees) {
+            let r = tri_ray.get_or_insert_with(|| TriRay::new(ray.o, ray.d));
+            if flat(tree, r, t_max, state) {
+                return true;
+            }
         }
         for &k in &self.unbounded {
             if shape(&self.instances[k as usize], k, t_max, state) {
@@ -707,52 +819,60 @@ impl Geometry {
         found: &mut LaneSurfaces<W>,
     ) {
         found.in_lanes = Mask::splat(false);
-        if let (Some(small), Some(slots), true) = (
-            &self.small,
-            &self.small_slots,
-            W >= crate::lanes::KERNELS_FROM,
-        ) {
-            // The whole wave's hits, each lane's surface inputs from its slot's record.
-            let slot_hits = small.closest_slots(rays);
-            hits.fill(None);
-            if !slot_hits.hit.any() {
-                return;
-            }
-            for i in slot_hits.hit.iter() {
-                let slot = &slots[slot_hits.slot[i] as usize];
-                surfaces.set_corners(i, &slot.corners, (slot_hits.b1[i], slot_hits.b2[i]));
-                surfaces.set_maps(i, slot.transformed, (&slot.maps.0, &slot.maps.1));
-                [found.instance[i], found.prim[i]] = small.id(slot_hits.slot[i]);
-            }
-            found.in_lanes = slot_hits.hit;
-            found.t = slot_hits.t;
-            found.out = surfaces.run();
-            return;
-        }
-        // The small set's hits for the whole wave at once; otherwise each lane's is found just
-        // before its surface is gathered.
-        let small_hits = match &self.small {
-            Some(small) if W >= crate::lanes::KERNELS_FROM => Some(small.closest_lanes(rays)),
-            _ => None,
-        };
         hits.fill(None);
+        let kernels = W >= crate::lanes::KERNELS_FROM;
+        // The small set's hits, for the whole wave at once.
+        let (small, slot_hits) = match &self.small {
+            Some(small) if kernels => (Some(small), Some(small.closest_slots(rays))),
+            _ => (None, None),
+        };
+        let mut from_small = slot_hits.as_ref().map_or(Mask::splat(false), |h| h.hit);
+        // The lanes that look further: none when the small set is the whole scene.
+        let further = match small {
+            Some(_) if self.small_is_all() => Mask::splat(false),
+            _ => rays.live,
+        };
         // A scene of nothing but world-space triangles (no shared meshes, spheres, lathes or
-        // planes): its closest hits are the flat tree's.
-        let flat_only = small_hits.is_none()
-            && W >= crate::lanes::KERNELS_FROM
-            && self.top_instances.is_empty()
-            && self.unbounded.is_empty();
-        for i in rays.live.iter() {
+        // planes): its closest hits beyond the small set's are the flat tree's.
+        let flat_only = kernels && self.top_instances.is_empty() && self.unbounded.is_empty();
+        // Each lane's bound: a little beyond the small set's hit, where it has one.
+        let bound = |i: usize| match &slot_hits {
+            Some(h) if h.hit.lane(i) => triangle_bvh::tie_bound(h.t[i]),
+            _ => f32::INFINITY,
+        };
+        let further = if flat_only {
+            // Only lanes that enter the tree's root can find more there.
+            self.flat
+                .meets_lanes((&rays.o, &rays.d), F32s::from_fn(bound), further)
+        } else {
+            further
+        };
+        for i in further.iter() {
             let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
+            // The small set's hit, as distance and id; a hit further on must come before it.
+            let small_hit = match (small, &slot_hits) {
+                (Some(small), Some(h)) if h.hit.lane(i) => Some((h.t[i], small.id(h.slot[i]))),
+                _ => None,
+            };
+            let t_max = bound(i);
+            let before_small = |t: f32, id: [u32; 2]| {
+                small_hit.is_none_or(|(small_t, small_id)| {
+                    triangle_bvh::comes_before(t, id, small_t, small_id)
+                })
+            };
             if flat_only {
                 // The hit's corners from the packet it was found in, which holds them as the
                 // mesh does where the instance is untransformed.
                 let Some((id, h, corners)) =
                     self.flat
-                        .intersect_corners(&TriRay::new(ray.o, ray.d), 0.0, f32::INFINITY)
+                        .intersect_corners(&TriRay::new(ray.o, ray.d), 0.0, t_max)
                 else {
                     continue;
                 };
+                if !before_small(h.t, id) {
+                    continue;
+                }
+                from_small.set(i, false);
                 let (k, raw) = (id[0], RawHit::of_triangle(id, &h));
                 let instance = &self.instances[k as usize];
                 match &instance.shape {
@@ -772,19 +892,61 @@ impl Geometry {
                 self.surface_of(&ray, (k, raw), i, hits, surfaces, found);
                 continue;
             }
-            let closest = match &small_hits {
-                Some(small_hits) => {
-                    small_hits[i].map(|(id, h)| (id[0], RawHit::of_triangle(id, &h)))
-                }
-                None => self.closest(&ray, 0.0, f32::INFINITY),
+            let trees = if small.is_some() {
+                Trees::Flat
+            } else {
+                Trees::Both
             };
-            if let Some(hit) = closest {
-                self.surface_of(&ray, hit, i, hits, surfaces, found);
+            if let Some((k, raw)) = self.closest(&ray, 0.0, t_max, trees) {
+                if before_small(raw.t, [k, raw.prim]) {
+                    from_small.set(i, false);
+                    self.surface_of(&ray, (k, raw), i, hits, surfaces, found);
+                }
+            }
+        }
+        // The lanes whose hit is the small set's: each lane's surface inputs from its slot's
+        // record, or gathered from its mesh.
+        if let (Some(small), Some(h)) = (small, &slot_hits) {
+            match &self.small_slots {
+                Some(slots) => {
+                    for i in from_small.iter() {
+                        let slot = &slots[h.slot[i] as usize];
+                        surfaces.set_corners(i, &slot.corners, (h.b1[i], h.b2[i]));
+                        surfaces.set_maps(i, slot.transformed, (&slot.maps.0, &slot.maps.1));
+                        let [k, prim] = small.id(h.slot[i]);
+                        found.set(i, h.t[i], (k, prim));
+                    }
+                }
+                None => {
+                    for i in from_small.iter() {
+                        let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
+                        let id = small.id(h.slot[i]);
+                        let hit = TriHit {
+                            t: h.t[i],
+                            b1: h.b1[i],
+                            b2: h.b2[i],
+                        };
+                        self.surface_of(
+                            &ray,
+                            (id[0], RawHit::of_triangle(id, &hit)),
+                            i,
+                            hits,
+                            surfaces,
+                            found,
+                        );
+                    }
+                }
             }
         }
         if found.in_lanes.any() {
             found.out = surfaces.run();
         }
+    }
+
+    /// Whether the small set holds every shape of the scene.
+    #[inline]
+    fn small_is_all(&self) -> bool {
+        self.flat.is_empty() && self.top_instances.is_empty() && self.unbounded.is_empty()
     }
 
     /// Lane `i`'s hit `(k, raw)` (on instance k) of `ray`: its surface's inputs into
@@ -898,11 +1060,39 @@ fn lane_surface<const W: usize>(
 }
 
 impl Geometry {
+    /// Whether anything lies within (t_min, t_max), the world-space triangles looked for in
+    /// `trees`.
+    fn occluded_in(&self, ray: &Ray, t_min: f32, t_max: f32, trees: Trees) -> bool {
+        self.occluded_with(
+            (ray, t_min, t_max),
+            trees,
+            &mut (),
+            |bvh, r, t_max, _| bvh.occluded(r, t_min, t_max),
+            |inst, _, t_max, _| inst.occluded(ray, t_min, t_max),
+        )
+    }
+
     /// Whether something blocks each of a wave's segments (over (0, `t_max`); idle lanes report
     /// `false`), as [`Accel::occluded`] finds it.
     pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
         match &self.small {
-            Some(small) if W >= crate::lanes::KERNELS_FROM => small.occluded_lanes(segments),
+            Some(small) if W >= crate::lanes::KERNELS_FROM => {
+                let mut blocked = small.occluded_lanes(segments);
+                if !self.small_is_all() {
+                    let mut open = segments.live & !Mask::from_bools(&blocked);
+                    if self.top_instances.is_empty() && self.unbounded.is_empty() {
+                        // Only lanes that enter the tree's root can be blocked there.
+                        open =
+                            self.flat
+                                .meets_lanes((&segments.o, &segments.d), segments.t_max, open);
+                    }
+                    for i in open.iter() {
+                        let ray = Ray::new(segments.o.lane(i), segments.d.lane(i));
+                        blocked[i] = self.occluded_in(&ray, 0.0, segments.t_max[i], Trees::Flat);
+                    }
+                }
+                blocked
+            }
             _ => std::array::from_fn(|i| {
                 segments
                     .get(i)
@@ -923,9 +1113,8 @@ impl Geometry {
         accept: &mut dyn FnMut(u32, &RawHit) -> bool,
     ) -> Option<(u32, RawHit)> {
         self.closest_with(
-            ray,
-            t_min,
-            t_max,
+            (ray, t_min, t_max),
+            Trees::Both,
             accept,
             |bvh, r, t_max, accept| {
                 bvh.intersect_accepted(r, t_min, t_max, &mut |id, h| {
@@ -947,9 +1136,8 @@ impl Geometry {
         accept: &mut dyn FnMut(u32, &RawHit) -> bool,
     ) -> bool {
         self.occluded_with(
-            ray,
-            t_min,
-            t_max,
+            (ray, t_min, t_max),
+            Trees::Both,
             accept,
             |bvh, r, t_max, accept| {
                 bvh.occluded_accepted(r, t_min, t_max, &mut |id, h| {
@@ -965,19 +1153,12 @@ impl Geometry {
 
 impl Accel for Geometry {
     fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
-        self.closest(ray, t_min, t_max)
+        self.closest(ray, t_min, t_max, Trees::Both)
             .map(|(k, h)| self.instances[k as usize].surface(ray, &h, k))
     }
 
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        self.occluded_with(
-            ray,
-            t_min,
-            t_max,
-            &mut (),
-            |bvh, r, t_max, _| bvh.occluded(r, t_min, t_max),
-            |inst, _, t_max, _| inst.occluded(ray, t_min, t_max),
-        )
+        self.occluded_in(ray, t_min, t_max, Trees::Both)
     }
 }
 
@@ -1319,31 +1500,156 @@ mod tests {
                 check_wave::<4, _>(&geo, &std::array::from_fn(|i| rays[i]), bits);
             }
         }
+    }
 
-        fn check_wave<const W: usize, B: PartialEq + std::fmt::Debug>(
-            geo: &Geometry,
-            rays: &[Option<Ray>; W],
-            bits: impl Fn(&SurfaceHit) -> B,
-        ) {
-            let mut hits = [None; W];
-            let mut surfaces = mesh::SurfaceLanes::<W>::new();
-            geo.intersect_lanes(rays, &mut hits, &mut surfaces);
-            let mut segments = [None; W];
-            for (i, ray) in rays.iter().enumerate() {
-                let single = ray.and_then(|r| geo.intersect(&r, 0.0, f32::INFINITY));
-                assert_eq!(
-                    hits[i].as_ref().map(&bits),
-                    single.as_ref().map(&bits),
-                    "lane {i}"
-                );
-                // Segments ending just before and just after the hit.
-                let end = single.map_or(5.0, |h| h.t * if i % 2 == 0 { 0.999 } else { 1.001 });
-                segments[i] = ray.map(|r| (r, end));
+    /// A wave's closest hits (`bits` of each) and the any-hit answers for segments ending just
+    /// before and just after them, against the same rays' single queries.
+    fn check_wave<const W: usize, B: PartialEq + std::fmt::Debug>(
+        geo: &Geometry,
+        rays: &[Option<Ray>; W],
+        bits: impl Fn(&SurfaceHit) -> B,
+    ) {
+        let mut hits = [None; W];
+        let mut surfaces = mesh::SurfaceLanes::<W>::new();
+        geo.intersect_lanes(rays, &mut hits, &mut surfaces);
+        let mut segments = [None; W];
+        for (i, ray) in rays.iter().enumerate() {
+            let single = ray.and_then(|r| geo.intersect(&r, 0.0, f32::INFINITY));
+            assert_eq!(
+                hits[i].as_ref().map(&bits),
+                single.as_ref().map(&bits),
+                "lane {i}"
+            );
+            // Segments ending just before and just after the hit.
+            let end = single.map_or(5.0, |h| h.t * if i % 2 == 0 { 0.999 } else { 1.001 });
+            segments[i] = ray.map(|r| (r, end));
+        }
+        let blocked = geo.occluded_lanes(&SegmentLanes::from_options(&segments));
+        for (i, segment) in segments.iter().enumerate() {
+            let single = segment.is_some_and(|(r, t_max)| geo.occluded(&r, 0.0, t_max));
+            assert_eq!(blocked[i], single, "lane {i}");
+        }
+    }
+
+    /// A room of big wall quads around a 1,280-triangle sphere of triangles and a small
+    /// light: the walls go to the small set, the rest to the tree, and every query, one ray
+    /// at a time or a wave at a time, finds the brute-force oracle's hits; coplanar
+    /// triangles on both sides of the split tie to the lowest (instance, primitive).
+    #[test]
+    fn big_triangles_go_to_the_small_set_and_queries_agree() {
+        let quad = |corners: [Vec3; 4]| {
+            Arc::new(Mesh::from_triangles(corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]]).0)
+        };
+        let v = Vec3::new;
+        let walls = [
+            [
+                v(-1., -1., -1.),
+                v(-1., -1., 1.),
+                v(1., -1., 1.),
+                v(1., -1., -1.),
+            ],
+            [
+                v(-1., 1., -1.),
+                v(1., 1., -1.),
+                v(1., 1., 1.),
+                v(-1., 1., 1.),
+            ],
+            [
+                v(-1., -1., -1.),
+                v(1., -1., -1.),
+                v(1., 1., -1.),
+                v(-1., 1., -1.),
+            ],
+            [
+                v(-1., -1., -1.),
+                v(-1., 1., -1.),
+                v(-1., 1., 1.),
+                v(-1., -1., 1.),
+            ],
+            [
+                v(1., -1., -1.),
+                v(1., -1., 1.),
+                v(1., 1., 1.),
+                v(1., 1., -1.),
+            ],
+        ];
+        let (pos, tris) = mesh::icosphere(3);
+        let ball = Arc::new(Mesh::from_triangles(pos, tris).0);
+        let light = quad([
+            v(-0.2, 0.99, -0.2),
+            v(0.2, 0.99, -0.2),
+            v(0.2, 0.99, 0.2),
+            v(-0.2, 0.99, 0.2),
+        ]);
+        // A patch lying in the floor's plane, before the floor (instance 0) and after it.
+        let patch = quad([
+            v(-0.3, -1., -0.3),
+            v(-0.3, -1., 0.3),
+            v(0.3, -1., 0.3),
+            v(0.3, -1., -0.3),
+        ]);
+        let mesh_instance =
+            |m: &Arc<Mesh>, to_world| Instance::new(Shape::Mesh(m.clone()), to_world, 0);
+        let ball_place = Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.4),
+            glam::Quat::IDENTITY,
+            v(0.2, -0.5, 0.1),
+        );
+        let mut s = 5u64;
+        for with_sphere in [false, true] {
+            let mut instances = vec![mesh_instance(&patch, Affine3A::IDENTITY)];
+            instances.extend(
+                walls
+                    .iter()
+                    .map(|&w| mesh_instance(&quad(w), Affine3A::IDENTITY)),
+            );
+            instances.push(mesh_instance(&light, Affine3A::IDENTITY));
+            instances.push(mesh_instance(&ball, ball_place));
+            instances.push(mesh_instance(&patch, Affine3A::IDENTITY));
+            if with_sphere {
+                let sphere = sphere::Sphere {
+                    center: v(-0.5, 0.3, -0.4),
+                    radius: 0.2,
+                };
+                instances.push(Instance::new(Shape::Sphere(sphere), Affine3A::IDENTITY, 0));
             }
-            let blocked = geo.occluded_lanes(&SegmentLanes::from_options(&segments));
-            for (i, segment) in segments.iter().enumerate() {
-                let single = segment.is_some_and(|(r, t_max)| geo.occluded(&r, 0.0, t_max));
-                assert_eq!(blocked[i], single, "lane {i}");
+            let geo = Geometry::new(instances.clone());
+            // The ten wall triangles (each box a sixth of the room's area or more); the light's,
+            // the patches' and the ball's are too small.
+            assert_eq!(geo.small_tree.len(), 10);
+            assert!(geo.small.is_some());
+            assert_eq!(geo.flat.len(), 2 + 2 + 1280 + 2);
+            let hits = agree_with_brute_force(&geo, &instances, &mut s, 3000, 1.9, |a, b| {
+                // The ball is tested in world space here, in object space by the oracle.
+                assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0));
+            });
+            assert!(hits > 2500, "too few hits to test anything: {hits}");
+            // Rays down onto the floor where the patches lie on it: the first patch wins.
+            for k in 0..50 {
+                let o = v(0.6 * lcg(&mut s) - 0.3, 0.5, 0.6 * lcg(&mut s) - 0.3);
+                let ray = Ray::new(o, v(0.01 * k as f32, -1.0, 0.02).normalize());
+                let hit = geo.intersect(&ray, 0.0, f32::INFINITY).map(|h| h.instance);
+                let brute = BruteForce(&instances).intersect(&ray, 0.0, f32::INFINITY);
+                assert_eq!(hit, brute.map(|h| h.instance));
+            }
+            let bits = |h: &SurfaceHit| {
+                let v = |v: Vec3| v.to_array().map(f32::to_bits);
+                (h.instance, h.prim, h.t.to_bits(), v(h.p), v(h.ng), v(h.ns))
+            };
+            let v3 = |s: &mut u64| v(lcg(s), lcg(s), lcg(s)) * 2.0 - 1.0;
+            for round in 0..300 {
+                let rays: [Option<Ray>; 16] = std::array::from_fn(|i| {
+                    // Some rays straight down onto the patches, the rest anywhere.
+                    let d = if round % 4 == 0 {
+                        v(0.0, -1.0, 0.0)
+                    } else {
+                        v3(&mut s).normalize()
+                    };
+                    (i != 5).then(|| Ray::new(v3(&mut s) * 0.9, d))
+                });
+                check_wave::<16, _>(&geo, &rays, bits);
+                check_wave::<8, _>(&geo, &std::array::from_fn(|i| rays[i]), bits);
+                check_wave::<4, _>(&geo, &std::array::from_fn(|i| rays[i]), bits);
             }
         }
     }

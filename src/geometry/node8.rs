@@ -17,7 +17,7 @@ pub(crate) const EMPTY: u32 = u32::MAX;
 
 /// The far distance of a box is scaled up by 1 + 2γ₃ (pbrt-v4 §6.8.2) so that rounding never
 /// culls a box the ray touches.
-const FAR_SCALE: f32 = 1.000_000_4;
+pub(crate) const FAR_SCALE: f32 = 1.000_000_4;
 
 /// A node of up to eight children: `planes[p]` holds plane p of `[lo x, hi x, lo y, hi y, lo z,
 /// hi z]` for children 0–3 (`[p][0]`) and 4–7 (`[p][1]`); `child[i]` references child i. 256
@@ -87,34 +87,45 @@ impl Node4 {
     }
 }
 
-/// The slab test of four boxes (`p(i)`: their plane i) in SSE lanes: see [`BoxTest`].
+/// The slab test of four boxes (`p[i]`: their plane i) in SSE lanes: see [`BoxTest`].
 #[inline(always)]
 fn hit4<const ROBUST: bool>(
-    p: impl Fn(usize) -> Vec4,
+    p: &[Vec4; 6],
     org: &[Vec4; 3],
     inv: &[Vec4; 3],
     negative: &[usize; 3],
     t_min: f32,
     t_max: f32,
 ) -> (Vec4, u32) {
-    let slab = |axis: usize, neg: usize| {
-        let near = (p(2 * axis + (neg & 1)) - org[axis]) * inv[axis];
-        let far = (p(2 * axis + (!neg & 1)) - org[axis]) * inv[axis];
-        if ROBUST {
-            (
-                Vec4::select(near.is_nan_mask(), Vec4::NEG_INFINITY, near),
-                Vec4::select(far.is_nan_mask(), Vec4::INFINITY, far),
-            )
-        } else {
-            (near, far)
-        }
-    };
-    let (nx, fx) = slab(0, negative[0]);
-    let (ny, fy) = slab(1, negative[1]);
-    let (nz, fz) = slab(2, negative[2]);
+    let (nx, fx) = slab4::<ROBUST>(p, org, inv, 0, negative[0]);
+    let (ny, fy) = slab4::<ROBUST>(p, org, inv, 1, negative[1]);
+    let (nz, fz) = slab4::<ROBUST>(p, org, inv, 2, negative[2]);
     let near = nx.max(ny).max(nz.max(Vec4::splat(t_min)));
     let far = fx.min(fy).min(fz.min(Vec4::splat(t_max)));
     (near, near.cmple(far * Vec4::splat(FAR_SCALE)).bitmask())
+}
+
+/// The entry and exit distances of four boxes' slabs of `axis` (`neg`: whether the ray runs
+/// towards −axis). A function rather than a closure, so that it inlines into the AVX2
+/// traversal (a closure does not inherit its target feature).
+#[inline(always)]
+fn slab4<const ROBUST: bool>(
+    p: &[Vec4; 6],
+    org: &[Vec4; 3],
+    inv: &[Vec4; 3],
+    axis: usize,
+    neg: usize,
+) -> (Vec4, Vec4) {
+    let near = (p[2 * axis + (neg & 1)] - org[axis]) * inv[axis];
+    let far = (p[2 * axis + (!neg & 1)] - org[axis]) * inv[axis];
+    if ROBUST {
+        (
+            Vec4::select(near.is_nan_mask(), Vec4::NEG_INFINITY, near),
+            Vec4::select(far.is_nan_mask(), Vec4::INFINITY, far),
+        )
+    } else {
+        (near, far)
+    }
 }
 
 /// A way of testing a ray against a [`Node8`]'s eight boxes.
@@ -185,18 +196,9 @@ impl BoxTest for Sse {
         t_min: f32,
         t_max: f32,
     ) -> ([f32; 8], u32) {
-        let half = |h: usize| {
-            hit4::<ROBUST>(
-                |i| node.planes[i][h],
-                &r.org,
-                &r.inv,
-                &r.negative,
-                t_min,
-                t_max,
-            )
-        };
-        let (n0, m0) = half(0);
-        let (n1, m1) = half(1);
+        let half = |h: usize| -> [Vec4; 6] { std::array::from_fn(|i| node.planes[i][h]) };
+        let (n0, m0) = hit4::<ROBUST>(&half(0), &r.org, &r.inv, &r.negative, t_min, t_max);
+        let (n1, m1) = hit4::<ROBUST>(&half(1), &r.org, &r.inv, &r.negative, t_min, t_max);
         let mut near = [0.0; 8];
         near[..4].copy_from_slice(&n0.to_array());
         near[4..].copy_from_slice(&n1.to_array());
@@ -210,8 +212,7 @@ impl BoxTest for Sse {
         t_min: f32,
         t_max: f32,
     ) -> ([f32; 8], u32) {
-        let p = |i: usize| node.planes[i];
-        let (n, m) = hit4::<ROBUST>(p, &r.org, &r.inv, &r.negative, t_min, t_max);
+        let (n, m) = hit4::<ROBUST>(&node.planes, &r.org, &r.inv, &r.negative, t_min, t_max);
         let mut near = [0.0; 8];
         near[..4].copy_from_slice(&n.to_array());
         (near, m)
@@ -270,31 +271,12 @@ impl BoxTest for Avx2 {
         // `[Vec4; 2]` (32 contiguous bytes, 32-byte aligned as the node is 64-byte aligned and
         // rows are 32 bytes), and the store writes the 32 bytes of `near`.
         unsafe {
+            // Helpers as functions, not closures: a closure does not inherit the caller's AVX2
+            // target feature, and where it was not inlined every intrinsic in it became a call.
             let p = &node.planes;
-            let load = |plane: usize| _mm256_load_ps(p[plane].as_ptr().cast::<f32>());
-            let slab = |axis: usize, neg: usize| {
-                let near = _mm256_mul_ps(
-                    _mm256_sub_ps(load(2 * axis + (neg & 1)), r.org[axis]),
-                    r.inv[axis],
-                );
-                let far = _mm256_mul_ps(
-                    _mm256_sub_ps(load(2 * axis + (!neg & 1)), r.org[axis]),
-                    r.inv[axis],
-                );
-                if ROBUST {
-                    let near_nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(near, near);
-                    let far_nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(far, far);
-                    (
-                        _mm256_blendv_ps(near, _mm256_set1_ps(f32::NEG_INFINITY), near_nan),
-                        _mm256_blendv_ps(far, _mm256_set1_ps(f32::INFINITY), far_nan),
-                    )
-                } else {
-                    (near, far)
-                }
-            };
-            let (nx, fx) = slab(0, r.negative[0]);
-            let (ny, fy) = slab(1, r.negative[1]);
-            let (nz, fz) = slab(2, r.negative[2]);
+            let (nx, fx) = avx2_slab::<ROBUST>(p, r, 0, r.negative[0]);
+            let (ny, fy) = avx2_slab::<ROBUST>(p, r, 1, r.negative[1]);
+            let (nz, fz) = avx2_slab::<ROBUST>(p, r, 2, r.negative[2]);
             let near = _mm256_max_ps(
                 _mm256_max_ps(nx, ny),
                 _mm256_max_ps(nz, _mm256_set1_ps(t_min)),
@@ -318,11 +300,44 @@ impl BoxTest for Avx2 {
         t_min: f32,
         t_max: f32,
     ) -> ([f32; 8], u32) {
-        let p = |i: usize| node.planes[i];
-        let (n, m) = hit4::<ROBUST>(p, &r.org4, &r.inv4, &r.negative, t_min, t_max);
+        let (n, m) = hit4::<ROBUST>(&node.planes, &r.org4, &r.inv4, &r.negative, t_min, t_max);
         let mut near = [0.0; 8];
         near[..4].copy_from_slice(&n.to_array());
         (near, m)
+    }
+}
+
+/// The entry and exit distances of the eight boxes' slabs of `axis` (`neg`: whether the ray
+/// runs towards −axis), as [`Avx2::hit`] computes them.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn avx2_slab<const ROBUST: bool>(
+    p: &[[Vec4; 2]; 6],
+    r: &Avx2Ray,
+    axis: usize,
+    neg: usize,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2 support; a plane row `[Vec4; 2]` is 32 contiguous
+    // bytes, 32-byte aligned (the node is 64-byte aligned, its rows 32 bytes).
+    unsafe {
+        let near_plane = _mm256_load_ps(p[2 * axis + (neg & 1)].as_ptr().cast::<f32>());
+        let far_plane = _mm256_load_ps(p[2 * axis + (!neg & 1)].as_ptr().cast::<f32>());
+        let near = _mm256_mul_ps(_mm256_sub_ps(near_plane, r.org[axis]), r.inv[axis]);
+        let far = _mm256_mul_ps(_mm256_sub_ps(far_plane, r.org[axis]), r.inv[axis]);
+        if ROBUST {
+            let near_nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(near, near);
+            let far_nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(far, far);
+            (
+                _mm256_blendv_ps(near, _mm256_set1_ps(f32::NEG_INFINITY), near_nan),
+                _mm256_blendv_ps(far, _mm256_set1_ps(f32::INFINITY), far_nan),
+            )
+        } else {
+            (near, far)
+        }
     }
 }
 

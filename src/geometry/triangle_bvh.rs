@@ -25,8 +25,9 @@ use crate::bvh::pop_nearer;
 use crate::bvh::{Arena, Bvh, LeafCost};
 #[cfg(target_arch = "x86_64")]
 use crate::geometry::node8::Avx2;
-use crate::geometry::node8::{avx2_available, BoxTest, Node4, Node8, Sse};
+use crate::geometry::node8::{self, avx2_available, BoxTest, Node4, Node8, Sse};
 use crate::geometry::triangle::{edge_functions_f64, shear_axes, TriHit};
+use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{Aabb, Vec3};
 
 /// A ray prepared for [`TriangleBvh`] queries: the box-test and the watertight-shear constants.
@@ -719,6 +720,51 @@ impl TriangleBvh {
         self
     }
 
+    /// The lanes of a wave whose segments from o over (0, `t_max`) along d meet a box the
+    /// root of the tree holds (the tree's bounds when its root is a packet): the rays the
+    /// other lanes stand for would have ended at the root. The boxes are tested with the
+    /// operations of the traversal's box test (Node8's planes, the directions' reciprocals as
+    /// correctly rounded quotients, zero components' NaNs as "no limit"), compiled for the
+    /// widest vector instructions the CPU has that suit W lanes, so a lane is left out only
+    /// where the traversal would find nothing.
+    pub fn meets_lanes<const W: usize>(
+        &self,
+        (o, d): (&V3s<W>, &V3s<W>),
+        t_max: F32s<W>,
+        live: Mask<W>,
+    ) -> Mask<W> {
+        if self.is_empty() || !live.any() {
+            return Mask::splat(false);
+        }
+        let mut boxes = [[0.0f32; 6]; WIDTH];
+        let mut count = 0;
+        let root = self.root;
+        if root & LEAF != 0 {
+            let b = self.bounds;
+            boxes[0] = [b.min.x, b.max.x, b.min.y, b.max.y, b.min.z, b.max.z];
+            count = 1;
+        } else if root & NARROW != 0 {
+            let n = &self.narrow[(root & !NARROW) as usize];
+            for lane in (0..4).filter(|&l| n.child[l] != node8::EMPTY) {
+                boxes[count] = std::array::from_fn(|p| n.planes[p][lane]);
+                count += 1;
+            }
+        } else {
+            let n = &self.nodes[root as usize];
+            for lane in (0..WIDTH).filter(|&l| n.child[l] != node8::EMPTY) {
+                boxes[count] = std::array::from_fn(|p| n.planes[p][lane / 4][lane % 4]);
+                count += 1;
+            }
+        }
+        let boxes = &boxes[..count];
+        crate::lanes::widest!(
+            W,
+            (boxes: &[[f32; 6]], o: &V3s<W>, d: &V3s<W>, t_max: F32s<W>, live: Mask<W>) => Mask<W>,
+            (boxes, o, d, t_max, live),
+            meets_here(boxes, (o, d), t_max, live)
+        )
+    }
+
     /// Closest hit within (t_min, t_max): the triangle's id and the hit.
     #[inline]
     pub fn intersect(&self, ray: &TriRay, t_min: f32, t_max: f32) -> Option<([u32; 2], TriHit)> {
@@ -1127,6 +1173,37 @@ impl TriangleBvh {
     }
 }
 
+/// The `live` lanes whose segments meet one of `boxes` (`[lo x, hi x, lo y, hi y, lo z, hi z]` each),
+/// by the box test's operations ([`TriangleBvh::meets_lanes`]).
+#[inline(always)]
+fn meets_here<const W: usize>(
+    boxes: &[[f32; 6]],
+    (o, d): (&V3s<W>, &V3s<W>),
+    t_max: F32s<W>,
+    live: Mask<W>,
+) -> Mask<W> {
+    let one = F32s::splat(1.0);
+    let inv = [one / d.x, one / d.y, one / d.z];
+    let org = [o.x, o.y, o.z];
+    let negative = inv.map(|i| i.lt(F32s::splat(0.0)));
+    let (no_near, no_far) = (F32s::splat(f32::NEG_INFINITY), F32s::splat(f32::INFINITY));
+    let mut meets = Mask::splat(false);
+    for b in boxes {
+        let mut near = F32s::splat(0.0);
+        let mut far = t_max;
+        for axis in 0..3 {
+            let lo = (F32s::splat(b[2 * axis]) - org[axis]) * inv[axis];
+            let hi = (F32s::splat(b[2 * axis + 1]) - org[axis]) * inv[axis];
+            let entry = F32s::select(negative[axis], hi, lo);
+            let exit = F32s::select(negative[axis], lo, hi);
+            near = near.max(F32s::select(entry.is_nan(), no_near, entry));
+            far = far.min(F32s::select(exit.is_nan(), no_far, exit));
+        }
+        meets = meets | near.le(far * F32s::splat(node8::FAR_SCALE));
+    }
+    meets & live
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1151,6 +1228,66 @@ mod tests {
             }
         }
         best
+    }
+
+    /// `meets_lanes` leaves out only lanes whose segments find nothing in the tree (closest
+    /// and any hit), never an idle lane, and keeps some lanes that do find nothing (it culls):
+    /// on trees whose root is a node and a packet, with segments of every length and
+    /// directions with zero components.
+    #[test]
+    fn lanes_left_out_at_the_root_find_nothing() {
+        let mut s = 17u64;
+        for count in [3usize, 40, 2000] {
+            let tris: Vec<[Vec3; 3]> = (0..count)
+                .map(|_| {
+                    let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 2.0 - 1.0;
+                    let size = if count < 10 { 2.0 } else { 0.3 };
+                    [0, 1, 2].map(|_| {
+                        c + (Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) - 0.5) * size
+                    })
+                })
+                .collect();
+            let bvh = bvh_of(&tris);
+            let (mut culled, mut entered) = (0, 0);
+            for round in 0..400 {
+                let o = V3s::<16>::from_fn(|_| {
+                    Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 6.0 - 3.0
+                });
+                let d = V3s::<16>::from_fn(|i| {
+                    let d = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) - 0.5;
+                    // Some directions along a plane or an axis.
+                    match (round + i) % 7 {
+                        0 => Vec3::new(d.x, 0.0, d.z),
+                        1 => Vec3::new(0.0, 0.0, d.z),
+                        _ => d,
+                    }
+                });
+                let t_max = F32s::<16>::from_fn(|i| {
+                    if i % 3 == 0 {
+                        f32::INFINITY
+                    } else {
+                        lcg(&mut s) * 4.0
+                    }
+                });
+                let live = Mask::<16>::from_bools(&std::array::from_fn(|i| i % 5 != 2));
+                let meets = bvh.meets_lanes((&o, &d), t_max, live);
+                for i in 0..16 {
+                    assert!(live.lane(i) || !meets.lane(i), "idle lane {i} kept");
+                    if !live.lane(i) || meets.lane(i) {
+                        entered += usize::from(live.lane(i));
+                        continue;
+                    }
+                    culled += 1;
+                    let r = TriRay::new(o.lane(i), d.lane(i));
+                    assert!(bvh.intersect(&r, 0.0, t_max[i]).is_none());
+                    assert!(!bvh.occluded(&r, 0.0, t_max[i]));
+                }
+            }
+            assert!(
+                culled > 100 && entered > 100,
+                "{culled} culled, {entered} entered"
+            );
+        }
     }
 
     fn check(bvh: &TriangleBvh, tris: &[[Vec3; 3]], o: Vec3, d: Vec3) -> bool {
