@@ -820,52 +820,77 @@ impl Geometry {
     ) {
         found.in_lanes = Mask::splat(false);
         hits.fill(None);
+        match &self.small {
+            Some(small) if W >= crate::lanes::KERNELS_FROM => {
+                // The small set's hits, for the whole wave at once, then (unless it is the
+                // whole scene) whatever lies before them elsewhere.
+                let slot_hits = small.closest_slots(rays);
+                let from_small = if self.small_is_all() {
+                    slot_hits.hit
+                } else {
+                    self.beyond_small(rays, Some((small, &slot_hits)), hits, surfaces, found)
+                };
+                self.small_surfaces(small, &slot_hits, from_small, rays, hits, surfaces, found);
+            }
+            _ => {
+                self.beyond_small(rays, None, hits, surfaces, found);
+            }
+        }
+        if found.in_lanes.any() {
+            found.out = surfaces.run();
+        }
+    }
+
+    /// The closest hits of `rays`' live lanes outside the small set, before the small set's
+    /// hit where `small` gives it (the set and its hits): their surfaces' inputs into
+    /// `surfaces` and `found`, or their surfaces into `hits`, as
+    /// [`intersect_wave`](Self::intersect_wave) keeps them. Returns the lanes whose small-set
+    /// hit stands.
+    fn beyond_small<const W: usize>(
+        &self,
+        rays: &SegmentLanes<W>,
+        small: Option<(&SmallSet, &small_set::SlotHits<W>)>,
+        hits: &mut [Option<SurfaceHit>; W],
+        surfaces: &mut mesh::SurfaceLanes<W>,
+        found: &mut LaneSurfaces<W>,
+    ) -> Mask<W> {
         let kernels = W >= crate::lanes::KERNELS_FROM;
-        // The small set's hits, for the whole wave at once.
-        let (small, slot_hits) = match &self.small {
-            Some(small) if kernels => (Some(small), Some(small.closest_slots(rays))),
-            _ => (None, None),
-        };
-        let mut from_small = slot_hits.as_ref().map_or(Mask::splat(false), |h| h.hit);
-        // The lanes that look further: none when the small set is the whole scene.
-        let further = match small {
-            Some(_) if self.small_is_all() => Mask::splat(false),
-            _ => rays.live,
-        };
+        let mut from_small = small.map_or(Mask::splat(false), |(_, h)| h.hit);
         // A scene of nothing but world-space triangles (no shared meshes, spheres, lathes or
         // planes): its closest hits beyond the small set's are the flat tree's.
         let flat_only = kernels && self.top_instances.is_empty() && self.unbounded.is_empty();
         // Each lane's bound: a little beyond the small set's hit, where it has one.
-        let bound = |i: usize| match &slot_hits {
-            Some(h) if h.hit.lane(i) => triangle_bvh::tie_bound(h.t[i]),
+        let bound = |i: usize| match small {
+            Some((_, h)) if h.hit.lane(i) => triangle_bvh::tie_bound(h.t[i]),
             _ => f32::INFINITY,
         };
         let further = if flat_only {
             // Only lanes that enter the tree's root can find more there.
             self.flat
-                .meets_lanes((&rays.o, &rays.d), F32s::from_fn(bound), further)
+                .meets_lanes((&rays.o, &rays.d), F32s::from_fn(bound), rays.live)
         } else {
-            further
+            rays.live
+        };
+        let trees = if small.is_some() {
+            Trees::Flat
+        } else {
+            Trees::Both
         };
         for i in further.iter() {
             let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
-            // The small set's hit, as distance and id; a hit further on must come before it.
-            let small_hit = match (small, &slot_hits) {
-                (Some(small), Some(h)) if h.hit.lane(i) => Some((h.t[i], small.id(h.slot[i]))),
-                _ => None,
-            };
-            let t_max = bound(i);
-            let before_small = |t: f32, id: [u32; 2]| {
-                small_hit.is_none_or(|(small_t, small_id)| {
-                    triangle_bvh::comes_before(t, id, small_t, small_id)
-                })
+            // A hit found here must come before the small set's, if any.
+            let before_small = |t: f32, id: [u32; 2]| match small {
+                Some((set, h)) if h.hit.lane(i) => {
+                    triangle_bvh::comes_before(t, id, h.t[i], set.id(h.slot[i]))
+                }
+                _ => true,
             };
             if flat_only {
                 // The hit's corners from the packet it was found in, which holds them as the
                 // mesh does where the instance is untransformed.
                 let Some((id, h, corners)) =
                     self.flat
-                        .intersect_corners(&TriRay::new(ray.o, ray.d), 0.0, t_max)
+                        .intersect_corners(&TriRay::new(ray.o, ray.d), 0.0, bound(i))
                 else {
                     continue;
                 };
@@ -885,61 +910,58 @@ impl Geometry {
                         surfaces.set_corners(i, &corners, (h.b1, h.b2));
                         surfaces.set_transform(i, None);
                         found.set(i, raw.t, (k, raw.prim));
-                        continue;
                     }
-                    _ => {}
+                    _ => self.surface_of(&ray, (k, raw), i, hits, surfaces, found),
                 }
-                self.surface_of(&ray, (k, raw), i, hits, surfaces, found);
                 continue;
             }
-            let trees = if small.is_some() {
-                Trees::Flat
-            } else {
-                Trees::Both
-            };
-            if let Some((k, raw)) = self.closest(&ray, 0.0, t_max, trees) {
+            if let Some((k, raw)) = self.closest(&ray, 0.0, bound(i), trees) {
                 if before_small(raw.t, [k, raw.prim]) {
                     from_small.set(i, false);
                     self.surface_of(&ray, (k, raw), i, hits, surfaces, found);
                 }
             }
         }
-        // The lanes whose hit is the small set's: each lane's surface inputs from its slot's
-        // record, or gathered from its mesh.
-        if let (Some(small), Some(h)) = (small, &slot_hits) {
-            match &self.small_slots {
-                Some(slots) => {
-                    for i in from_small.iter() {
-                        let slot = &slots[h.slot[i] as usize];
-                        surfaces.set_corners(i, &slot.corners, (h.b1[i], h.b2[i]));
-                        surfaces.set_maps(i, slot.transformed, (&slot.maps.0, &slot.maps.1));
-                        let [k, prim] = small.id(h.slot[i]);
-                        found.set(i, h.t[i], (k, prim));
-                    }
-                }
-                None => {
-                    for i in from_small.iter() {
-                        let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
-                        let id = small.id(h.slot[i]);
-                        let hit = TriHit {
-                            t: h.t[i],
-                            b1: h.b1[i],
-                            b2: h.b2[i],
-                        };
-                        self.surface_of(
-                            &ray,
-                            (id[0], RawHit::of_triangle(id, &hit)),
-                            i,
-                            hits,
-                            surfaces,
-                            found,
-                        );
-                    }
+        from_small
+    }
+
+    /// The surfaces of the `lanes`' small-set hits (`slot_hits`): each lane's inputs from its
+    /// slot's record where the set has them, else gathered from its mesh.
+    #[allow(clippy::too_many_arguments)]
+    fn small_surfaces<const W: usize>(
+        &self,
+        small: &SmallSet,
+        slot_hits: &small_set::SlotHits<W>,
+        lanes: Mask<W>,
+        rays: &SegmentLanes<W>,
+        hits: &mut [Option<SurfaceHit>; W],
+        surfaces: &mut mesh::SurfaceLanes<W>,
+        found: &mut LaneSurfaces<W>,
+    ) {
+        let h = slot_hits;
+        match &self.small_slots {
+            Some(slots) => {
+                for i in lanes.iter() {
+                    let slot = &slots[h.slot[i] as usize];
+                    surfaces.set_corners(i, &slot.corners, (h.b1[i], h.b2[i]));
+                    surfaces.set_maps(i, slot.transformed, (&slot.maps.0, &slot.maps.1));
+                    let [k, prim] = small.id(h.slot[i]);
+                    found.set(i, h.t[i], (k, prim));
                 }
             }
-        }
-        if found.in_lanes.any() {
-            found.out = surfaces.run();
+            None => {
+                for i in lanes.iter() {
+                    let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
+                    let id = small.id(h.slot[i]);
+                    let hit = TriHit {
+                        t: h.t[i],
+                        b1: h.b1[i],
+                        b2: h.b2[i],
+                    };
+                    let raw = (id[0], RawHit::of_triangle(id, &hit));
+                    self.surface_of(&ray, raw, i, hits, surfaces, found);
+                }
+            }
         }
     }
 
