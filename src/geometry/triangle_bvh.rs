@@ -538,6 +538,9 @@ pub struct TriangleBvh {
     /// Whether a traversal prefetches the children it pushes: only when the tree is larger
     /// than [`PREFETCH_BYTES`], so that incoherent rays miss the caches.
     prefetch: bool,
+    /// The boxes of the root's children, `[lo x, hi x, lo y, hi y, lo z, hi z]` each (the
+    /// tree's bounds when the root is a packet), for [`TriangleBvh::meets_lanes`].
+    root_boxes: Vec<[f32; 6]>,
 }
 
 /// Trees of more bytes than this (about a core's L2 cache) prefetch pushed children: their
@@ -558,6 +561,7 @@ impl Default for TriangleBvh {
             bounds: Aabb::EMPTY,
             avx2: avx2_available(),
             prefetch: false,
+            root_boxes: Vec::new(),
         }
     }
 }
@@ -661,7 +665,7 @@ impl TriangleBvh {
         drop((leaves, prims));
         let nodes_bytes = std::mem::size_of_val(&nodes[..]) + std::mem::size_of_val(&narrow[..]);
         let packets_bytes = std::mem::size_of_val(&packets[..]);
-        let out = TriangleBvh {
+        let mut out = TriangleBvh {
             bounds,
             triangles,
             packets,
@@ -671,7 +675,9 @@ impl TriangleBvh {
             depth: root.1,
             avx2: avx2_available(),
             prefetch: nodes_bytes + packets_bytes > PREFETCH_BYTES,
+            root_boxes: Vec::new(),
         };
+        out.root_boxes = out.children_of_root();
         crate::phases::mark(&format!(
             "bvh: leaf packets ({} triangles, depth {}, {binary_nodes} binary nodes, {} packets, {} 8-wide \
              and {} 4-wide nodes)",
@@ -682,6 +688,27 @@ impl TriangleBvh {
             out.narrow.len()
         ));
         out
+    }
+
+    /// The boxes of the root's children (the tree's bounds when the root is a packet).
+    fn children_of_root(&self) -> Vec<[f32; 6]> {
+        let root = self.root;
+        if root & LEAF != 0 {
+            let b = self.bounds;
+            vec![[b.min.x, b.max.x, b.min.y, b.max.y, b.min.z, b.max.z]]
+        } else if root & NARROW != 0 {
+            let n = &self.narrow[(root & !NARROW) as usize];
+            (0..4)
+                .filter(|&l| n.child[l] != node8::EMPTY)
+                .map(|lane| std::array::from_fn(|p| n.planes[p][lane]))
+                .collect()
+        } else {
+            let n = &self.nodes[root as usize];
+            (0..WIDTH)
+                .filter(|&l| n.child[l] != node8::EMPTY)
+                .map(|lane| std::array::from_fn(|p| n.planes[p][lane / 4][lane % 4]))
+                .collect()
+        }
     }
 
     /// Number of triangles.
@@ -736,27 +763,7 @@ impl TriangleBvh {
         if self.is_empty() || !live.any() {
             return Mask::splat(false);
         }
-        let mut boxes = [[0.0f32; 6]; WIDTH];
-        let mut count = 0;
-        let root = self.root;
-        if root & LEAF != 0 {
-            let b = self.bounds;
-            boxes[0] = [b.min.x, b.max.x, b.min.y, b.max.y, b.min.z, b.max.z];
-            count = 1;
-        } else if root & NARROW != 0 {
-            let n = &self.narrow[(root & !NARROW) as usize];
-            for lane in (0..4).filter(|&l| n.child[l] != node8::EMPTY) {
-                boxes[count] = std::array::from_fn(|p| n.planes[p][lane]);
-                count += 1;
-            }
-        } else {
-            let n = &self.nodes[root as usize];
-            for lane in (0..WIDTH).filter(|&l| n.child[l] != node8::EMPTY) {
-                boxes[count] = std::array::from_fn(|p| n.planes[p][lane / 4][lane % 4]);
-                count += 1;
-            }
-        }
-        let boxes = &boxes[..count];
+        let boxes = &self.root_boxes[..];
         crate::lanes::widest!(
             W,
             (boxes: &[[f32; 6]], o: &V3s<W>, d: &V3s<W>, t_max: F32s<W>, live: Mask<W>) => Mask<W>,
@@ -1185,9 +1192,27 @@ fn meets_here<const W: usize>(
     let one = F32s::splat(1.0);
     let inv = [one / d.x, one / d.y, one / d.z];
     let org = [o.x, o.y, o.z];
-    let negative = inv.map(|i| i.lt(F32s::splat(0.0)));
-    let (no_near, no_far) = (F32s::splat(f32::NEG_INFINITY), F32s::splat(f32::INFINITY));
+    let zero = F32s::splat(0.0);
     let mut meets = Mask::splat(false);
+    if !((d.x.eq(zero) | d.y.eq(zero) | d.z.eq(zero)) & live).any() {
+        // No zero direction component, so no NaN: of a slab's two distances the entry is the
+        // smaller and the exit the larger (the ones the traversal picks by the direction's
+        // sign; where they differ it is only in the sign of a zero, which no compare sees).
+        for b in boxes {
+            let mut near = zero;
+            let mut far = t_max;
+            for axis in 0..3 {
+                let lo = (F32s::splat(b[2 * axis]) - org[axis]) * inv[axis];
+                let hi = (F32s::splat(b[2 * axis + 1]) - org[axis]) * inv[axis];
+                near = near.max(lo.min(hi));
+                far = far.min(lo.max(hi));
+            }
+            meets = meets | near.le(far * F32s::splat(node8::FAR_SCALE));
+        }
+        return meets & live;
+    }
+    let negative = inv.map(|i| i.lt(zero));
+    let (no_near, no_far) = (F32s::splat(f32::NEG_INFINITY), F32s::splat(f32::INFINITY));
     for b in boxes {
         let mut near = F32s::splat(0.0);
         let mut far = t_max;
