@@ -1101,12 +1101,15 @@ impl Geometry {
             Some(small) if W >= crate::lanes::KERNELS_FROM => {
                 let mut blocked = small.occluded_lanes(segments);
                 if !self.small_is_all() {
-                    let mut open = segments.live & !Mask::from_bools(&blocked);
+                    let open = segments.live & !Mask::from_bools(&blocked);
                     if self.top_instances.is_empty() && self.unbounded.is_empty() {
-                        // Only lanes that enter the tree's root can be blocked there.
-                        open =
-                            self.flat
-                                .meets_lanes((&segments.o, &segments.d), segments.t_max, open);
+                        // The tree alone, and only for lanes that enter its root.
+                        let (o, d, t_max) = (&segments.o, &segments.d, segments.t_max);
+                        for i in self.flat.meets_lanes((o, d), t_max, open).iter() {
+                            let ray = TriRay::new(o.lane(i), d.lane(i));
+                            blocked[i] = self.flat.occluded(&ray, 0.0, t_max[i]);
+                        }
+                        return blocked;
                     }
                     for i in open.iter() {
                         let ray = Ray::new(segments.o.lane(i), segments.d.lane(i));
