@@ -486,7 +486,9 @@ fn big_triangles(
 /// - a single BVH over world-space triangles ([`TriangleBvh`]) holding every mesh instance
 ///   whose mesh is used once (or is small), transformed to world space at build time as pbrt-v4
 ///   does for non-instanced meshes: rays then need no per-instance transform, and one traversal
-///   covers all of them;
+///   covers all of them. Waves of rays test the big ones among these triangles (or all of
+///   them, when they are the whole scene and few) in SIMD lanes instead ([`SmallSet`]), and
+///   walk the BVH of the others only where they can reach it;
 /// - a BVH over the remaining bounded instances (spheres, and meshes shared by several
 ///   instances, each with its own object-space BVH inside: the top level of a two-level
 ///   hierarchy, so a mesh used twice is stored once), plus the unbounded planes.
