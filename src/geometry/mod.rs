@@ -858,9 +858,9 @@ impl Geometry {
     ) -> Mask<W> {
         let kernels = W >= crate::lanes::KERNELS_FROM;
         let mut from_small = small.map_or(Mask::splat(false), |(_, h)| h.hit);
-        // A scene of nothing but world-space triangles (no shared meshes, spheres, lathes or
-        // planes): its closest hits beyond the small set's are the flat tree's.
-        let flat_only = kernels && self.top_instances.is_empty() && self.unbounded.is_empty();
+        // A scene of nothing but world-space triangles: its closest hits beyond the small
+        // set's are the flat tree's.
+        let flat_only = kernels && self.triangles_only();
         // Each lane's bound: a little beyond the small set's hit, where it has one.
         let bound = |i: usize| match small {
             Some((_, h)) if h.hit.lane(i) => triangle_bvh::tie_bound(h.t[i]),
@@ -955,12 +955,7 @@ impl Geometry {
                 for i in lanes.iter() {
                     let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
                     let id = small.id(h.slot[i]);
-                    let hit = TriHit {
-                        t: h.t[i],
-                        b1: h.b1[i],
-                        b2: h.b2[i],
-                    };
-                    let raw = (id[0], RawHit::of_triangle(id, &hit));
+                    let raw = (id[0], RawHit::of_triangle(id, &h.tri_hit(i)));
                     self.surface_of(&ray, raw, i, hits, surfaces, found);
                 }
             }
@@ -970,7 +965,14 @@ impl Geometry {
     /// Whether the small set holds every shape of the scene.
     #[inline]
     fn small_is_all(&self) -> bool {
-        self.flat.is_empty() && self.top_instances.is_empty() && self.unbounded.is_empty()
+        self.flat.is_empty() && self.triangles_only()
+    }
+
+    /// Whether the scene is nothing but world-space triangles (no shared meshes, spheres,
+    /// lathes or planes): the small set and the flat tree.
+    #[inline]
+    fn triangles_only(&self) -> bool {
+        self.top_instances.is_empty() && self.unbounded.is_empty()
     }
 
     /// Lane `i`'s hit `(k, raw)` (on instance k) of `ray`: its surface's inputs into
@@ -1104,7 +1106,7 @@ impl Geometry {
                 let mut blocked = small.occluded_lanes(segments);
                 if !self.small_is_all() {
                     let open = segments.live & !Mask::from_bools(&blocked);
-                    if self.top_instances.is_empty() && self.unbounded.is_empty() {
+                    if self.triangles_only() {
                         // The tree alone, and only for lanes that enter its root.
                         let (o, d, t_max) = (&segments.o, &segments.d, segments.t_max);
                         for i in self.flat.meets_lanes((o, d), t_max, open).iter() {

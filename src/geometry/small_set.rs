@@ -104,6 +104,18 @@ pub struct SlotHits<const W: usize> {
     pub b2: F32s<W>,
 }
 
+impl<const W: usize> SlotHits<W> {
+    /// Lane `i`'s hit (one of [`hit`](Self::hit)'s lanes) as the BVH reports it.
+    #[inline]
+    pub fn tri_hit(&self, i: usize) -> TriHit {
+        TriHit {
+            t: self.t[i],
+            b1: self.b1[i],
+            b2: self.b2[i],
+        }
+    }
+}
+
 /// The best hits of a wave's lanes: distance, barycentrics of corners 1 and 2, and the slot
 /// of the triangle in the set (−1 for none).
 struct WaveHits<const W: usize> {
@@ -190,14 +202,9 @@ impl SmallSet {
     ) -> [Option<([u32; 2], TriHit)>; W] {
         let hits = self.closest_slots(rays);
         std::array::from_fn(|i| {
-            hits.hit.lane(i).then(|| {
-                let hit = TriHit {
-                    t: hits.t[i],
-                    b1: hits.b1[i],
-                    b2: hits.b2[i],
-                };
-                (self.id(hits.slot[i]), hit)
-            })
+            hits.hit
+                .lane(i)
+                .then(|| (self.id(hits.slot[i]), hits.tri_hit(i)))
         })
     }
 

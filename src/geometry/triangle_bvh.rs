@@ -1180,8 +1180,8 @@ impl TriangleBvh {
     }
 }
 
-/// The `live` lanes whose segments meet one of `boxes` (`[lo x, hi x, lo y, hi y, lo z, hi z]` each),
-/// by the box test's operations ([`TriangleBvh::meets_lanes`]).
+/// The `live` lanes whose segments meet one of `boxes` (`[lo x, hi x, lo y, hi y, lo z, hi z]`
+/// each), by the box test's operations ([`TriangleBvh::meets_lanes`]).
 #[inline(always)]
 fn meets_here<const W: usize>(
     boxes: &[[f32; 6]],
@@ -1190,43 +1190,67 @@ fn meets_here<const W: usize>(
     live: Mask<W>,
 ) -> Mask<W> {
     let one = F32s::splat(1.0);
-    let inv = [one / d.x, one / d.y, one / d.z];
-    let org = [o.x, o.y, o.z];
+    let rays = SlabRays {
+        org: [o.x, o.y, o.z],
+        inv: [one / d.x, one / d.y, one / d.z],
+    };
     let zero = F32s::splat(0.0);
-    let mut meets = Mask::splat(false);
-    if !((d.x.eq(zero) | d.y.eq(zero) | d.z.eq(zero)) & live).any() {
-        // No zero direction component, so no NaN: of a slab's two distances the entry is the
-        // smaller and the exit the larger (the ones the traversal picks by the direction's
-        // sign; where they differ it is only in the sign of a zero, which no compare sees).
+    let meets = if ((d.x.eq(zero) | d.y.eq(zero) | d.z.eq(zero)) & live).any() {
+        rays.meets::<true>(boxes, t_max)
+    } else {
+        rays.meets::<false>(boxes, t_max)
+    };
+    meets & live
+}
+
+/// A wave's rays as [`meets_here`] tests them against boxes: origins and the directions'
+/// reciprocals, per axis.
+struct SlabRays<const W: usize> {
+    org: [F32s<W>; 3],
+    inv: [F32s<W>; 3],
+}
+
+impl<const W: usize> SlabRays<W> {
+    /// The lanes whose segments over (0, `t_max`) meet one of `boxes` (see
+    /// [`slab`](Self::slab) for `ROBUST`).
+    #[inline(always)]
+    fn meets<const ROBUST: bool>(&self, boxes: &[[f32; 6]], t_max: F32s<W>) -> Mask<W> {
+        let mut meets = Mask::splat(false);
         for b in boxes {
-            let mut near = zero;
-            let mut far = t_max;
+            let (mut near, mut far) = (F32s::splat(0.0), t_max);
             for axis in 0..3 {
-                let lo = (F32s::splat(b[2 * axis]) - org[axis]) * inv[axis];
-                let hi = (F32s::splat(b[2 * axis + 1]) - org[axis]) * inv[axis];
-                near = near.max(lo.min(hi));
-                far = far.min(lo.max(hi));
+                let (entry, exit) = self.slab::<ROBUST>(b, axis);
+                near = near.max(entry);
+                far = far.min(exit);
             }
             meets = meets | near.le(far * F32s::splat(node8::FAR_SCALE));
         }
-        return meets & live;
+        meets
     }
-    let negative = inv.map(|i| i.lt(zero));
-    let (no_near, no_far) = (F32s::splat(f32::NEG_INFINITY), F32s::splat(f32::INFINITY));
-    for b in boxes {
-        let mut near = F32s::splat(0.0);
-        let mut far = t_max;
-        for axis in 0..3 {
-            let lo = (F32s::splat(b[2 * axis]) - org[axis]) * inv[axis];
-            let hi = (F32s::splat(b[2 * axis + 1]) - org[axis]) * inv[axis];
-            let entry = F32s::select(negative[axis], hi, lo);
-            let exit = F32s::select(negative[axis], lo, hi);
-            near = near.max(F32s::select(entry.is_nan(), no_near, entry));
-            far = far.min(F32s::select(exit.is_nan(), no_far, exit));
+
+    /// The entry and exit distances of box `b`'s slab of `axis`, as the traversal's box test
+    /// computes them. With `ROBUST` (a zero direction component in some lane) the entry is
+    /// picked by the direction's sign and the NaNs of 0·∞ become "no limit"; without, no NaN
+    /// arises and the entry and exit are the two distances' min and max (the ones the sign
+    /// picks; where they differ it is only in the sign of a zero, which no compare sees).
+    #[inline(always)]
+    fn slab<const ROBUST: bool>(&self, b: &[f32; 6], axis: usize) -> (F32s<W>, F32s<W>) {
+        let (org, inv) = (self.org[axis], self.inv[axis]);
+        let lo = (F32s::splat(b[2 * axis]) - org) * inv;
+        let hi = (F32s::splat(b[2 * axis + 1]) - org) * inv;
+        if !ROBUST {
+            return (lo.min(hi), lo.max(hi));
         }
-        meets = meets | near.le(far * F32s::splat(node8::FAR_SCALE));
+        let negative = inv.lt(F32s::splat(0.0));
+        let (entry, exit) = (
+            F32s::select(negative, hi, lo),
+            F32s::select(negative, lo, hi),
+        );
+        (
+            F32s::select(entry.is_nan(), F32s::splat(f32::NEG_INFINITY), entry),
+            F32s::select(exit.is_nan(), F32s::splat(f32::INFINITY), exit),
+        )
     }
-    meets & live
 }
 
 #[cfg(test)]
