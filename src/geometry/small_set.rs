@@ -322,8 +322,33 @@ trait Vector: Copy {
     unsafe fn lt(self, o: Self) -> Self::Mask;
     /// Ordered `>`.
     unsafe fn gt(self, o: Self) -> Self::Mask;
-    /// Unordered `!=` (true with a NaN).
-    unsafe fn ne(self, o: Self) -> Self::Mask;
+    /// Ordered `<=`.
+    unsafe fn le(self, o: Self) -> Self::Mask;
+    /// The lesser, as `minps` picks it (the second operand where either is a NaN).
+    unsafe fn min(self, o: Self) -> Self;
+    /// The greater, as `maxps` picks it (the second operand where either is a NaN).
+    unsafe fn max(self, o: Self) -> Self;
+    /// `m` and ordered `a > b`.
+    #[inline(always)]
+    unsafe fn and_gt(m: Self::Mask, a: Self, b: Self) -> Self::Mask {
+        // SAFETY: the caller's.
+        unsafe { Self::and(m, a.gt(b)) }
+    }
+    /// `m` and ordered `a < b`.
+    #[inline(always)]
+    unsafe fn and_lt(m: Self::Mask, a: Self, b: Self) -> Self::Mask {
+        // SAFETY: the caller's.
+        unsafe { Self::and(m, a.lt(b)) }
+    }
+    /// Where `a`, `b` or `c` is ±0.
+    #[inline(always)]
+    unsafe fn any_zero(a: Self, b: Self, c: Self) -> Self::Mask {
+        // SAFETY: the caller's.
+        unsafe {
+            let zero = Self::splat(0.0);
+            Self::or(Self::or(a.eq(zero), b.eq(zero)), c.eq(zero))
+        }
+    }
     unsafe fn or(a: Self::Mask, b: Self::Mask) -> Self::Mask;
     unsafe fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
     /// `a & !b`.
@@ -386,8 +411,7 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
             let mut u = cx.mul(by).sub(cy.mul(bx));
             let mut v = ax.mul(cy).sub(ay.mul(cx));
             let mut w = bx.mul(ay).sub(by.mul(ax));
-            let on_edge = V::or(V::or(u.eq(zero), v.eq(zero)), w.eq(zero));
-            let on_edge = V::bits(on_edge) & all_live;
+            let on_edge = V::bits(V::any_zero(u, v, w)) & all_live;
             if on_edge != 0 {
                 let mut p = [[0.0f32; MAX_LANES]; 6];
                 for (array, value) in p.iter_mut().zip([ax, ay, bx, by, cx, cy]) {
@@ -404,15 +428,18 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
                     V::load(e[2].as_ptr()),
                 ];
             }
-            let negative = V::or(V::or(u.lt(zero), v.lt(zero)), w.lt(zero));
-            let positive = V::or(V::or(u.gt(zero), v.gt(zero)), w.gt(zero));
+            // The scalar test's "inside": det ≠ 0 and not (some edge function < 0 and some
+            // > 0). Where none is a NaN, the second part is min ≥ 0 or max ≤ 0; where one is
+            // a NaN, so is t, and no lane hits. Where they have one sign and det = 0, all three
+            // are ±0, t = ±0 · (1 / ±0) is a NaN, and no lane hits: det ≠ 0 needs no test.
+            // (Fewer comparisons: each is an instruction into a mask register.)
+            let one_sign = V::or(u.min(v).min(w).ge(zero), u.max(v).max(w).le(zero));
             let det = u.add(v).add(w);
-            let inside = V::and_not(det.ne(zero), V::and(negative, positive));
             let t_scaled = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
             let inv_det = V::splat(1.0).div(det);
             let t = t_scaled.mul(inv_det);
             let bound = if CLOSEST { best_t } else { t_max };
-            let hit = V::and(inside, V::and(t.gt(zero), t.lt(bound)));
+            let hit = V::and_lt(V::and_gt(one_sign, t, zero), t, bound);
             if CLOSEST {
                 best_t = V::select(hit, t, best_t);
                 best_v = V::select(hit, v, best_v);
@@ -648,8 +675,16 @@ mod x86 {
             _mm_cmpgt_ps(self.0, o.0)
         }
         #[inline(always)]
-        unsafe fn ne(self, o: Self) -> __m128 {
-            _mm_cmpneq_ps(self.0, o.0)
+        unsafe fn le(self, o: Self) -> __m128 {
+            _mm_cmple_ps(self.0, o.0)
+        }
+        #[inline(always)]
+        unsafe fn min(self, o: Self) -> Self {
+            Sse2(_mm_min_ps(self.0, o.0))
+        }
+        #[inline(always)]
+        unsafe fn max(self, o: Self) -> Self {
+            Sse2(_mm_max_ps(self.0, o.0))
         }
         #[inline(always)]
         unsafe fn or(a: __m128, b: __m128) -> __m128 {
@@ -753,9 +788,33 @@ mod x86 {
             unsafe { _mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0) }
         }
         #[inline(always)]
-        unsafe fn ne(self, o: Self) -> __m256 {
+        unsafe fn le(self, o: Self) -> __m256 {
             // SAFETY: the caller's CPU has AVX2.
-            unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(self.0, o.0) }
+            unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn min(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_min_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn max(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX2.
+            Avx2(unsafe { _mm256_max_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn any_zero(a: Self, b: Self, c: Self) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2. x is ±0 exactly where its bits shifted left by
+            // one are 0, and the least of three such (unsigned) is 0 where any is.
+            unsafe {
+                let (a, b, c) = (
+                    _mm256_slli_epi32::<1>(_mm256_castps_si256(a.0)),
+                    _mm256_slli_epi32::<1>(_mm256_castps_si256(b.0)),
+                    _mm256_slli_epi32::<1>(_mm256_castps_si256(c.0)),
+                );
+                let least = _mm256_min_epu32(_mm256_min_epu32(a, b), c);
+                _mm256_castsi256_ps(_mm256_cmpeq_epi32(least, _mm256_setzero_si256()))
+            }
         }
         #[inline(always)]
         unsafe fn or(a: __m256, b: __m256) -> __m256 {
@@ -863,9 +922,42 @@ mod x86 {
             unsafe { _mm512_cmp_ps_mask::<_CMP_GT_OQ>(self.0, o.0) }
         }
         #[inline(always)]
-        unsafe fn ne(self, o: Self) -> __mmask16 {
+        unsafe fn le(self, o: Self) -> __mmask16 {
             // SAFETY: the caller's CPU has AVX-512F.
-            unsafe { _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, o.0) }
+            unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(self.0, o.0) }
+        }
+        #[inline(always)]
+        unsafe fn min(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_min_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn max(self, o: Self) -> Self {
+            // SAFETY: the caller's CPU has AVX-512F.
+            Avx512(unsafe { _mm512_max_ps(self.0, o.0) })
+        }
+        #[inline(always)]
+        unsafe fn and_gt(m: __mmask16, a: Self, b: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(m, a.0, b.0) }
+        }
+        #[inline(always)]
+        unsafe fn and_lt(m: __mmask16, a: Self, b: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F.
+            unsafe { _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(m, a.0, b.0) }
+        }
+        #[inline(always)]
+        unsafe fn any_zero(a: Self, b: Self, c: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F. As in AVX2.
+            unsafe {
+                let (a, b, c) = (
+                    _mm512_slli_epi32::<1>(_mm512_castps_si512(a.0)),
+                    _mm512_slli_epi32::<1>(_mm512_castps_si512(b.0)),
+                    _mm512_slli_epi32::<1>(_mm512_castps_si512(c.0)),
+                );
+                let least = _mm512_min_epu32(_mm512_min_epu32(a, b), c);
+                _mm512_testn_epi32_mask(least, least)
+            }
         }
         #[inline(always)]
         unsafe fn or(a: __mmask16, b: __mmask16) -> __mmask16 {
