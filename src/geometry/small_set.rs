@@ -385,85 +385,167 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
         if all_live == 0 {
             return;
         }
-        let mut best_t = V::load(hits.t.as_ptr().add(k));
-        // The best hit's edge functions v, w and 1 / det: its barycentrics are computed once,
-        // after the loop, with the same operations (v · (1 / det), w · (1 / det)).
-        let mut best_v = V::load(hits.b1.as_ptr().add(k));
-        let mut best_w = V::load(hits.b2.as_ptr().add(k));
-        let mut best_inv_det = V::splat(1.0);
-        let mut best_slot = V::load(hits.slot.as_ptr().add(k));
-        // The slot as a float, counted along (exact: slots are small integers).
-        let mut slot_number = V::splat(0.0);
-        let one = V::splat(1.0);
-        let mut blocked_bits = 0u32;
         // Every vertex in every lane's sheared frame, once.
         let mut frame = [MaybeUninit::<[V; 3]>::uninit(); MAX_VERTICES];
         debug_assert!(set.vertices.len() <= MAX_VERTICES);
         for (out, vertex) in frame.iter_mut().zip(&set.vertices) {
             out.write(sheared(&ray, vertex));
         }
-        for corners in &set.triangles {
-            // SAFETY: the first `vertices.len()` entries are written, and the indices point
-            // into `vertices`.
-            let [ax, ay, az] = frame.get_unchecked(usize::from(corners[0])).assume_init();
-            let [bx, by, bz] = frame.get_unchecked(usize::from(corners[1])).assume_init();
-            let [cx, cy, cz] = frame.get_unchecked(usize::from(corners[2])).assume_init();
-            let mut u = cx.mul(by).sub(cy.mul(bx));
-            let mut v = ax.mul(cy).sub(ay.mul(cx));
-            let mut w = bx.mul(ay).sub(by.mul(ax));
-            let on_edge = V::bits(V::any_zero(u, v, w)) & all_live;
-            if on_edge != 0 {
-                let mut p = [[0.0f32; MAX_LANES]; 6];
-                for (array, value) in p.iter_mut().zip([ax, ay, bx, by, cx, cy]) {
-                    value.store(array.as_mut_ptr());
-                }
-                let mut e = [[0.0f32; MAX_LANES]; 3];
-                for (array, value) in e.iter_mut().zip([u, v, w]) {
-                    value.store(array.as_mut_ptr());
-                }
-                edges_in_f64(on_edge, &p, &mut e);
-                [u, v, w] = [
-                    V::load(e[0].as_ptr()),
-                    V::load(e[1].as_ptr()),
-                    V::load(e[2].as_ptr()),
-                ];
+        if CLOSEST {
+            let mut best = Best::<V>::load(hits, k);
+            // The slot as a float, counted along (exact: slots are small integers).
+            let (mut slot, one) = (V::splat(0.0), V::splat(1.0));
+            for corners in &set.triangles {
+                best.take(&candidate(&frame, *corners, all_live), slot);
+                slot = slot.add(one);
             }
-            // The scalar test's "inside": det ≠ 0 and not (some edge function < 0 and some
-            // > 0). Where none is a NaN, the second part is min ≥ 0 or max ≤ 0; where one is
-            // a NaN, so is t, and no lane hits. Where they have one sign and det = 0, all three
-            // are ±0, t = ±0 · (1 / ±0) is a NaN, and no lane hits: det ≠ 0 needs no test.
-            // (Fewer comparisons: each is an instruction into a mask register.)
-            let one_sign = V::or(u.min(v).min(w).ge(zero), u.max(v).max(w).le(zero));
-            let det = u.add(v).add(w);
-            let t_scaled = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
-            let inv_det = V::splat(1.0).div(det);
-            let t = t_scaled.mul(inv_det);
-            let bound = if CLOSEST { best_t } else { t_max };
-            let hit = V::and_lt(V::and_gt(one_sign, t, zero), t, bound);
-            if CLOSEST {
-                best_t = V::select(hit, t, best_t);
-                best_v = V::select(hit, v, best_v);
-                best_w = V::select(hit, w, best_w);
-                best_inv_det = V::select(hit, inv_det, best_inv_det);
-                best_slot = V::select(hit, slot_number, best_slot);
-                slot_number = slot_number.add(one);
-            } else {
-                blocked_bits |= V::bits(hit);
+            best.store(hits, k);
+        } else {
+            let mut blocked_bits = 0u32;
+            for corners in &set.triangles {
+                let c = candidate(&frame, *corners, all_live);
+                blocked_bits |= V::bits(V::and_lt(c.ahead, c.t, t_max));
                 if blocked_bits == all_live {
                     break;
                 }
             }
-        }
-        if CLOSEST {
-            // Lanes without a hit keep what they held (their v and w, times 1).
-            best_t.store(hits.t.as_mut_ptr().add(k));
-            best_v.mul(best_inv_det).store(hits.b1.as_mut_ptr().add(k));
-            best_w.mul(best_inv_det).store(hits.b2.as_mut_ptr().add(k));
-            best_slot.store(hits.slot.as_mut_ptr().add(k));
-        } else {
             for (i, b) in blocked[k..k + V::LANES].iter_mut().enumerate() {
                 *b = blocked_bits & (1 << i) != 0;
             }
+        }
+    }
+}
+
+/// A triangle's test in every lane, but for the bound: the lanes where the ray meets it ahead
+/// (t > 0), t, the edge functions v and w, and 1 / det.
+struct Candidate<V: Vector> {
+    ahead: V::Mask,
+    t: V,
+    v: V,
+    w: V,
+    inv_det: V,
+}
+
+/// The test of the triangle `corners` (indices into `frame`, every lane's sheared vertices) in
+/// every lane, the edge functions recomputed in f64 where one is ±0 in a lane of `all_live`.
+///
+/// # Safety
+/// The CPU runs V's instructions, and `frame` holds the vertices `corners` names.
+#[inline(always)]
+unsafe fn candidate<V: Vector>(
+    frame: &[MaybeUninit<[V; 3]>; MAX_VERTICES],
+    corners: [u16; 3],
+    all_live: u32,
+) -> Candidate<V> {
+    // SAFETY: the caller's.
+    unsafe {
+        let [ax, ay, az] = frame.get_unchecked(usize::from(corners[0])).assume_init();
+        let [bx, by, bz] = frame.get_unchecked(usize::from(corners[1])).assume_init();
+        let [cx, cy, cz] = frame.get_unchecked(usize::from(corners[2])).assume_init();
+        let mut u = cx.mul(by).sub(cy.mul(bx));
+        let mut v = ax.mul(cy).sub(ay.mul(cx));
+        let mut w = bx.mul(ay).sub(by.mul(ax));
+        let on_edge = V::bits(V::any_zero(u, v, w)) & all_live;
+        if on_edge != 0 {
+            let mut p = [[0.0f32; MAX_LANES]; 6];
+            for (array, value) in p.iter_mut().zip([ax, ay, bx, by, cx, cy]) {
+                value.store(array.as_mut_ptr());
+            }
+            let mut e = [[0.0f32; MAX_LANES]; 3];
+            for (array, value) in e.iter_mut().zip([u, v, w]) {
+                value.store(array.as_mut_ptr());
+            }
+            edges_in_f64(on_edge, &p, &mut e);
+            [u, v, w] = [
+                V::load(e[0].as_ptr()),
+                V::load(e[1].as_ptr()),
+                V::load(e[2].as_ptr()),
+            ];
+        }
+        // The scalar test's "inside": det ≠ 0 and not (some edge function < 0 and some > 0).
+        // Where none is a NaN, the second part is min ≥ 0 or max ≤ 0; where one is a NaN, so
+        // is t, and no lane hits. Where they have one sign and det = 0, all three are ±0,
+        // t = ±0 · (1 / ±0) is a NaN, and no lane hits: det ≠ 0 needs no test. (Fewer
+        // comparisons: each is an instruction into a mask register.)
+        let zero = V::splat(0.0);
+        let one_sign = V::or(u.min(v).min(w).ge(zero), u.max(v).max(w).le(zero));
+        let det = u.add(v).add(w);
+        let t_scaled = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
+        let inv_det = V::splat(1.0).div(det);
+        let t = t_scaled.mul(inv_det);
+        Candidate {
+            ahead: V::and_gt(one_sign, t, zero),
+            t,
+            v,
+            w,
+            inv_det,
+        }
+    }
+}
+
+/// Each lane's closest hit so far: its distance, edge functions v and w, 1 / det (its
+/// barycentrics are computed once, at the end, with the scalar test's operations: v · (1 / det),
+/// w · (1 / det)), and slot (a float, exact: slots are small integers; −1 for none).
+#[derive(Clone, Copy)]
+struct Best<V: Vector> {
+    t: V,
+    v: V,
+    w: V,
+    inv_det: V,
+    slot: V,
+}
+
+impl<V: Vector> Best<V> {
+    /// Lanes `k..k + V::LANES` of `hits`, where a lane's v and w are its barycentrics and
+    /// 1 / det is 1.
+    ///
+    /// # Safety
+    /// The CPU runs V's instructions, and `k + V::LANES <= W`.
+    #[inline(always)]
+    unsafe fn load<const W: usize>(hits: &WaveHits<W>, k: usize) -> Self {
+        // SAFETY: the caller's.
+        unsafe {
+            Best {
+                t: V::load(hits.t.as_ptr().add(k)),
+                v: V::load(hits.b1.as_ptr().add(k)),
+                w: V::load(hits.b2.as_ptr().add(k)),
+                inv_det: V::splat(1.0),
+                slot: V::load(hits.slot.as_ptr().add(k)),
+            }
+        }
+    }
+
+    /// Takes the triangle in `slot` where it is hit ahead and strictly nearer (so of equally
+    /// near hits in slot order, the first stays).
+    ///
+    /// # Safety
+    /// The CPU runs V's instructions.
+    #[inline(always)]
+    unsafe fn take(&mut self, c: &Candidate<V>, slot: V) {
+        // SAFETY: the caller's.
+        unsafe {
+            let hit = V::and_lt(c.ahead, c.t, self.t);
+            self.t = V::select(hit, c.t, self.t);
+            self.v = V::select(hit, c.v, self.v);
+            self.w = V::select(hit, c.w, self.w);
+            self.inv_det = V::select(hit, c.inv_det, self.inv_det);
+            self.slot = V::select(hit, slot, self.slot);
+        }
+    }
+
+    /// Stores lanes `k..k + V::LANES` into `hits`: lanes without a hit keep what they held
+    /// (their v and w, times 1).
+    ///
+    /// # Safety
+    /// The CPU runs V's instructions, and `k + V::LANES <= W`.
+    #[inline(always)]
+    unsafe fn store<const W: usize>(self, hits: &mut WaveHits<W>, k: usize) {
+        // SAFETY: the caller's.
+        unsafe {
+            self.t.store(hits.t.as_mut_ptr().add(k));
+            self.v.mul(self.inv_det).store(hits.b1.as_mut_ptr().add(k));
+            self.w.mul(self.inv_det).store(hits.b2.as_mut_ptr().add(k));
+            self.slot.store(hits.slot.as_mut_ptr().add(k));
         }
     }
 }
