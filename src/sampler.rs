@@ -211,7 +211,7 @@ macro_rules! lanes_dispatch {
     ($w:expr, $self:ident . $method:ident (), $out:ty) => {{
         #[cfg(target_arch = "x86_64")]
         {
-            #[target_feature(enable = "avx512f")]
+            #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
             unsafe fn avx512<const W: usize>(s: &SobolLanes<W>) -> $out {
                 s.$method()
             }
@@ -219,8 +219,8 @@ macro_rules! lanes_dispatch {
             unsafe fn avx2<const W: usize>(s: &SobolLanes<W>) -> $out {
                 s.$method()
             }
-            if $w >= 16 && std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has AVX-512F.
+            if $w >= 16 && crate::lanes::has_avx512() {
+                // SAFETY: the CPU has AVX-512 (F, BW, DQ, VL).
                 return unsafe { avx512($self) };
             }
             if $w >= 8 && std::arch::is_x86_feature_detected!("avx2") {

@@ -74,12 +74,25 @@ pub struct Mask<const W: usize>([u32; W]);
 /// The lane widths the render loop runs, narrowest first.
 pub const WIDTHS: [usize; 4] = [1, 4, 8, 16];
 
-/// The widest lanes this CPU runs in one register: 16 with AVX-512, 8 with AVX2, 4 with SSE2
-/// (every x86-64) or NEON (every AArch64), and 1 elsewhere.
+/// Whether the CPU has the AVX-512 the 16-lane code is compiled for: the foundation with the
+/// byte and word (BW), doubleword and quadword (DQ) and vector length (VL) extensions, as every
+/// AVX-512 CPU since Skylake-SP and Zen 4 has (Embree's AVX-512 level). BW and DQ give the
+/// integer lanes (the samplers' hashes and bit reversals) byte shuffles and 64-bit multiplies.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub fn has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+}
+
+/// The widest lanes this CPU runs in one register: 16 with AVX-512 ([`has_avx512`]), 8 with
+/// AVX2, 4 with SSE2 (every x86-64) or NEON (every AArch64), and 1 elsewhere.
 pub fn native_width() -> usize {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx512f") {
+        if has_avx512() {
             16
         } else if std::arch::is_x86_feature_detected!("avx2") {
             8
@@ -138,7 +151,7 @@ macro_rules! widest {
     ($w:ident, ($($arg:ident: $ty:ty),+) => $out:ty, ($($value:expr),+), $body:expr) => {{
         #[cfg(target_arch = "x86_64")]
         {
-            #[target_feature(enable = "avx512f")]
+            #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
             unsafe fn avx512<const $w: usize>($($arg: $ty),+) -> $out {
                 $body
             }
@@ -146,8 +159,8 @@ macro_rules! widest {
             unsafe fn avx2<const $w: usize>($($arg: $ty),+) -> $out {
                 $body
             }
-            if $w >= 16 && std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has AVX-512F.
+            if $w >= 16 && $crate::lanes::has_avx512() {
+                // SAFETY: the CPU has AVX-512 (F, BW, DQ, VL).
                 return unsafe { avx512::<$w>($($value),+) };
             }
             if $w >= 8 && std::arch::is_x86_feature_detected!("avx2") {
