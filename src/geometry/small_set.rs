@@ -1187,6 +1187,53 @@ mod tests {
     }
 
     #[test]
+    fn degenerate_triangles_and_extreme_rays_match_the_bvh() {
+        // Triangles whose edge functions are all zero (a point, a segment) or overflow (huge
+        // corners), beside ordinary ones; rays lying in a triangle's plane, along axes, with
+        // directions so short that the shear constants overflow, from far away. Where an edge
+        // function is a NaN or ±∞, or all three are zero, the kernels skip the tests the
+        // scalar code makes (det ≠ 0, the signs one by one) because t is then a NaN: this
+        // checks that they still agree.
+        let p = Vec3::new;
+        let tris: Vec<[Vec3; 3]> = vec![
+            [p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(0.0, 1.0, 0.0)],
+            [p(0.2, 0.2, 0.5); 3],
+            [p(0.0, 0.0, 1.0), p(0.5, 0.5, 1.0), p(1.0, 1.0, 1.0)],
+            [p(-3e38, -3e38, 2.0), p(3e38, -3e38, 2.0), p(0.0, 3e38, 2.0)],
+            [p(1e-30, 0.0, -1.0), p(0.0, 1e-30, -1.0), p(0.0, 0.0, -1.0)],
+            [p(0.0, 0.0, 3.0), p(0.0, 1.0, 3.0), p(0.0, 0.0, 4.0)],
+        ];
+        let ids: Vec<[u32; 2]> = (0..tris.len() as u32).map(|i| [0, i]).collect();
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let mut rays = Vec::new();
+        let origins = [
+            p(0.25, 0.25, -1.0),
+            p(0.25, 0.25, 0.0),
+            p(0.2, 0.2, 5.0),
+            p(-2.0, 0.3, 0.0),
+            p(1e20, 1e20, -1e20),
+            p(0.0, 0.5, 3.5),
+        ];
+        let directions = [
+            p(0.0, 0.0, 1.0),
+            p(1.0, 0.0, 0.0),
+            p(1.0, 1.0, 0.0),
+            p(1e-30, 1e-30, 1e-30),
+            p(1e-38, 0.0, 2e-38),
+            p(-1e20, -1e20, 1e20),
+            p(3e38, 3e38, 3e38),
+        ];
+        for o in origins {
+            for d in directions {
+                rays.push(Ray::new(o, d));
+                rays.push(Ray::new(o, -d));
+                rays.push(Ray::new(o, d + rng.point(1e-6) * d.abs().max_element()));
+            }
+        }
+        check(&tris, &ids, &rays);
+    }
+
+    #[test]
     fn coincident_triangles_and_shared_edges_match_the_bvh() {
         // A unit square split along its diagonal, twice in the same place (two instances: ties
         // go to the first) and once behind: rays along the grid meet edges, corners and ties
