@@ -452,6 +452,10 @@ pub struct SurfaceLanes<const W: usize> {
     transformed: Mask<W>,
     to_world: [V3s<W>; 4],
     normal_to_world: [V3s<W>; 3],
+    /// The lanes whose geometric and shading normals are given (a flat triangle's, computed
+    /// once, with these operations), and those normals.
+    given: Mask<W>,
+    given_normal: V3s<W>,
 }
 
 /// What [`SurfaceLanes::run`] computes in each lane: [`Mesh::surface`]'s point, geometric
@@ -488,12 +492,15 @@ impl<const W: usize> SurfaceLanes<W> {
             transformed: Mask::splat(false),
             to_world: [V3s::default(); 4],
             normal_to_world: [V3s::default(); 3],
+            given: Mask::splat(false),
+            given_normal: V3s::default(),
         }
     }
 
     /// Puts lane `i` to a hit with barycentrics `(b1, b2)` on the triangle `corners`.
     #[inline]
     pub fn set_corners(&mut self, i: usize, corners: &CornerData, (b1, b2): (f32, f32)) {
+        self.given.set(i, false);
         for (lanes, &p) in self.corners.iter_mut().zip(&corners.positions) {
             lanes.set(i, p);
         }
@@ -550,10 +557,104 @@ impl<const W: usize> SurfaceLanes<W> {
         }
     }
 
+    /// Puts lane `i` to a hit with barycentrics `(b1, b2)` on a flat, untextured triangle at
+    /// `positions` whose normal (geometric and shading, in world space) is `normal`
+    /// ([`flat_normal`](Self::flat_normal)), placed by `to_world` (`None` for an untransformed
+    /// instance): the lane's surface is the one [`set_corners`](Self::set_corners) and
+    /// [`set_transform`](Self::set_transform) give, its normals not computed again.
+    #[inline]
+    pub fn set_flat(
+        &mut self,
+        i: usize,
+        positions: &[Vec3; 3],
+        (b1, b2): (f32, f32),
+        normal: Vec3,
+        to_world: Option<&Affine3A>,
+    ) {
+        for (lanes, &p) in self.corners.iter_mut().zip(positions) {
+            lanes.set(i, p);
+        }
+        (self.b1[i], self.b2[i]) = (b1, b2);
+        self.smooth.set(i, false);
+        self.textured.set(i, false);
+        self.given.set(i, true);
+        self.given_normal.set(i, normal);
+        self.transformed.set(i, to_world.is_some());
+        if let Some(to_world) = to_world {
+            let m = &to_world.matrix3;
+            for (column, v) in
+                self.to_world
+                    .iter_mut()
+                    .zip([m.x_axis, m.y_axis, m.z_axis, to_world.translation])
+            {
+                column.set(i, v.into());
+            }
+        }
+    }
+
+    /// The normal of a hit on a flat triangle at `positions` (object space) placed by `maps`
+    /// (`None` for an untransformed instance), as [`run`](Self::run) computes it: the
+    /// geometric normal, which for a triangle without vertex normals is the shading normal
+    /// too, the same for every point of it.
+    pub fn flat_normal(positions: &[Vec3; 3], maps: Option<(&Affine3A, &Mat3)>) -> Vec3 {
+        let mut one = SurfaceLanes::<1>::new();
+        let corners = CornerData {
+            positions: *positions,
+            normals: None,
+            uvs: None,
+        };
+        one.set_corners(0, &corners, (0.0, 0.0));
+        one.set_transform(0, maps);
+        one.run_here().ng.lane(0)
+    }
+
     /// [`Mesh::surface`] in every lane, compiled for the widest vector instructions the CPU
-    /// has that suit W lanes (the same operations, so the same bits).
-    pub fn run(&self) -> SurfacesOut<W> {
-        crate::lanes::widest!(W, lanes: &SurfaceLanes<W> => SurfacesOut<W>, self, lanes.run_here())
+    /// has that suit W lanes (the same operations, so the same bits); `lanes` are those set.
+    pub fn run(&self, lanes: Mask<W>) -> SurfacesOut<W> {
+        let given_only = !lanes.and_not(self.given).any();
+        crate::lanes::widest!(
+            W,
+            (surfaces: &SurfaceLanes<W>, given_only: bool) => SurfacesOut<W>,
+            (self, given_only),
+            surfaces.run_with(given_only)
+        )
+    }
+
+    /// [`run_here`](Self::run_here) with the given normals in their lanes; where `given_only`
+    /// (every lane set has them), only the point and the texture coordinates.
+    #[inline(always)]
+    fn run_with(&self, given_only: bool) -> SurfacesOut<W> {
+        if given_only {
+            return self.run_given();
+        }
+        let mut out = self.run_here();
+        if self.given.any() {
+            out.ng = V3s::select(self.given, self.given_normal, out.ng);
+            out.ns = V3s::select(self.given, self.given_normal, out.ns);
+        }
+        out
+    }
+
+    /// The operations of [`run_here`](Self::run_here) for the point and the texture
+    /// coordinates, with the given normals.
+    #[inline(always)]
+    fn run_given(&self) -> SurfacesOut<W> {
+        let [a, b, c] = self.corners;
+        let (b1, b2) = (self.b1, self.b2);
+        let b0 = F32s::splat(1.0) - b1 - b2;
+        let p = a * b0 + b * b1 + c * b2;
+        let p = if self.transformed.any() {
+            let [x, y, z, t] = self.to_world;
+            V3s::select(self.transformed, x * p.x + y * p.y + z * p.z + t, p)
+        } else {
+            p
+        };
+        SurfacesOut {
+            p,
+            ng: self.given_normal,
+            ns: self.given_normal,
+            uv: (b1, b2),
+        }
     }
 
     /// The operations of [`Mesh::surface`] and [`interpolate`], in their order.
@@ -608,6 +709,73 @@ mod tests {
 
     use crate::geometry::triangle::{self, RayShear};
     use crate::sampler::test_lcg as lcg;
+
+    #[test]
+    fn flat_triangles_given_normals_are_the_computed_ones() {
+        // Waves mixing lanes set as flat triangles (normals given) with lanes set by their
+        // corners and maps: every lane's surface has the bits of the corners-and-maps one.
+        let mut state = 11u64;
+        let mut v3 = || Vec3::new(lcg(&mut state), lcg(&mut state), lcg(&mut state)) * 4.0 - 2.0;
+        for round in 0..200 {
+            let positions: [[Vec3; 3]; 16] = std::array::from_fn(|_| [v3(), v3(), v3()]);
+            let maps: [(Affine3A, Mat3); 16] = std::array::from_fn(|_| {
+                let (axis, t) = (v3().normalize(), v3());
+                let rotation = glam::Quat::from_axis_angle(axis, t.x);
+                let m = Affine3A::from_scale_rotation_translation(v3().abs() + 0.1, rotation, t);
+                (m, m.matrix3.inverse().transpose().into())
+            });
+            let mut state = round;
+            let mut unit = || lcg(&mut state) * 0.5;
+            let barycentrics: [(f32, f32); 16] = std::array::from_fn(|_| (unit(), unit()));
+            let (mut want, mut got) = (SurfaceLanes::<16>::new(), SurfaceLanes::<16>::new());
+            for i in 0..16 {
+                let placed = (i % 3 != 0).then_some((&maps[i].0, &maps[i].1));
+                let corners = CornerData {
+                    positions: positions[i],
+                    normals: None,
+                    uvs: None,
+                };
+                want.set_corners(i, &corners, barycentrics[i]);
+                want.set_transform(i, placed);
+                // All lanes flat in even rounds, every fourth set by its corners in odd ones.
+                if round % 2 == 1 && i % 4 == 1 {
+                    got.set_corners(i, &corners, barycentrics[i]);
+                    got.set_transform(i, placed);
+                } else {
+                    let normal = SurfaceLanes::<1>::flat_normal(&positions[i], placed);
+                    got.set_flat(
+                        i,
+                        &positions[i],
+                        barycentrics[i],
+                        normal,
+                        placed.map(|m| m.0),
+                    );
+                }
+            }
+            let lanes = Mask::splat(true);
+            let (want, got) = (want.run(lanes), got.run(lanes));
+            for i in 0..16 {
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!(
+                    bits(want.p.lane(i)),
+                    bits(got.p.lane(i)),
+                    "round {round} lane {i}"
+                );
+                assert_eq!(
+                    bits(want.ng.lane(i)),
+                    bits(got.ng.lane(i)),
+                    "round {round} lane {i}"
+                );
+                assert_eq!(
+                    bits(want.ns.lane(i)),
+                    bits(got.ns.lane(i)),
+                    "round {round} lane {i}"
+                );
+                assert_eq!(want.uv.0[i].to_bits(), got.uv.0[i].to_bits());
+                assert_eq!(want.uv.1[i].to_bits(), got.uv.1[i].to_bits());
+            }
+        }
+    }
 
     #[test]
     fn opacity_inputs_are_those_of_the_full_surface() {

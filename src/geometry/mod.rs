@@ -307,6 +307,9 @@ struct SmallSlot {
     /// which the lanes do not apply).
     transformed: bool,
     maps: (Affine3A, Mat3),
+    /// A flat, untextured triangle's normal in world space, computed once
+    /// ([`SurfaceLanes::flat_normal`](mesh::SurfaceLanes::flat_normal)).
+    flat_normal: Option<Vec3>,
 }
 
 /// A ray's hit on a surface, in world space.
@@ -628,10 +631,19 @@ impl Geometry {
                 .map(|&i| {
                     let (k, prim, mesh) = locate(i);
                     let inst = &instances[k];
-                    (!mesh.has_attributes()).then(|| SmallSlot {
-                        corners: mesh.corner_data(prim),
-                        transformed: !inst.identity,
-                        maps: (inst.to_world, inst.normal_to_world),
+                    (!mesh.has_attributes()).then(|| {
+                        let corners = mesh.corner_data(prim);
+                        let flat = corners.normals.is_none() && corners.uvs.is_none();
+                        let maps = (inst.to_world, inst.normal_to_world);
+                        let placed = (!inst.identity).then_some((&maps.0, &maps.1));
+                        SmallSlot {
+                            flat_normal: flat.then(|| {
+                                mesh::SurfaceLanes::<1>::flat_normal(&corners.positions, placed)
+                            }),
+                            corners,
+                            transformed: !inst.identity,
+                            maps,
+                        }
                     })
                 })
                 .collect::<Option<Vec<_>>>()
@@ -839,7 +851,7 @@ impl Geometry {
             }
         }
         if found.in_lanes.any() {
-            found.out = surfaces.run();
+            found.out = surfaces.run(found.in_lanes);
         }
     }
 
@@ -945,8 +957,18 @@ impl Geometry {
             Some(slots) => {
                 for i in lanes.iter() {
                     let slot = &slots[h.slot[i] as usize];
-                    surfaces.set_corners(i, &slot.corners, (h.b1[i], h.b2[i]));
-                    surfaces.set_maps(i, slot.transformed, (&slot.maps.0, &slot.maps.1));
+                    let barycentrics = (h.b1[i], h.b2[i]);
+                    match slot.flat_normal {
+                        Some(normal) => {
+                            let to_world = slot.transformed.then_some(&slot.maps.0);
+                            let positions = &slot.corners.positions;
+                            surfaces.set_flat(i, positions, barycentrics, normal, to_world);
+                        }
+                        None => {
+                            surfaces.set_corners(i, &slot.corners, barycentrics);
+                            surfaces.set_maps(i, slot.transformed, (&slot.maps.0, &slot.maps.1));
+                        }
+                    }
                     let [k, prim] = small.id(h.slot[i]);
                     found.set(i, h.t[i], (k, prim));
                 }
