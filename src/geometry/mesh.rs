@@ -540,14 +540,7 @@ impl<const W: usize> SurfaceLanes<W> {
         (to_world, normals): (&Affine3A, &Mat3),
     ) {
         self.transformed.set(i, transformed);
-        let m = &to_world.matrix3;
-        for (column, v) in
-            self.to_world
-                .iter_mut()
-                .zip([m.x_axis, m.y_axis, m.z_axis, to_world.translation])
-        {
-            column.set(i, v.into());
-        }
+        self.set_to_world(i, to_world);
         for (column, v) in
             self.normal_to_world
                 .iter_mut()
@@ -581,14 +574,20 @@ impl<const W: usize> SurfaceLanes<W> {
         self.given_normal.set(i, normal);
         self.transformed.set(i, to_world.is_some());
         if let Some(to_world) = to_world {
-            let m = &to_world.matrix3;
-            for (column, v) in
-                self.to_world
-                    .iter_mut()
-                    .zip([m.x_axis, m.y_axis, m.z_axis, to_world.translation])
-            {
-                column.set(i, v.into());
-            }
+            self.set_to_world(i, to_world);
+        }
+    }
+
+    /// Lane `i`'s object → world map: the columns of the linear part, then the translation.
+    #[inline]
+    fn set_to_world(&mut self, i: usize, to_world: &Affine3A) {
+        let m = &to_world.matrix3;
+        for (column, v) in
+            self.to_world
+                .iter_mut()
+                .zip([m.x_axis, m.y_axis, m.z_axis, to_world.translation])
+        {
+            column.set(i, v.into());
         }
     }
 
