@@ -1000,6 +1000,12 @@ impl TriangleBvh {
         // Left uninitialised: only entries below the stack pointer are read, each written first.
         // SAFETY (of the calls): passed on from the caller.
         let br = unsafe { B::ray(r) };
+        if r.robust && r.inv.iter().any(|x| x.is_nan()) {
+            // A direction with a NaN component meets no triangle (every edge function of the
+            // triangle test is then a NaN), but the robust box test, which takes a NaN slab
+            // for entered, would enter every child slot, empty ones included.
+            return false;
+        }
         if self.depth <= INLINE_DEPTH {
             let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); (WIDTH - 1) * INLINE_DEPTH + 1];
             // The common case (no zero direction component; for trees without narrow nodes,
@@ -1283,6 +1289,32 @@ mod tests {
     /// and any hit), never an idle lane, and keeps some lanes that do find nothing (it culls):
     /// on trees whose root is a node and a packet, with segments of every length and
     /// directions with zero components.
+    #[test]
+    fn rays_with_a_nan_direction_find_nothing() {
+        // Trees with empty child slots (counts that leave nodes part full) and one packet.
+        let mut s = 29u64;
+        for count in [1usize, 9, 300] {
+            let tris: Vec<[Vec3; 3]> = (0..count)
+                .map(|_| {
+                    let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 2.0 - 1.0;
+                    [0, 1, 2].map(|_| c + (Vec3::new(lcg(&mut s), lcg(&mut s), 0.5) - 0.5))
+                })
+                .collect();
+            let bvh = bvh_of(&tris);
+            for d in [
+                Vec3::new(f32::NAN, 0.0, 1.0),
+                Vec3::new(1.0, f32::NAN, 0.0),
+                Vec3::new(0.0, 0.0, f32::NAN),
+                Vec3::splat(f32::NAN),
+            ] {
+                let ray = TriRay::new(Vec3::new(0.0, 0.0, -3.0), d);
+                assert!(bvh.intersect(&ray, 0.0, f32::INFINITY).is_none(), "{d:?}");
+                assert!(bvh.intersect_corners(&ray, 0.0, f32::INFINITY).is_none());
+                assert!(!bvh.occluded(&ray, 0.0, f32::INFINITY), "{d:?}");
+            }
+        }
+    }
+
     #[test]
     fn lanes_left_out_at_the_root_find_nothing() {
         let mut s = 17u64;
