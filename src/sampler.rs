@@ -205,33 +205,6 @@ impl Sampler {
     }
 }
 
-/// Runs `$self.$method()` (a method of [`SobolLanes`] marked `#[inline(always)]`) compiled for the widest vector
-/// instructions the CPU has that suit `$w` lanes: the same operations, so the same bits.
-macro_rules! lanes_dispatch {
-    ($w:expr, $self:ident . $method:ident (), $out:ty) => {{
-        #[cfg(target_arch = "x86_64")]
-        {
-            #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
-            unsafe fn avx512<const W: usize>(s: &SobolLanes<W>) -> $out {
-                s.$method()
-            }
-            #[target_feature(enable = "avx2")]
-            unsafe fn avx2<const W: usize>(s: &SobolLanes<W>) -> $out {
-                s.$method()
-            }
-            if $w >= 16 && crate::lanes::has_avx512() {
-                // SAFETY: the CPU has AVX-512 (F, BW, DQ, VL).
-                return unsafe { avx512($self) };
-            }
-            if $w >= 8 && std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has AVX2.
-                return unsafe { avx2($self) };
-            }
-        }
-        $self.$method()
-    }};
-}
-
 /// The samplers of a wave, one per lane, as a structure of arrays: a lane's next numbers are
 /// those its [`Sampler`] would give, bit for bit, and the wave draws the same dimension of every
 /// lane's stream at once, scrambled Sobol points in SIMD lanes (independent numbers, which follow
@@ -403,19 +376,19 @@ struct SobolLanes<const W: usize> {
 impl<const W: usize> SobolLanes<W> {
     /// [`owen_sobol_2d_reversed`] in every lane.
     fn point_2d(&self) -> (F32s<W>, F32s<W>) {
-        lanes_dispatch!(W, self.point_2d_here(), (F32s<W>, F32s<W>))
+        crate::lanes::widest!(W, lanes: &SobolLanes<W> => (F32s<W>, F32s<W>), self, lanes.point_2d_here())
     }
 
     /// [`owen_sobol_x`] of the shuffled index in every lane: the number of
     /// [`Sampler::get_1d`].
     fn point_1d(&self) -> F32s<W> {
-        lanes_dispatch!(W, self.point_1d_here(), F32s<W>)
+        crate::lanes::widest!(W, lanes: &SobolLanes<W> => F32s<W>, self, lanes.point_1d_here())
     }
 
     /// [`owen_sobol_3d_shuffled`] of the shuffled index in every lane: the lobe choice and the
     /// 2D point of [`Sampler::get_choice_2d`].
     fn choice_2d(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
-        lanes_dispatch!(W, self.choice_2d_here(), (F32s<W>, F32s<W>, F32s<W>))
+        crate::lanes::widest!(W, lanes: &SobolLanes<W> => (F32s<W>, F32s<W>, F32s<W>), self, lanes.choice_2d_here())
     }
 
     #[inline(always)]
