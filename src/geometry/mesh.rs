@@ -560,16 +560,16 @@ impl<const W: usize> SurfaceLanes<W> {
         &mut self,
         i: usize,
         positions: &[Vec3; 3],
-        (b1, b2): (f32, f32),
+        barycentrics: (f32, f32),
         normal: Vec3,
         to_world: Option<&Affine3A>,
     ) {
-        for (lanes, &p) in self.corners.iter_mut().zip(positions) {
-            lanes.set(i, p);
-        }
-        (self.b1[i], self.b2[i]) = (b1, b2);
-        self.smooth.set(i, false);
-        self.textured.set(i, false);
+        let corners = CornerData {
+            positions: *positions,
+            normals: None,
+            uvs: None,
+        };
+        self.set_corners(i, &corners, barycentrics);
         self.given.set(i, true);
         self.given_normal.set(i, normal);
         self.transformed.set(i, to_world.is_some());
@@ -638,13 +638,9 @@ impl<const W: usize> SurfaceLanes<W> {
     /// coordinates, with the given normals.
     #[inline(always)]
     fn run_given(&self) -> SurfacesOut<W> {
-        let [a, b, c] = self.corners;
-        let (b1, b2) = (self.b1, self.b2);
-        let b0 = F32s::splat(1.0) - b1 - b2;
-        let p = a * b0 + b * b1 + c * b2;
+        let (p, _) = self.object_point();
         let p = if self.transformed.any() {
-            let [x, y, z, t] = self.to_world;
-            V3s::select(self.transformed, x * p.x + y * p.y + z * p.z + t, p)
+            V3s::select(self.transformed, self.placed(p), p)
         } else {
             p
         };
@@ -652,8 +648,25 @@ impl<const W: usize> SurfaceLanes<W> {
             p,
             ng: self.given_normal,
             ns: self.given_normal,
-            uv: (b1, b2),
+            uv: (self.b1, self.b2),
         }
+    }
+
+    /// The hit point in object space, a · b0 + b · b1 + c · b2, and b0 = 1 − b1 − b2.
+    #[inline(always)]
+    fn object_point(&self) -> (V3s<W>, F32s<W>) {
+        let [a, b, c] = self.corners;
+        let (b1, b2) = (self.b1, self.b2);
+        let b0 = 1.0 - b1 - b2;
+        (a * b0 + b * b1 + c * b2, b0)
+    }
+
+    /// `p` placed by the lanes' object → world maps: glam's `transform_point3`,
+    /// ((X·x + Y·y) + Z·z) + T.
+    #[inline(always)]
+    fn placed(&self, p: V3s<W>) -> V3s<W> {
+        let [x, y, z, t] = self.to_world;
+        x * p.x + y * p.y + z * p.z + t
     }
 
     /// The operations of [`Mesh::surface`] and [`interpolate`], in their order.
@@ -661,8 +674,7 @@ impl<const W: usize> SurfaceLanes<W> {
     fn run_here(&self) -> SurfacesOut<W> {
         let [a, b, c] = self.corners;
         let (b1, b2) = (self.b1, self.b2);
-        let b0 = 1.0 - b1 - b2;
-        let p = a * b0 + b * b1 + c * b2;
+        let (p, b0) = self.object_point();
         let ng = (b - a).cross(c - a).normalize();
         let [na, nb, nc] = self.normals;
         let s = (na * b0 + nb * b1 + nc * b2).normalize_or_zero();
@@ -671,10 +683,9 @@ impl<const W: usize> SurfaceLanes<W> {
         let u = ua.0 * b0 + ub.0 * b1 + uc.0 * b2;
         let v = ua.1 * b0 + ub.1 * b1 + uc.1 * b2;
         let (p, ng, ns) = if self.transformed.any() {
-            // `Instance::surface`: glam's `transform_point3` ((X·x + Y·y) + Z·z) + T, and the
-            // normals by the normal map (X·x + Y·y) + Z·z, normalised.
-            let [x, y, z, t] = self.to_world;
-            let placed = x * p.x + y * p.y + z * p.z + t;
+            // `Instance::surface`: the point placed (`placed`), and the normals by the normal
+            // map (X·x + Y·y) + Z·z, normalised.
+            let placed = self.placed(p);
             // (A function, not a closure: closures do not inherit `widest!`'s target features,
             // so their vector operations would become calls.)
             #[inline(always)]
