@@ -1289,18 +1289,22 @@ mod tests {
     /// and any hit), never an idle lane, and keeps some lanes that do find nothing (it culls):
     /// on trees whose root is a node and a packet, with segments of every length and
     /// directions with zero components.
+    /// `count` triangles about centres in [−1, 1]³, corners up to `size` / 2 from them.
+    fn random_triangles(s: &mut u64, count: usize, size: f32) -> Vec<[Vec3; 3]> {
+        (0..count)
+            .map(|_| {
+                let c = Vec3::new(lcg(s), lcg(s), lcg(s)) * 2.0 - 1.0;
+                [0, 1, 2].map(|_| c + (Vec3::new(lcg(s), lcg(s), lcg(s)) - 0.5) * size)
+            })
+            .collect()
+    }
+
     #[test]
     fn rays_with_a_nan_direction_find_nothing() {
         // Trees with empty child slots (counts that leave nodes part full) and one packet.
         let mut s = 29u64;
         for count in [1usize, 9, 300] {
-            let tris: Vec<[Vec3; 3]> = (0..count)
-                .map(|_| {
-                    let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 2.0 - 1.0;
-                    [0, 1, 2].map(|_| c + (Vec3::new(lcg(&mut s), lcg(&mut s), 0.5) - 0.5))
-                })
-                .collect();
-            let bvh = bvh_of(&tris);
+            let bvh = bvh_of(&random_triangles(&mut s, count, 1.0));
             for d in [
                 Vec3::new(f32::NAN, 0.0, 1.0),
                 Vec3::new(1.0, f32::NAN, 0.0),
@@ -1319,16 +1323,8 @@ mod tests {
     fn lanes_left_out_at_the_root_find_nothing() {
         let mut s = 17u64;
         for count in [3usize, 40, 2000] {
-            let tris: Vec<[Vec3; 3]> = (0..count)
-                .map(|_| {
-                    let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 2.0 - 1.0;
-                    let size = if count < 10 { 2.0 } else { 0.3 };
-                    [0, 1, 2].map(|_| {
-                        c + (Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) - 0.5) * size
-                    })
-                })
-                .collect();
-            let bvh = bvh_of(&tris);
+            let size = if count < 10 { 2.0 } else { 0.3 };
+            let bvh = bvh_of(&random_triangles(&mut s, count, size));
             let (mut culled, mut entered) = (0, 0);
             for round in 0..400 {
                 let o = V3s::<16>::from_fn(|_| {
