@@ -822,3 +822,38 @@ fn exhaustive() {
         failed.join("\n")
     );
 }
+
+/// A mask's bits, and whether any lane holds, are those of its lanes one by one at every
+/// width: the four-lane `movmskps` path (W a multiple of 4) and the lane-by-lane one (W = 1),
+/// on masks built every way (splat, from booleans, comparisons, logic).
+#[test]
+fn mask_bits_are_the_lanes() {
+    fn check<const W: usize>(seed: u64) {
+        let mut s = seed;
+        for _ in 0..2000 {
+            s = mix(s);
+            let flags: [bool; W] = std::array::from_fn(|i| (s >> (i % 64)) & 1 != 0);
+            let a = F32s::<W>::from_fn(|i| ((s >> (2 * i % 64)) & 3) as f32 - 1.0);
+            let masks = [
+                Mask::<W>::from_bools(&flags),
+                Mask::splat(s & 1 != 0),
+                a.gt(F32s::splat(0.0)),
+                a.le(F32s::splat(0.0)) & !Mask::from_bools(&flags),
+                a.eq(F32s::splat(f32::NAN)),
+            ];
+            for m in masks {
+                let want = (0..W).fold(0u64, |b, i| b | (u64::from(m.lane(i)) << i));
+                assert_eq!(m.bits(), want, "W = {W}");
+                assert_eq!(m.any(), want != 0, "W = {W}");
+                assert_eq!(
+                    m.iter().collect::<Vec<_>>(),
+                    (0..W).filter(|&i| m.lane(i)).collect::<Vec<_>>()
+                );
+            }
+        }
+    }
+    check::<1>(1);
+    check::<4>(2);
+    check::<8>(3);
+    check::<16>(4);
+}
