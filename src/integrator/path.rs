@@ -556,6 +556,14 @@ impl<const W: usize> PathLanes<W> {
         }
     }
 
+    /// What lane `i`'s finished path gives its pixel: its radiance and its passes' record
+    /// (taken out; the lane then means nothing until a path is put there). What
+    /// [`take`](Self::take) would give of it, without assembling the rest of the path.
+    #[inline]
+    pub fn end(&mut self, i: usize) -> (Rgb, Option<Box<AovSample>>) {
+        (self.l.lane(i), self.aov[i].take())
+    }
+
     /// Takes lane `i`'s path out (the lane then means nothing until a path is put there).
     #[inline]
     pub fn take(&mut self, i: usize) -> Path {

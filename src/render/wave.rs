@@ -150,7 +150,7 @@ fn run_wave<const W: usize>(
                 off_route[i] = Some(path);
                 general.set(i, true);
             } else {
-                finish(lanes[i].take(), path, sums);
+                finish(lanes[i].take(), &path, sums);
             }
         }
         if general.any() {
@@ -187,8 +187,10 @@ fn run_wave<const W: usize>(
         };
         let ended_on_route = route.scatter(&u_scatter, &blocked, &mut paths, &mut samplers);
         for i in ended_on_route.iter() {
-            let path = paths.take(i);
-            finish(lanes[i].take(), path, sums);
+            let (radiance, aov) = paths.end(i);
+            if let Some(lane) = lanes[i].take() {
+                sums.add(lane.pixel, lane.index, radiance, aov.as_deref());
+            }
         }
         for i in general.iter() {
             let (Some(vertex), Some(hit), Some(mut path)) =
@@ -203,15 +205,16 @@ fn run_wave<const W: usize>(
             if goes_on {
                 paths.put(i, path);
             } else {
-                finish(lanes[i].take(), path, sums);
+                finish(lanes[i].take(), &path, sums);
             }
         }
     }
 }
 
 /// Adds the finished `path` of `lane` (taken from its slot, which is then free) to its
-/// pixel's sums.
-fn finish(lane: Option<Lane>, path: Path, sums: &mut Sink) {
+/// pixel's sums. (By reference: moving the path here copied it in 16-byte pieces, which waited
+/// for the narrower stores that had just assembled it from the lanes.)
+fn finish(lane: Option<Lane>, path: &Path, sums: &mut Sink) {
     if let Some(lane) = lane {
         sums.add(lane.pixel, lane.index, path.radiance(), path.aov.as_deref());
     }
