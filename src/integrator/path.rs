@@ -1130,8 +1130,11 @@ impl<const W: usize> LambertRoute<W> {
         let lit = self.has_shadow & on & !Mask::from_bools(blocked);
         let go = self.advance(paths, on, lit);
         // Russian roulette (`russian_roulette`) in the lanes that go on from its depth.
+        // (The masks as arrays first: a mask held in registers and read lane by lane is copied
+        // to the stack again at every lane.)
+        let go_lanes = go.to_bools();
         let roulette: [bool; W] =
-            std::array::from_fn(|i| go.lane(i) & (paths.depth[i] >= RR_DEPTH));
+            std::array::from_fn(|i| go_lanes[i] & (paths.depth[i] >= RR_DEPTH));
         let mut survive = go;
         if roulette.contains(&true) {
             let u = samplers.get_1d(&roulette);
@@ -1139,8 +1142,9 @@ impl<const W: usize> LambertRoute<W> {
             survive = go.and_not(roulette.and_not(russian_roulette_lanes(paths, roulette, u)));
         }
         let black = paths.beta.is_zero();
+        let survive_lanes = survive.to_bools();
         for i in 0..W {
-            let (go, survive) = (go.lane(i), survive.lane(i));
+            let (go, survive) = (go_lanes[i], survive_lanes[i]);
             paths.prev_delta[i] &= !go;
             paths.count_found[i] |= go;
             paths.depth[i] += u32::from(survive);

@@ -1013,6 +1013,12 @@ impl<const W: usize> Mask<W> {
         SetLanes(self.bits())
     }
 
+    /// Whether each lane holds, as an array.
+    #[inline(always)]
+    pub fn to_bools(self) -> [bool; W] {
+        self.0.map(|m| m != 0)
+    }
+
     /// Mask of the lanes `flags` holds.
     #[inline(always)]
     pub fn from_bools(flags: &[bool; W]) -> Self {
