@@ -610,12 +610,20 @@ impl<const W: usize> SurfaceLanes<W> {
     /// [`Mesh::surface`] in every lane, compiled for the widest vector instructions the CPU
     /// has that suit W lanes (the same operations, so the same bits); `lanes` are those set.
     pub fn run(&self, lanes: Mask<W>) -> SurfacesOut<W> {
+        let mut out = SurfacesOut::default();
+        self.run_into(lanes, &mut out);
+        out
+    }
+
+    /// [`run`](Self::run), written into `out` (which a returned value, the size of a few
+    /// hundred floats, would be copied into).
+    pub fn run_into(&self, lanes: Mask<W>, out: &mut SurfacesOut<W>) {
         let given_only = !lanes.and_not(self.given).any();
         crate::lanes::widest!(
             W,
-            (surfaces: &SurfaceLanes<W>, given_only: bool) => SurfacesOut<W>,
-            (self, given_only),
-            surfaces.run_with(given_only)
+            (surfaces: &SurfaceLanes<W>, given_only: bool, out: &mut SurfacesOut<W>) => (),
+            (self, given_only, out),
+            *out = surfaces.run_with(given_only)
         )
     }
 

@@ -851,7 +851,7 @@ impl Geometry {
             }
         }
         if found.in_lanes.any() {
-            found.out = surfaces.run(found.in_lanes);
+            surfaces.run_into(found.in_lanes, &mut found.out);
         }
     }
 

@@ -64,22 +64,23 @@ pub struct SmallSet {
 
 /// A wave's rays, structure-of-arrays: origins, directions, and the end of the segment looked
 /// along (0 for idle lanes, which then hit nothing).
-struct WaveRays<const W: usize> {
-    o: [[f32; W]; 3],
+struct WaveRays<'a, const W: usize> {
+    /// The segments' origins, as they are (not copied).
+    o: [&'a [f32; W]; 3],
     d: [[f32; W]; 3],
     t_max: [f32; W],
 }
 
-impl<const W: usize> WaveRays<W> {
+impl<'a, const W: usize> WaveRays<'a, W> {
     /// The segments of `segments`' live lanes.
     #[inline(always)]
-    fn of_segments(segments: &SegmentLanes<W>) -> WaveRays<W> {
+    fn of_segments(segments: &'a SegmentLanes<W>) -> WaveRays<'a, W> {
         let live = segments.live;
-        let (o, d) = (segments.o, segments.d);
+        let (o, d) = (&segments.o, segments.d);
         // Idle lanes look along +z over nothing.
         let (zero, one) = (F32s::splat(0.0), F32s::splat(1.0));
         WaveRays {
-            o: [o.x.0, o.y.0, o.z.0],
+            o: [&o.x.0, &o.y.0, &o.z.0],
             d: [
                 F32s::select(live, d.x, zero).0,
                 F32s::select(live, d.y, zero).0,
