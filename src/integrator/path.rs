@@ -564,6 +564,26 @@ impl<const W: usize> PathLanes<W> {
         (self.l.lane(i), self.aov[i].take())
     }
 
+    /// Ends lane `i`'s path where its ray left a scene without an environment, as
+    /// [`Path::shade`] does without a hit (the lane must record no passes): it finds no light,
+    /// `Scene::escaped`'s zero, added with the same operations. Returns what
+    /// [`end`](Self::end) returns.
+    #[inline]
+    pub fn end_escaped(&mut self, i: usize) -> (Rgb, Option<Box<AovSample>>) {
+        debug_assert!(self.aov[i].is_none());
+        if self.count_found[i] {
+            self.l
+                .set(i, self.l.lane(i) + self.beta.lane(i) * Rgb::ZERO);
+        }
+        self.end(i)
+    }
+
+    /// Whether lane `i`'s path records render passes.
+    #[inline]
+    pub fn records_passes(&self, i: usize) -> bool {
+        self.aov[i].is_some()
+    }
+
     /// Takes lane `i`'s path out (the lane then means nothing until a path is put there).
     #[inline]
     pub fn take(&mut self, i: usize) -> Path {

@@ -144,6 +144,13 @@ fn run_wave<const W: usize>(
                 if route.enter(i, scene, &paths, hit, u_light[i]) {
                     continue;
                 }
+            } else if scene.environment.is_none() && !paths.records_passes(i) {
+                // Out of a scene without an environment: nothing more to find.
+                let (radiance, aov) = paths.end_escaped(i);
+                if let Some(lane) = lanes[i].take() {
+                    sums.add(lane.pixel, lane.index, radiance, aov.as_deref());
+                }
+                continue;
             }
             let mut path = paths.take(i);
             if path.shade(scene, hits[i].as_ref(), &mut vertices[i]) {
