@@ -1013,6 +1013,30 @@ impl<const W: usize> Mask<W> {
         SetLanes(self.bits())
     }
 
+    /// The mask whose lane i holds where bit i of `bits` is set (W ≤ 64). On x86-64 four lanes
+    /// per instruction, written as whole vectors: a mask written lane by lane and then read four
+    /// lanes at a time (as [`bits`](Self::bits) reads it) waits for its narrow stores to reach
+    /// the cache, as a wider load cannot take its data from several of them.
+    #[inline(always)]
+    pub fn from_bits(bits: u64) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if W.is_multiple_of(4) {
+            let mut out = Self::splat(false);
+            for k in 0..W / 4 {
+                // SAFETY: SSE2 is part of x86-64, and lanes 4k..4k + 4 lie within W.
+                unsafe {
+                    use std::arch::x86_64::*;
+                    let lane_bits = _mm_setr_epi32(1, 2, 4, 8);
+                    let four = _mm_set1_epi32(((bits >> (4 * k)) & 0xf) as i32);
+                    let m = _mm_cmpeq_epi32(_mm_and_si128(four, lane_bits), lane_bits);
+                    _mm_storeu_si128(out.0.as_mut_ptr().add(4 * k).cast(), m);
+                }
+            }
+            return out;
+        }
+        Self::from_fn(|i| (bits >> i) & 1 != 0)
+    }
+
     /// Whether each lane holds, as an array.
     #[inline(always)]
     pub fn to_bools(self) -> [bool; W] {

@@ -825,7 +825,7 @@ fn exhaustive() {
 
 /// A mask's bits, and whether any lane holds, are those of its lanes one by one at every
 /// width: the four-lane `movmskps` path (W a multiple of 4) and the lane-by-lane one (W = 1),
-/// on masks built every way (splat, from booleans, comparisons, logic).
+/// on masks built every way (splat, from booleans, comparisons, logic, from bits).
 #[test]
 fn mask_bits_are_the_lanes() {
     fn check<const W: usize>(seed: u64) {
@@ -841,7 +841,13 @@ fn mask_bits_are_the_lanes() {
                 a.le(F32s::splat(0.0)) & !Mask::from_bools(&flags),
                 a.eq(F32s::splat(f32::NAN)),
             ];
-            for m in masks {
+            // From bits, with bits beyond W set too (they mean nothing).
+            let from_bits = Mask::<W>::from_bits(s);
+            for i in 0..W {
+                assert_eq!(from_bits.lane(i), (s >> i) & 1 != 0, "W = {W}");
+            }
+            assert_eq!(from_bits, Mask::from_fn(|i| (s >> i) & 1 != 0));
+            for m in masks.into_iter().chain([from_bits]) {
                 let want = (0..W).fold(0u64, |b, i| b | (u64::from(m.lane(i)) << i));
                 assert_eq!(m.bits(), want, "W = {W}");
                 assert_eq!(m.any(), want != 0, "W = {W}");

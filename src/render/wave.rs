@@ -96,7 +96,7 @@ fn run_wave<const W: usize>(
         if !queue_empty {
             let mut fresh = Mask::<W>::splat(false);
             let mut film = (F32s::<W>::default(), F32s::<W>::default());
-            for i in Mask::<W>::from_fn(|i| lanes[i].is_none()).iter() {
+            for i in Mask::<W>::from_bits(!occupied(&lanes)).iter() {
                 let Some((lane, (x, y))) = next_lane(scene, origin, &mut queue, work, sums, stats)
                 else {
                     queue_empty = true;
@@ -122,20 +122,20 @@ fn run_wave<const W: usize>(
                 start_in_lanes(scene, fresh, film, &mut samplers, &mut paths);
             }
         }
-        let live = Mask::<W>::from_fn(|i| lanes[i].is_some());
+        let live = Mask::<W>::from_bits(occupied(&lanes));
         if !live.any() || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             return;
         }
         stats.rays += u64::from(live.count());
         scene.intersect_wave(&paths.rays(live), &mut hits, &mut surfaces, &mut found);
-        let (ux, uy) = samplers.get_2d(&lanes.each_ref().map(Option::is_some));
+        let (ux, uy) = samplers.get_2d(&live.to_bools());
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
         // The hits kept in lanes that belong on the route stay there; the others' are taken
         // out lane by lane.
         let entered = route.enter_lanes(scene, &paths, &found, &u_light);
         // The lanes whose vertex takes the general route (`Path::shade`).
-        let mut general = Mask::splat(false);
+        let mut general_bits = 0u64;
         for i in live.and_not(entered).iter() {
             if found.in_lanes.lane(i) {
                 // Left off the route by `enter_lanes`.
@@ -155,12 +155,13 @@ fn run_wave<const W: usize>(
             let mut path = paths.take(i);
             if path.shade(scene, hits[i].as_ref(), &mut vertices[i]) {
                 off_route[i] = Some(path);
-                general.set(i, true);
+                general_bits |= 1 << i;
             } else {
                 finish(lanes[i].take(), &path, sums);
             }
         }
-        if general.any() {
+        let general = Mask::<W>::from_bits(general_bits);
+        if general_bits != 0 {
             Path::sample_lights(
                 scene,
                 off_route.each_ref().map(Option::as_ref),
@@ -216,6 +217,15 @@ fn run_wave<const W: usize>(
             }
         }
     }
+}
+
+/// The lanes holding a sample, as bits (bit i: lane i).
+#[inline(always)]
+fn occupied<const W: usize>(lanes: &[Option<Lane>; W]) -> u64 {
+    lanes
+        .iter()
+        .enumerate()
+        .fold(0, |bits, (i, lane)| bits | (u64::from(lane.is_some()) << i))
 }
 
 /// Adds the finished `path` of `lane` (taken from its slot, which is then free) to its
