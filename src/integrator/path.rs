@@ -564,10 +564,10 @@ impl<const W: usize> PathLanes<W> {
         (self.l.lane(i), self.aov[i].take())
     }
 
-    /// Ends lane `i`'s path where its ray left a scene without an environment, as
-    /// [`Path::shade`] does without a hit (the lane must record no passes): it finds no light,
-    /// `Scene::escaped`'s zero, added with the same operations. Returns what
-    /// [`end`](Self::end) returns.
+    /// Ends lane `i`'s path where its ray left a scene without an environment
+    /// (`Scene::escapes_dark`), as [`Path::shade`] does without a hit (the lane must record no
+    /// passes): it finds no light, `Scene::escaped`'s zero, added with the same operations.
+    /// Returns what [`end`](Self::end) returns.
     #[inline]
     pub fn end_escaped(&mut self, i: usize) -> (Rgb, Option<Box<AovSample>>) {
         debug_assert!(self.aov[i].is_none());

@@ -14,12 +14,13 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::Sink;
+use crate::aov::AovSample;
 use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::{LaneSurfaces, SegmentLanes, SurfaceHit};
 use crate::integrator::path::{LambertRoute, Path, PathLanes, Scratch, Vertex, WaveHits};
 use crate::integrator::{raycast, TraceStats};
 use crate::lanes::{F32s, Mask, V3s};
-use crate::math::{Ray, Vec2};
+use crate::math::{Ray, Rgb, Vec2};
 use crate::sampler::{Sampler, SamplerKind, SamplerLanes};
 use crate::scene::{IntegratorKind, Scene};
 
@@ -144,12 +145,10 @@ fn run_wave<const W: usize>(
                 if route.enter(i, scene, &paths, hit, u_light[i]) {
                     continue;
                 }
-            } else if scene.environment.is_none() && !paths.records_passes(i) {
-                // Out of a scene without an environment: nothing more to find.
+            } else if scene.escapes_dark() && !paths.records_passes(i) {
+                // Out of the scene, with nothing more to find.
                 let (radiance, aov) = paths.end_escaped(i);
-                if let Some(lane) = lanes[i].take() {
-                    sums.add(lane.pixel, lane.index, radiance, aov.as_deref());
-                }
+                finish(lanes[i].take(), radiance, aov.as_deref(), sums);
                 continue;
             }
             let mut path = paths.take(i);
@@ -157,7 +156,7 @@ fn run_wave<const W: usize>(
                 off_route[i] = Some(path);
                 general_bits |= 1 << i;
             } else {
-                finish(lanes[i].take(), &path, sums);
+                finish(lanes[i].take(), path.radiance(), path.aov.as_deref(), sums);
             }
         }
         let general = Mask::<W>::from_bits(general_bits);
@@ -196,9 +195,7 @@ fn run_wave<const W: usize>(
         let ended_on_route = route.scatter(&u_scatter, &blocked, &mut paths, &mut samplers);
         for i in ended_on_route.iter() {
             let (radiance, aov) = paths.end(i);
-            if let Some(lane) = lanes[i].take() {
-                sums.add(lane.pixel, lane.index, radiance, aov.as_deref());
-            }
+            finish(lanes[i].take(), radiance, aov.as_deref(), sums);
         }
         for i in general.iter() {
             let (Some(vertex), Some(hit), Some(mut path)) =
@@ -213,7 +210,7 @@ fn run_wave<const W: usize>(
             if goes_on {
                 paths.put(i, path);
             } else {
-                finish(lanes[i].take(), &path, sums);
+                finish(lanes[i].take(), path.radiance(), path.aov.as_deref(), sums);
             }
         }
     }
@@ -228,12 +225,13 @@ fn occupied<const W: usize>(lanes: &[Option<Lane>; W]) -> u64 {
         .fold(0, |bits, (i, lane)| bits | (u64::from(lane.is_some()) << i))
 }
 
-/// Adds the finished `path` of `lane` (taken from its slot, which is then free) to its
-/// pixel's sums. (By reference: moving the path here copied it in 16-byte pieces, which waited
-/// for the narrower stores that had just assembled it from the lanes.)
-fn finish(lane: Option<Lane>, path: &Path, sums: &mut Sink) {
+/// Adds what the finished path of `lane` (taken from its slot, which is then free) gives its
+/// pixel, its radiance and its passes' record, to the pixel's sums. (Not the path itself: moving
+/// a path assembled from the lanes copied it in 16-byte pieces, which waited for the narrower
+/// stores that had just written it.)
+fn finish(lane: Option<Lane>, radiance: Rgb, aov: Option<&AovSample>, sums: &mut Sink) {
     if let Some(lane) = lane {
-        sums.add(lane.pixel, lane.index, path.radiance(), path.aov.as_deref());
+        sums.add(lane.pixel, lane.index, radiance, aov);
     }
 }
 

@@ -197,6 +197,13 @@ impl Scene {
         }
     }
 
+    /// Whether a ray leaving the scene finds no light whatever its direction: no environment,
+    /// so [`escaped`](Self::escaped) gives zero.
+    #[inline]
+    pub fn escapes_dark(&self) -> bool {
+        self.environment.is_none()
+    }
+
     /// The material of a hit.
     #[inline]
     pub fn material(&self, hit: &SurfaceHit) -> &Material {
