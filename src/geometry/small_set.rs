@@ -54,8 +54,11 @@ enum Isa {
 pub struct SmallSet {
     /// The triangles' distinct corners, (x, y, z, 0) each (at most [`MAX_VERTICES`]).
     vertices: Vec<[f32; 4]>,
-    /// Each triangle's corners, as indices into `vertices`.
-    triangles: Vec<[u16; 3]>,
+    /// Each triangle's corners as byte offsets into the kernels' array of sheared vertices
+    /// (`[V; 3]` per vertex), for vectors of 4, 8 and 16 lanes: the kernels' loop over
+    /// triangles then computes no addresses (scaling indices took 10 of its ~60 instructions
+    /// per triangle).
+    corner_bytes: [Vec<[u32; 3]>; 3],
     /// Each triangle's (instance, primitive), increasing.
     ids: Vec<[u32; 2]>,
     /// The widest instruction set this CPU has.
@@ -144,13 +147,13 @@ impl SmallSet {
         // wave, and a corner's sheared coordinates depend on its bits alone.
         let mut vertices: Vec<[f32; 4]> = Vec::new();
         let mut index = std::collections::HashMap::new();
-        let triangles = (0..count)
+        let triangles: Vec<[usize; 3]> = (0..count)
             .map(|i| {
                 corners(i).map(|c| {
                     let v = [c.x, c.y, c.z, 0.0];
                     *index.entry(v.map(f32::to_bits)).or_insert_with(|| {
                         vertices.push(v);
-                        (vertices.len() - 1) as u16
+                        vertices.len() - 1
                     })
                 })
             })
@@ -158,12 +161,25 @@ impl SmallSet {
         if vertices.len() > MAX_VERTICES {
             return None;
         }
+        let bytes = |lanes: usize| {
+            let vertex_bytes = 3 * lanes * std::mem::size_of::<f32>();
+            triangles
+                .iter()
+                .map(|t| t.map(|v| (v * vertex_bytes) as u32))
+                .collect()
+        };
         Some(SmallSet {
             vertices,
-            triangles,
+            corner_bytes: [bytes(4), bytes(8), bytes(16)],
             ids,
             isa,
         })
+    }
+
+    /// Each triangle's corners as byte offsets into an array of `[V; 3]`, one per vertex.
+    #[inline(always)]
+    fn corner_bytes<V: Vector>(&self) -> &[[u32; 3]] {
+        &self.corner_bytes[(V::LANES / 4).trailing_zeros() as usize]
     }
 
     /// The id (instance, primitive) of the triangle in `slot`.
@@ -350,6 +366,8 @@ trait Vector: Copy {
             Self::or(Self::or(a.eq(zero), b.eq(zero)), c.eq(zero))
         }
     }
+    /// Where `a`, `b` and `c` have the same sign bit.
+    unsafe fn same_sign(a: Self, b: Self, c: Self) -> Self::Mask;
     unsafe fn or(a: Self::Mask, b: Self::Mask) -> Self::Mask;
     unsafe fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
     /// `a & !b`.
@@ -396,14 +414,14 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
             let mut best = Best::<V>::load(hits, k);
             // The slot as a float, counted along (exact: slots are small integers).
             let (mut slot, one) = (V::splat(0.0), V::splat(1.0));
-            for corners in &set.triangles {
+            for corners in set.corner_bytes::<V>() {
                 best.take(&candidate(&frame, *corners, all_live), slot);
                 slot = slot.add(one);
             }
             best.store(hits, k);
         } else {
             let mut blocked_bits = 0u32;
-            for corners in &set.triangles {
+            for corners in set.corner_bytes::<V>() {
                 let c = candidate(&frame, *corners, all_live);
                 blocked_bits |= V::bits(V::and_lt(c.ahead, c.t, t_max));
                 if blocked_bits == all_live {
@@ -427,27 +445,58 @@ struct Candidate<V: Vector> {
     inv_det: V,
 }
 
-/// The test of the triangle `corners` (indices into `frame`, every lane's sheared vertices) in
-/// every lane, the edge functions recomputed in f64 where one is ±0 in a lane of `all_live`.
+/// The vertex `bytes` bytes into `frame`.
+///
+/// # Safety
+/// `frame` holds a vertex there.
+#[inline(always)]
+unsafe fn sheared_vertex<V: Vector>(
+    frame: &[MaybeUninit<[V; 3]>; MAX_VERTICES],
+    bytes: u32,
+) -> [V; 3] {
+    // SAFETY: the caller's.
+    unsafe {
+        frame
+            .as_ptr()
+            .cast::<u8>()
+            .add(bytes as usize)
+            .cast::<[V; 3]>()
+            .read()
+    }
+}
+
+/// The test of the triangle `corners` (byte offsets into `frame`, every lane's sheared
+/// vertices) in every lane, the edge functions recomputed in f64 where one is ±0 in a lane of
+/// `all_live`.
 ///
 /// # Safety
 /// The CPU runs V's instructions, and `frame` holds the vertices `corners` names.
 #[inline(always)]
 unsafe fn candidate<V: Vector>(
     frame: &[MaybeUninit<[V; 3]>; MAX_VERTICES],
-    corners: [u16; 3],
+    corners: [u32; 3],
     all_live: u32,
 ) -> Candidate<V> {
     // SAFETY: the caller's.
     unsafe {
-        let [ax, ay, az] = frame.get_unchecked(usize::from(corners[0])).assume_init();
-        let [bx, by, bz] = frame.get_unchecked(usize::from(corners[1])).assume_init();
-        let [cx, cy, cz] = frame.get_unchecked(usize::from(corners[2])).assume_init();
+        let [ax, ay, az] = sheared_vertex(frame, corners[0]);
+        let [bx, by, bz] = sheared_vertex(frame, corners[1]);
+        let [cx, cy, cz] = sheared_vertex(frame, corners[2]);
         let mut u = cx.mul(by).sub(cy.mul(bx));
         let mut v = ax.mul(cy).sub(ay.mul(cx));
         let mut w = bx.mul(ay).sub(by.mul(ax));
+        // The scalar test's "inside": det ≠ 0 and not (some edge function < 0 and some > 0).
+        // Where none is a NaN, the second part is min ≥ 0 or max ≤ 0; where one is a NaN, so
+        // is t, and no lane hits. Where they have one sign and det = 0, all three are ±0,
+        // t = ±0 · (1 / ±0) is a NaN, and no lane hits: det ≠ 0 needs no test. Where no live
+        // lane has an edge function of ±0 (nearly always), one sign is one sign bit: two
+        // instructions with AVX-512 instead of seven, in a loop bound by its vector
+        // instructions. (Lanes that are not live have a bound of 0 and take no hit.)
+        let zero = V::splat(0.0);
         let on_edge = V::bits(V::any_zero(u, v, w)) & all_live;
-        if on_edge != 0 {
+        let one_sign = if on_edge == 0 {
+            V::same_sign(u, v, w)
+        } else {
             let mut p = [[0.0f32; MAX_LANES]; 6];
             for (array, value) in p.iter_mut().zip([ax, ay, bx, by, cx, cy]) {
                 value.store(array.as_mut_ptr());
@@ -462,14 +511,8 @@ unsafe fn candidate<V: Vector>(
                 V::load(e[1].as_ptr()),
                 V::load(e[2].as_ptr()),
             ];
-        }
-        // The scalar test's "inside": det ≠ 0 and not (some edge function < 0 and some > 0).
-        // Where none is a NaN, the second part is min ≥ 0 or max ≤ 0; where one is a NaN, so
-        // is t, and no lane hits. Where they have one sign and det = 0, all three are ±0,
-        // t = ±0 · (1 / ±0) is a NaN, and no lane hits: det ≠ 0 needs no test. (Fewer
-        // comparisons: each is an instruction into a mask register.)
-        let zero = V::splat(0.0);
-        let one_sign = V::or(u.min(v).min(w).ge(zero), u.max(v).max(w).le(zero));
+            V::or(u.min(v).min(w).ge(zero), u.max(v).max(w).le(zero))
+        };
         let det = u.add(v).add(w);
         let t_scaled = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
         let inv_det = V::splat(1.0).div(det);
@@ -770,6 +813,18 @@ mod x86 {
             Sse2(_mm_max_ps(self.0, o.0))
         }
         #[inline(always)]
+        unsafe fn same_sign(a: Self, b: Self, c: Self) -> __m128 {
+            // SAFETY: SSE2 is part of x86-64. The sign bit of (a ^ b) | (a ^ c) is clear
+            // where all three agree: there the integer is > −1.
+            unsafe {
+                let differ = _mm_or_ps(_mm_xor_ps(a.0, b.0), _mm_xor_ps(a.0, c.0));
+                _mm_castsi128_ps(_mm_cmpgt_epi32(
+                    _mm_castps_si128(differ),
+                    _mm_set1_epi32(-1),
+                ))
+            }
+        }
+        #[inline(always)]
         unsafe fn or(a: __m128, b: __m128) -> __m128 {
             _mm_or_ps(a, b)
         }
@@ -897,6 +952,15 @@ mod x86 {
                 );
                 let least = _mm256_min_epu32(_mm256_min_epu32(a, b), c);
                 _mm256_castsi256_ps(_mm256_cmpeq_epi32(least, _mm256_setzero_si256()))
+            }
+        }
+        #[inline(always)]
+        unsafe fn same_sign(a: Self, b: Self, c: Self) -> __m256 {
+            // SAFETY: the caller's CPU has AVX2. As in SSE2.
+            unsafe {
+                let differ = _mm256_or_ps(_mm256_xor_ps(a.0, b.0), _mm256_xor_ps(a.0, c.0));
+                let differ = _mm256_castps_si256(differ);
+                _mm256_castsi256_ps(_mm256_cmpgt_epi32(differ, _mm256_set1_epi32(-1)))
             }
         }
         #[inline(always)]
@@ -1040,6 +1104,21 @@ mod x86 {
                 );
                 let least = _mm512_min_epu32(_mm512_min_epu32(a, b), c);
                 _mm512_testn_epi32_mask(least, least)
+            }
+        }
+        #[inline(always)]
+        unsafe fn same_sign(a: Self, b: Self, c: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F. One ternary logic instruction computes
+            // (a ^ b) | (a ^ c), 0 exactly where the three bits agree (truth table 0x7e: all
+            // but 000 and 111); its sign bits then give the mask.
+            unsafe {
+                let (a, b, c) = (
+                    _mm512_castps_si512(a.0),
+                    _mm512_castps_si512(b.0),
+                    _mm512_castps_si512(c.0),
+                );
+                let differ = _mm512_ternarylogic_epi32::<0x7e>(a, b, c);
+                _mm512_testn_epi32_mask(differ, _mm512_set1_epi32(i32::MIN))
             }
         }
         #[inline(always)]
