@@ -366,6 +366,13 @@ trait Vector: Copy {
             Self::or(Self::or(a.eq(zero), b.eq(zero)), c.eq(zero))
         }
     }
+    /// The lanes of [`any_zero`](Self::any_zero) and perhaps others (a cheaper test where
+    /// the instruction set has one).
+    #[inline(always)]
+    unsafe fn maybe_zero(a: Self, b: Self, c: Self) -> Self::Mask {
+        // SAFETY: the caller's.
+        unsafe { Self::any_zero(a, b, c) }
+    }
     /// Where `a`, `b` and `c` have the same sign bit.
     unsafe fn same_sign(a: Self, b: Self, c: Self) -> Self::Mask;
     unsafe fn or(a: Self::Mask, b: Self::Mask) -> Self::Mask;
@@ -493,10 +500,10 @@ unsafe fn candidate<V: Vector>(
         // instructions with AVX-512 instead of seven, in a loop bound by its vector
         // instructions. (Lanes that are not live have a bound of 0 and take no hit.)
         let zero = V::splat(0.0);
-        let on_edge = V::bits(V::any_zero(u, v, w)) & all_live;
-        let one_sign = if on_edge == 0 {
+        let one_sign = if V::bits(V::maybe_zero(u, v, w)) & all_live == 0 {
             V::same_sign(u, v, w)
         } else {
+            let on_edge = V::bits(V::any_zero(u, v, w)) & all_live;
             let mut p = [[0.0f32; MAX_LANES]; 6];
             for (array, value) in p.iter_mut().zip([ax, ay, bx, by, cx, cy]) {
                 value.store(array.as_mut_ptr());
@@ -505,7 +512,9 @@ unsafe fn candidate<V: Vector>(
             for (array, value) in e.iter_mut().zip([u, v, w]) {
                 value.store(array.as_mut_ptr());
             }
-            edges_in_f64(on_edge, &p, &mut e);
+            if on_edge != 0 {
+                edges_in_f64(on_edge, &p, &mut e);
+            }
             [u, v, w] = [
                 V::load(e[0].as_ptr()),
                 V::load(e[1].as_ptr()),
@@ -1104,6 +1113,15 @@ mod x86 {
                 );
                 let least = _mm512_min_epu32(_mm512_min_epu32(a, b), c);
                 _mm512_testn_epi32_mask(least, least)
+            }
+        }
+        #[inline(always)]
+        unsafe fn maybe_zero(a: Self, b: Self, c: Self) -> __mmask16 {
+            // SAFETY: the caller's CPU has AVX-512F. Where one of the three is ±0 their product
+            // is ±0, or a NaN (0 · ∞); an underflow or a NaN elsewhere only adds lanes.
+            unsafe {
+                let product = _mm512_mul_ps(_mm512_mul_ps(a.0, b.0), c.0);
+                _mm512_cmp_ps_mask::<_CMP_EQ_UQ>(product, _mm512_setzero_ps())
             }
         }
         #[inline(always)]
