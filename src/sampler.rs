@@ -94,7 +94,19 @@ impl Sampler {
 
     /// The stream of the given kind for sample `sample` of pixel `pixel` under `seed`.
     pub fn with_kind(kind: SamplerKind, seed: u64, pixel: u64, sample: u64) -> Sampler {
-        let key = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)));
+        Sampler::with_key(kind, Sampler::pixel_key(seed, pixel), sample)
+    }
+
+    /// What [`with_kind`](Self::with_kind) derives from the seed and the pixel, the same for
+    /// all of the pixel's samples (a caller starting many of them computes it once).
+    #[inline]
+    pub fn pixel_key(seed: u64, pixel: u64) -> u64 {
+        mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)))
+    }
+
+    /// [`with_kind`](Self::with_kind) given the pixel's [`pixel_key`](Self::pixel_key).
+    #[inline]
+    pub fn with_key(kind: SamplerKind, key: u64, sample: u64) -> Sampler {
         Sampler {
             kind,
             // Only independent numbers follow the generator.

@@ -87,6 +87,9 @@ fn run_wave<const W: usize>(
     let mut surfaces = Box::new(SurfaceLanes::<W>::new());
     let mut found = Box::new(LaneSurfaces::<W>::none());
     let mut queue_empty = false;
+    // The last pixel whose sampler key was derived, and the key: a pixel's samples mostly
+    // follow one another.
+    let mut pixel_key = (u64::MAX, 0);
     // Samples whose camera rays are drawn for all new lanes at once (the common case: Sobol
     // points through a pinhole, no render passes); the others one lane at a time.
     let in_lanes = W >= crate::lanes::KERNELS_FROM
@@ -95,7 +98,9 @@ fn run_wave<const W: usize>(
         && !sums.wants_aovs();
     loop {
         if !queue_empty {
-            let mut fresh = Mask::<W>::splat(false);
+            // The lanes started in lanes, as bits (a mask written lane by lane and then read
+            // four lanes at a time waits for its narrow stores).
+            let mut fresh_bits = 0u64;
             let mut film = (F32s::<W>::default(), F32s::<W>::default());
             for i in Mask::<W>::from_bits(!occupied(&lanes)).iter() {
                 let Some((lane, (x, y))) = next_lane(scene, origin, &mut queue, work, sums, stats)
@@ -106,9 +111,14 @@ fn run_wave<const W: usize>(
                 let index = lane.index;
                 lanes[i] = Some(lane);
                 if in_lanes {
-                    samplers.set(i, pixel_sampler(scene, x, y, index));
+                    let pixel = pixel_index(scene, x, y);
+                    if pixel_key.0 != pixel {
+                        pixel_key = (pixel, Sampler::pixel_key(scene.settings.seed, pixel));
+                    }
+                    let kind = scene.settings.sampler;
+                    samplers.set(i, Sampler::with_key(kind, pixel_key.1, u64::from(index)));
                     (film.0[i], film.1[i]) = (x as f32, y as f32);
-                    fresh.set(i, true);
+                    fresh_bits |= 1 << i;
                 } else {
                     let (sampler, ray) = camera_sample(scene, x, y, index);
                     let mut path = Path::new(ray);
@@ -119,7 +129,8 @@ fn run_wave<const W: usize>(
                     paths.put(i, path);
                 }
             }
-            if fresh.any() {
+            if fresh_bits != 0 {
+                let fresh = Mask::<W>::from_bits(fresh_bits);
                 start_in_lanes(scene, fresh, film, &mut samplers, &mut paths);
             }
         }
@@ -186,7 +197,7 @@ fn run_wave<const W: usize>(
         stats.rays += u64::from(shadows.live.count());
         let blocked = scene.occluded_lanes(&shadows);
         let scattering = general | route.on_lanes();
-        let u_scatter = samplers.get_choice_2d(&std::array::from_fn(|i| scattering.lane(i)));
+        let u_scatter = samplers.get_choice_2d(&scattering.to_bools());
         let sampled = if general.any() {
             Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch)
         } else {
@@ -305,8 +316,17 @@ fn start_here<const W: usize>(
 /// The sampler of sample `index` of pixel (x, y).
 fn pixel_sampler(scene: &Scene, x: u32, y: u32, index: u32) -> Sampler {
     let s = &scene.settings;
-    let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
-    Sampler::with_kind(s.sampler, s.seed, pixel, u64::from(index))
+    Sampler::with_kind(
+        s.sampler,
+        s.seed,
+        pixel_index(scene, x, y),
+        u64::from(index),
+    )
+}
+
+/// Pixel (x, y)'s index in the image, row by row: what its samplers are keyed by.
+fn pixel_index(scene: &Scene, x: u32, y: u32) -> u64 {
+    u64::from(y) * u64::from(scene.settings.width) + u64::from(x)
 }
 
 /// Sample `index` of pixel (x, y): its sampler, and its camera ray through a jittered point of
