@@ -19,7 +19,7 @@ pub use mesh::{Mesh, OpacityInputs};
 use small_set::SmallSet;
 pub use sphere::{Plane, Sphere};
 use triangle::TriHit;
-pub use triangle_bvh::{TriRay, TriangleBvh};
+pub use triangle_bvh::{TriRay, TriRayLanes, TriangleBvh};
 
 /// A shape in its own object space.
 #[derive(Debug, Clone)]
@@ -890,6 +890,7 @@ impl Geometry {
         } else {
             Trees::Both
         };
+        let tri_rays = (flat_only && further.any()).then(|| TriRayLanes::new(&rays.o, &rays.d));
         for i in further.iter() {
             let ray = Ray::new(rays.o.lane(i), rays.d.lane(i));
             // A hit found here must come before the small set's, if any.
@@ -899,12 +900,12 @@ impl Geometry {
                 }
                 _ => true,
             };
-            if flat_only {
+            if let Some(tri_rays) = &tri_rays {
                 // The hit's corners from the packet it was found in, which holds them as the
                 // mesh does where the instance is untransformed.
                 let Some((id, h, corners)) =
                     self.flat
-                        .intersect_corners(&TriRay::new(ray.o, ray.d), 0.0, bound(i))
+                        .intersect_corners(&tri_rays.lane(i), 0.0, bound(i))
                 else {
                     continue;
                 };
@@ -1131,9 +1132,12 @@ impl Geometry {
                     if self.triangles_only() {
                         // The tree alone, and only for lanes that enter its root.
                         let (o, d, t_max) = (&segments.o, &segments.d, segments.t_max);
-                        for i in self.flat.meets_lanes((o, d), t_max, open).iter() {
-                            let ray = TriRay::new(o.lane(i), d.lane(i));
-                            blocked[i] = self.flat.occluded(&ray, 0.0, t_max[i]);
+                        let entering = self.flat.meets_lanes((o, d), t_max, open);
+                        if entering.any() {
+                            let rays = TriRayLanes::new(o, d);
+                            for i in entering.iter() {
+                                blocked[i] = self.flat.occluded(&rays.lane(i), 0.0, t_max[i]);
+                            }
                         }
                         return blocked;
                     }
