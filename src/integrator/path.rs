@@ -1448,7 +1448,16 @@ impl<const W: usize> LightLanes<W> {
             F32s::select(chosen, uy, self.u.1),
         );
         self.pmf = F32s::select(chosen, pick.pmf, self.pmf);
-        for (k, (light, (emission, two_sided))) in power.lights.iter().enumerate() {
+        // Every lane takes the first light, and the lanes that picked another then take theirs:
+        // a lane that picked none is not read (`chosen` is the kernel's lanes), and the first
+        // light needs no blend with what the lanes held.
+        let mut lights = power.lights.iter().enumerate();
+        if let Some((_, (light, (emission, two_sided)))) = lights.next() {
+            self.triangles.set_where(Mask::splat(true), light);
+            self.emission = V3s::splat(*emission);
+            self.two_sided_emission = Mask::splat(*two_sided);
+        }
+        for (k, (light, (emission, two_sided))) in lights {
             let here = chosen & pick.light.eq(F32s::splat(k as f32));
             self.triangles.set_where(here, light);
             self.emission = V3s::select(here, V3s::splat(*emission), self.emission);
