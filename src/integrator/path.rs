@@ -829,14 +829,18 @@ impl<const W: usize> LambertRoute<W> {
             return on;
         }
         let max_depth = scene.settings.max_depth;
+        // The lanes on the route as bits, made a mask whole (written lane by lane, a mask
+        // read four lanes at a time next waits for its narrow stores).
+        let mut on_bits = 0u64;
         for i in found.in_lanes.iter() {
             let (plain, albedo) = self.instance_albedo[found.instance[i] as usize];
-            on.set(i, plain & !paths.needs_general_route(i, max_depth));
+            on_bits |= u64::from(plain & !paths.needs_general_route(i, max_depth)) << i;
             self.albedo.set(i, albedo);
         }
-        if !on.any() {
+        if on_bits == 0 {
             return on;
         }
+        on = Mask::from_bits(on_bits);
         let flat = self.take_surfaces(on, &found.out);
         let bent = on.and_not(flat);
         for i in bent.iter() {
