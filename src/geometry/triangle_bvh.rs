@@ -59,18 +59,25 @@ impl TriRay {
         let [kx, ky, kz] = shear_axes(d);
         let (oa, da) = (o.to_array(), d.to_array());
         let s = Vec3A::new(da[kx], da[ky], 1.0) / Vec3A::splat(da[kz]);
+        TriRay::assemble(oa, inv, [kx, ky, kz], s.to_array())
+    }
+
+    /// The ray from its origin, its direction's reciprocals, the shear's axes (kx, ky, kz) and
+    /// the shear's constants d[kx]/d[kz], d[ky]/d[kz], 1/d[kz].
+    #[inline(always)]
+    fn assemble(org: [f32; 3], inv: Vec3A, [kx, ky, kz]: [usize; 3], shear: [f32; 3]) -> TriRay {
         TriRay {
-            org: oa,
+            org,
             inv: inv.to_array(),
             negative: inv.cmplt(Vec3A::ZERO).bitmask(),
             robust: !inv.is_finite(),
             k: [kx as u8, ky as u8, kz as u8],
             org_k: [
-                Vec4::splat(oa[kx]),
-                Vec4::splat(oa[ky]),
-                Vec4::splat(oa[kz]),
+                Vec4::splat(org[kx]),
+                Vec4::splat(org[ky]),
+                Vec4::splat(org[kz]),
             ],
-            shear: [Vec4::splat(s.x), Vec4::splat(s.y), Vec4::splat(s.z)],
+            shear: shear.map(Vec4::splat),
         }
     }
 }
@@ -159,26 +166,8 @@ impl<const W: usize> TriRayLanes<W> {
             ([a, b], false) => [a, b],
             ([a, b], true) => [b, a],
         };
-        let org = self.org.lane(i).to_array();
-        let inv = Vec3A::from(self.inv.lane(i));
-        let shear = self.shear.lane(i);
-        TriRay {
-            org,
-            inv: inv.to_array(),
-            negative: inv.cmplt(Vec3A::ZERO).bitmask(),
-            robust: !inv.is_finite(),
-            k: [kx as u8, ky as u8, kz as u8],
-            org_k: [
-                Vec4::splat(org[kx]),
-                Vec4::splat(org[ky]),
-                Vec4::splat(org[kz]),
-            ],
-            shear: [
-                Vec4::splat(shear.x),
-                Vec4::splat(shear.y),
-                Vec4::splat(shear.z),
-            ],
-        }
+        let (org, inv) = (self.org.lane(i).to_array(), Vec3A::from(self.inv.lane(i)));
+        TriRay::assemble(org, inv, [kx, ky, kz], self.shear.lane(i).to_array())
     }
 }
 
