@@ -1,7 +1,7 @@
 //! Random numbers for rendering. Every (seed, pixel, sample) triple owns an independent stream,
 //! so an image does not depend on how pixels are spread over threads.
 
-use crate::lanes::{F32s, U32s, U64s};
+use crate::lanes::{F32s, Mask, U32s, U64s};
 
 /// PCG32 (O'Neill 2014, "PCG: A Family of Simple Fast Space-Efficient Statistically Good
 /// Algorithms for Random Number Generation"): 64-bit LCG state, XSH-RR output.
@@ -283,89 +283,101 @@ impl<const W: usize> SamplerLanes<W> {
 
     /// The next 2D point of the samplers of the `live` lanes ([`Sampler::get_2d`]; the others
     /// draw nothing and get numbers that mean nothing).
-    pub fn get_2d(&mut self, live: &[bool; W]) -> (F32s<W>, F32s<W>) {
+    pub fn get_2d(&mut self, live: Mask<W>) -> (F32s<W>, F32s<W>) {
         if !self.all_sobol(live) {
             let mut out = (F32s::default(), F32s::default());
-            for i in (0..W).filter(|&i| live[i]) {
+            for i in live.iter() {
                 let u = self.with(i, Sampler::get_2d);
                 (out.0[i], out.1[i]) = (u.x, u.y);
             }
             return out;
         }
-        let out = self.sobol(0).point_2d();
-        self.advance(live, 1);
-        out
+        crate::lanes::widest!(
+            W,
+            (lanes: &mut SamplerLanes<W>, live: Mask<W>) => (F32s<W>, F32s<W>),
+            (self, live),
+            {
+                let out = SobolLanes::at(lanes, 0).point_2d();
+                lanes.advance(live, 1);
+                out
+            }
+        )
     }
 
     /// The next number of the samplers of the `live` lanes ([`Sampler::get_1d`]; the others
     /// draw nothing and get numbers that mean nothing).
-    pub fn get_1d(&mut self, live: &[bool; W]) -> F32s<W> {
+    pub fn get_1d(&mut self, live: Mask<W>) -> F32s<W> {
         if !self.all_sobol(live) {
             let mut out = F32s::default();
-            for i in (0..W).filter(|&i| live[i]) {
+            for i in live.iter() {
                 out[i] = self.with(i, Sampler::get_1d);
             }
             return out;
         }
-        let out = self.sobol(0).point_1d();
-        self.advance(live, 1);
-        out
+        crate::lanes::widest!(
+            W,
+            (lanes: &mut SamplerLanes<W>, live: Mask<W>) => F32s<W>,
+            (self, live),
+            {
+                let out = SobolLanes::at(lanes, 0).point_1d();
+                lanes.advance(live, 1);
+                out
+            }
+        )
     }
 
     /// Leaves out the next 2D point of the samplers of the `live` lanes
     /// ([`Sampler::skip_2d`]).
-    pub fn skip_2d(&mut self, live: &[bool; W]) {
+    pub fn skip_2d(&mut self, live: Mask<W>) {
         if !self.all_sobol(live) {
-            for i in (0..W).filter(|&i| live[i]) {
+            for i in live.iter() {
                 self.with(i, Sampler::skip_2d);
             }
             return;
         }
-        self.advance(live, 1);
+        crate::lanes::widest!(
+            W,
+            (lanes: &mut SamplerLanes<W>, live: Mask<W>) => (),
+            (self, live),
+            lanes.advance(live, 1)
+        )
     }
 
     /// The next lobe choice and 2D point of the samplers of the `live` lanes
     /// ([`Sampler::get_choice_2d`]; the others draw nothing and get numbers that mean nothing).
-    pub fn get_choice_2d(&mut self, live: &[bool; W]) -> (F32s<W>, F32s<W>, F32s<W>) {
+    pub fn get_choice_2d(&mut self, live: Mask<W>) -> (F32s<W>, F32s<W>, F32s<W>) {
         if !self.all_sobol(live) {
             let mut out = (F32s::default(), F32s::default(), F32s::default());
-            for i in (0..W).filter(|&i| live[i]) {
+            for i in live.iter() {
                 let (choice, u) = self.with(i, Sampler::get_choice_2d);
                 (out.0[i], out.1[i], out.2[i]) = (choice, u.x, u.y);
             }
             return out;
         }
-        let out = self.sobol(1).choice_2d();
-        self.advance(live, 2);
-        out
+        crate::lanes::widest!(
+            W,
+            (lanes: &mut SamplerLanes<W>, live: Mask<W>) => (F32s<W>, F32s<W>, F32s<W>),
+            (self, live),
+            {
+                let out = SobolLanes::at(lanes, 1).choice_2d();
+                lanes.advance(live, 2);
+                out
+            }
+        )
     }
 
     /// Whether every `live` lane draws scrambled Sobol points.
     #[inline]
-    fn all_sobol(&self, live: &[bool; W]) -> bool {
-        self.independent_lanes == 0
-            || (0..W).all(|i| !live[i] || self.kinds[i] == SamplerKind::Sobol)
+    fn all_sobol(&self, live: Mask<W>) -> bool {
+        self.independent_lanes == 0 || live.iter().all(|i| self.kinds[i] == SamplerKind::Sobol)
     }
 
-    /// Every lane's Sobol stream at its next dimension + `skip`.
-    #[inline]
-    fn sobol(&self, skip: u32) -> SobolLanes<W> {
-        let mut hash = U64s([0; W]);
-        for (i, h) in hash.0.iter_mut().enumerate() {
-            *h = u64::from(self.pixel_seed[i]) << 32 | u64::from(self.dimension[i] + skip);
-        }
-        SobolLanes {
-            hash,
-            reversed_index: self.reversed_index,
-        }
-    }
-
-    /// Moves the `live` lanes `by` dimensions on.
-    #[inline]
-    fn advance(&mut self, live: &[bool; W], by: u32) {
-        for (d, &live) in self.dimension.0.iter_mut().zip(live) {
-            *d += if live { by } else { 0 };
-        }
+    /// Moves the `live` lanes `by` dimensions on, in SIMD lanes (the dimensions are then
+    /// stored whole, and the next draw loads them whole: a load that spans several narrower
+    /// stores waits for them to reach the cache).
+    #[inline(always)]
+    fn advance(&mut self, live: Mask<W>, by: u32) {
+        self.dimension = U32s::select(live, self.dimension + U32s::splat(by), self.dimension);
     }
 }
 
@@ -386,40 +398,44 @@ struct SobolLanes<const W: usize> {
 }
 
 impl<const W: usize> SobolLanes<W> {
-    /// [`owen_sobol_2d_reversed`] in every lane.
-    fn point_2d(&self) -> (F32s<W>, F32s<W>) {
-        crate::lanes::widest!(W, lanes: &SobolLanes<W> => (F32s<W>, F32s<W>), self, lanes.point_2d_here())
-    }
-
-    /// [`owen_sobol_x`] of the shuffled index in every lane: the number of
-    /// [`Sampler::get_1d`].
-    fn point_1d(&self) -> F32s<W> {
-        crate::lanes::widest!(W, lanes: &SobolLanes<W> => F32s<W>, self, lanes.point_1d_here())
-    }
-
-    /// [`owen_sobol_3d_shuffled`] of the shuffled index in every lane: the lobe choice and the
-    /// 2D point of [`Sampler::get_choice_2d`].
-    fn choice_2d(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
-        crate::lanes::widest!(W, lanes: &SobolLanes<W> => (F32s<W>, F32s<W>, F32s<W>), self, lanes.choice_2d_here())
-    }
-
+    /// Every lane's Sobol stream of `lanes` at its next dimension + `skip`.
     #[inline(always)]
-    fn point_2d_here(&self) -> (F32s<W>, F32s<W>) {
+    fn at(lanes: &SamplerLanes<W>, skip: u32) -> Self {
+        // A loop, not `from_fn`'s closure, which would not inline into the kernels compiled
+        // for wider vectors.
+        let dimension = lanes.dimension + U32s::splat(skip);
+        let mut hash = U64s([0; W]);
+        for ((h, &seed), &d) in hash.0.iter_mut().zip(&lanes.pixel_seed.0).zip(&dimension.0) {
+            *h = u64::from(seed) << 32 | u64::from(d);
+        }
+        SobolLanes {
+            hash,
+            reversed_index: lanes.reversed_index,
+        }
+    }
+
+    /// [`owen_sobol_2d_reversed`] in every lane.
+    #[inline(always)]
+    fn point_2d(&self) -> (F32s<W>, F32s<W>) {
         let hash = mix64_lanes(self.hash);
         let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
         owen_sobol_2d_lanes(shuffled, hash)
     }
 
+    /// [`owen_sobol_x`] of the shuffled index in every lane: the number of
+    /// [`Sampler::get_1d`].
     #[inline(always)]
-    fn point_1d_here(&self) -> F32s<W> {
+    fn point_1d(&self) -> F32s<W> {
         let hash = mix64_lanes(self.hash);
         let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
         let x = laine_karras_lanes(shuffled, (hash >> 32).low_u32());
         to_unit_lanes(x.reverse_bits())
     }
 
+    /// [`owen_sobol_3d_shuffled`] of the shuffled index in every lane: the lobe choice and the
+    /// 2D point of [`Sampler::get_choice_2d`].
     #[inline(always)]
-    fn choice_2d_here(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
+    fn choice_2d(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
         let hash = mix64_lanes(self.hash);
         let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
         let seed_z = lowbias32_lanes(scramble_seed_y_lanes(hash) ^ U32s::splat(0x9e37_79b9));
@@ -715,8 +731,8 @@ mod tests {
         }
         for step in 0..24 {
             let live: [bool; W] = std::array::from_fn(|i| (i + step) % 3 != 0);
-            let (x, y) = lanes.get_2d(&live);
-            let (c, cx, cy) = lanes.get_choice_2d(&live);
+            let (x, y) = lanes.get_2d(Mask::from_bools(&live));
+            let (c, cx, cy) = lanes.get_choice_2d(Mask::from_bools(&live));
             for i in (0..W).filter(|&i| live[i]) {
                 let u = single[i].get_2d();
                 let (choice, v) = single[i].get_choice_2d();
@@ -728,9 +744,14 @@ mod tests {
                 bits(cy[i], v.y);
             }
             let drawn: [bool; W] = std::array::from_fn(|i| (i + 2 * step) % 5 < 3);
-            let r = lanes.get_1d(&drawn);
+            let r = lanes.get_1d(Mask::from_bools(&drawn));
             for i in (0..W).filter(|&i| drawn[i]) {
                 assert_eq!(r[i].to_bits(), single[i].get_1d().to_bits(), "lane {i}");
+            }
+            let skipping: [bool; W] = std::array::from_fn(|i| (i + step) % 4 == 1);
+            lanes.skip_2d(Mask::from_bools(&skipping));
+            for i in (0..W).filter(|&i| skipping[i]) {
+                single[i].skip_2d();
             }
             let rr = step % W;
             let u = lanes.with(rr, Sampler::get_1d);
@@ -764,14 +785,14 @@ mod tests {
         for (i, s) in single.iter().enumerate() {
             lanes.set(i, *s);
         }
-        let all = [true; W];
+        let all = Mask::splat(true);
         for step in 0..3 * W {
             // A new sample in one lane, of the other kind every third step.
             let i = step % W;
             single[i] = Sampler::with_kind(kind(i + step / W), 5, 40 + i as u64, step as u64);
             lanes.set(i, single[i]);
-            let (x, _) = lanes.get_2d(&all);
-            let r = lanes.get_1d(&all);
+            let (x, _) = lanes.get_2d(all);
+            let r = lanes.get_1d(all);
             for (i, s) in single.iter_mut().enumerate() {
                 assert_eq!(
                     x[i].to_bits(),

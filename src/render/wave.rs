@@ -140,7 +140,7 @@ fn run_wave<const W: usize>(
         }
         stats.rays += u64::from(live.count());
         scene.intersect_wave(&paths.rays(live), &mut hits, &mut surfaces, &mut found);
-        let (ux, uy) = samplers.get_2d(&live.to_bools());
+        let (ux, uy) = samplers.get_2d(live);
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
         // The hits kept in lanes that belong on the route stay there; the others' are taken
@@ -197,7 +197,7 @@ fn run_wave<const W: usize>(
         stats.rays += u64::from(shadows.live.count());
         let blocked = scene.occluded_lanes(&shadows);
         let scattering = general | route.on_lanes();
-        let u_scatter = samplers.get_choice_2d(&scattering.to_bools());
+        let u_scatter = samplers.get_choice_2d(scattering);
         let sampled = if general.any() {
             Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch)
         } else {
@@ -284,9 +284,8 @@ fn start_in_lanes<const W: usize>(
     samplers: &mut SamplerLanes<W>,
     paths: &mut PathLanes<W>,
 ) {
-    let drawing = std::array::from_fn(|i| fresh.lane(i));
-    let jitter = samplers.get_2d(&drawing);
-    samplers.skip_2d(&drawing);
+    let jitter = samplers.get_2d(fresh);
+    samplers.skip_2d(fresh);
     crate::lanes::widest!(
         W,
         (scene: &Scene, fresh: Mask<W>, xy: (F32s<W>, F32s<W>), jitter: (F32s<W>, F32s<W>), paths: &mut PathLanes<W>) => (),
