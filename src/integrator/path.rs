@@ -977,14 +977,17 @@ impl<const W: usize> LambertRoute<W> {
         let [s, t, n] = crate::math::Frame::from_normal_lanes(n);
         let keep = self.scalar_frame;
         let b = &mut self.bsdf;
+        // The normal kept in a register for the light kernel: read back from `b.n`, it waited
+        // for the stores of the lanes just blended.
+        let n = V3s::select(keep, b.n, n);
         b.s = V3s::select(keep, b.s, s);
         b.t = V3s::select(keep, b.t, t);
-        b.n = V3s::select(keep, b.n, n);
+        b.n = n;
         b.wo = wo;
         let l = &mut self.lights;
         l.p = self.p;
         l.ng = ng;
-        l.frame_n = b.n;
+        l.frame_n = n;
         l.bsdf_ng = ng;
         l.albedo = self.albedo;
         l.wo = wo;
@@ -1161,8 +1164,8 @@ impl<const W: usize> LambertRoute<W> {
             std::array::from_fn(|i| go_lanes[i] & (paths.depth[i] >= RR_DEPTH));
         let mut survive = go;
         if roulette.contains(&true) {
-            let u = samplers.get_1d(&roulette);
             let roulette = Mask::from_bools(&roulette);
+            let u = samplers.get_1d(roulette);
             survive = go.and_not(roulette.and_not(russian_roulette_lanes(paths, roulette, u)));
         }
         let black = paths.beta.is_zero();
