@@ -25,16 +25,20 @@ Per scene:
    (per-pixel differences averaged), or the script stops with exit code 1 before timing
    anything;
 3. the ladder: Mitsuba ``ldsampler`` and ``multijitter`` (``llvm_ad_rgb``, both cores) and lumo
-   (its default sampler, both cores) at every ``--spp``, each rung timed ``--repeats`` times
-   (same seed) and the fastest kept; the times are the renderers' own (Mitsuba: ``mi.render`` and
-   reading the image back; lumo: "rendered ... in T s", scene loading excluded), with the CPU
-   time of the whole process beside them;
+   (its default sampler, both cores) at every ``--spp``, each rung rendered ``--repeats`` times
+   with seeds spp, spp + 1000, spp + 2000, … (the same seeds for every renderer); a rung's time
+   is the fastest repeat's, its RMSE the root of the repeats' mean squared error (one seed's
+   RMSE moves by ±4 % on the icosphere at 64 spp, which moves a time to equal error by ±8 %);
+   the times are the renderers' own (Mitsuba: ``mi.render`` and reading the image back; lumo:
+   "rendered ... in T s", scene loading excluded), with the CPU time of the whole process
+   beside them;
 4. the tables: RMSE and seconds per rung, samples/s at 64 spp, and the time each renderer needs
    to reach Mitsuba ``ldsampler``'s 64-spp RMSE (log-log interpolation along its ladder, as
    ``compare.py`` does for the Cornell box), with lumo's time over the best Mitsuba's.
 
-Writes ``out/mesh/results.csv`` (scene, renderer, spp, seconds, cpu_seconds, rmse, load1) and
-prints the tables in the README's form.
+Writes ``out/mesh/results.csv`` (scene, renderer, spp, seconds, cpu_seconds, rmse, seeds,
+rmse_min, rmse_max — the range of the single seeds' RMSE — and load1) and prints the tables in
+the README's form.
 """
 
 from __future__ import annotations
@@ -61,6 +65,8 @@ import mitsuba_cornell
 BOXES = ("small-box", "large-box")
 REFERENCE_SEED_BASE = 1_000_000
 CHECK_SEED = 424_242
+# A rung's k-th repeat renders with seed spp + SEED_STEP·k.
+SEED_STEP = 1000
 
 
 def bunny() -> tuple[np.ndarray, np.ndarray]:
@@ -227,30 +233,38 @@ def main() -> None:
         for spp in ladder:
             for peer in ("mitsuba-ldsampler", "mitsuba-multijitter", "lumo"):
                 best = None
+                squared_errors = []
                 load = common.load1()
                 exr = folder / f"{peer}_{spp}spp.exr"
-                for _ in range(args.repeats):
+                for repeat in range(args.repeats):
+                    seed = spp + SEED_STEP * repeat
                     if peer == "lumo":
-                        seconds, cpu = lumo_render(args.lumo, scene_path, exr, spp, spp)
-                        img = None
+                        # The first seed's image is kept, as Mitsuba's below.
+                        out = exr if repeat == 0 else folder / "lumo_repeat.exr"
+                        seconds, cpu = lumo_render(args.lumo, scene_path, out, spp, seed)
+                        img = common.read_exr(out)
                     else:
                         img, seconds, cpu = mitsuba_render(mi, scenes[peer.split("-")[1]], spp,
-                                                           spp)
+                                                           seed)
+                        if repeat == 0:
+                            common.write_exr(exr, img)
+                    squared_errors.append(compare.errors(img, ref, exr)[0] ** 2)
                     if best is None or seconds < best[0]:
-                        best = (seconds, cpu, img)
-                seconds, cpu, img = best
-                if img is not None:
-                    common.write_exr(exr, img)
-                rmse = compare.errors(common.read_exr(exr), ref, exr)[0]
+                        best = (seconds, cpu)
+                seconds, cpu = best
+                rmse = math.sqrt(sum(squared_errors) / len(squared_errors))
+                seed_rmse = [math.sqrt(e) for e in squared_errors]
                 rung = compare.Rung(peer, spp, seconds, cs.WIDTH * cs.HEIGHT * spp / seconds,
                                     f"{load:.2f}", exr, cpu, rmse)
                 ladders.setdefault(peer, []).append(rung)
                 rows.append({"scene": name, "renderer": peer, "spp": spp,
                              "seconds": f"{seconds:.4f}", "cpu_seconds": f"{cpu:.4f}",
-                             "rmse": f"{rmse:.6f}", "load1": f"{load:.2f}"})
+                             "rmse": f"{rmse:.6f}", "seeds": len(seed_rmse),
+                             "rmse_min": f"{min(seed_rmse):.6f}",
+                             "rmse_max": f"{max(seed_rmse):.6f}", "load1": f"{load:.2f}"})
                 print(f"{name} {peer:20s} {spp:4d} spp {seconds:8.3f} s  cpu {cpu:7.3f} s  "
-                      f"RMSE {rmse:.5f}  {rung.samples_per_second / 1e6:.2f} M samples/s  "
-                      f"(load {load:.2f})")
+                      f"RMSE {rmse:.5f} [{min(seed_rmse):.5f}–{max(seed_rmse):.5f}]  "
+                      f"{rung.samples_per_second / 1e6:.2f} M samples/s  (load {load:.2f})")
         target = next(r.rmse for r in ladders["mitsuba-ldsampler"] if r.spp == 64)
         print(f"\n{name}: time to Mitsuba ldsampler's 64-spp RMSE ({target:.5f}):")
         times = {p: compare.time_to_error(r, target) for p, r in ladders.items()}
