@@ -379,6 +379,19 @@ pub const SPHERICAL_SAMPLING_MIN_SOLID_ANGLE: f32 = 0.2;
 /// this, under [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] by a margin far beyond rounding.
 const SPHERICAL_SAMPLING_PLANE_BOUND: f32 = 0.19;
 
+/// The light kernel ([`TriangleLanes::sample`]) decides by area where a triangle's solid angle
+/// computed in f32 is below [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] − 10⁻³ sr: then the f64
+/// one of [`SphericalTriangle::seen_from`] is below the threshold too. Near 0.2 sr the
+/// formula's f32 error is a few 10⁻⁷ (unit vectors within a few ulp, no cancellation in a
+/// denominator near 4): the margin is thousands of times that (tested against `seen_from` near
+/// the threshold). The kernel compares N < D·tan(Ω/2) for Ω = 2 atan2(N, D), so the threshold
+/// is kept as tan((0.2 − 10⁻³) / 2) (a test checks it against the two constants).
+const TAN_HALF_F32_THRESHOLD: f32 = 0.099_829_66;
+
+/// The margin below the threshold that [`TAN_HALF_F32_THRESHOLD`] keeps, in steradians.
+#[cfg(test)]
+const F32_MARGIN: f32 = 1e-3;
+
 /// A bounding sphere seen with sin² α below this subtends 2π sin²α / (1 + cos α) < 0.192 sr,
 /// under [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] with a margin far beyond rounding (tested).
 const SPHERICAL_SAMPLING_FAR_SIN2: f32 = 0.06;
@@ -567,9 +580,9 @@ pub(crate) struct TriangleLanes<const W: usize> {
 /// What [`TriangleLanes::sample`] found in each lane.
 pub(crate) struct TriangleSamples<const W: usize> {
     /// The lanes it decided: those behind a one-sided emitter and those that sample the
-    /// triangle by area ([`Light::sample`]'s choice, with its bounds); in the others the
-    /// triangle may subtend [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`], and [`Light::sample`]
-    /// decides.
+    /// triangle by area ([`Light::sample`]'s choice, by its bounds or by the solid angle in
+    /// f32 well below the threshold); in the others the triangle may subtend
+    /// [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`], and [`Light::sample`] decides.
     pub decided: Mask<W>,
     /// The decided lanes with a sample ([`Light::sample`] gives `Some`).
     pub valid: Mask<W>,
@@ -668,7 +681,26 @@ impl<const W: usize> TriangleLanes<W> {
         let h = self.n.dot(p - v0).abs();
         let near_plane = gap.gt(zero)
             & (self.area * h).lt(F32s::splat(SPHERICAL_SAMPLING_PLANE_BOUND) * (gap * gap * gap));
-        let by_area = far | (d2.gt(self.r2) & (small | near_plane));
+        let bounded_small = far | (d2.gt(self.r2) & (small | near_plane));
+        // The bounds are loose for points a little farther than the bounding sphere's reach:
+        // there `seen_from`'s exact solid angle (in f64) usually rejects the triangle after
+        // all. Lanes the bounds leave open take the same formula in f32 here, and those well
+        // below the threshold are decided too (see `TAN_HALF_F32_THRESHOLD`).
+        let open = !behind & !bounded_small;
+        let by_area = if open.any() {
+            let corner = |v: V3s<W>| (v - p).normalize();
+            let (a, b, c) = (corner(v0), corner(v1), corner(v2));
+            // Ω = 2 atan2(N, D) (Van Oosterom and Strackee) with N ≥ 0 is below the threshold
+            // minus the margin, Ω', exactly where D > 0 and N < D tan(Ω'/2): no arctangent.
+            let numerator = a.dot(b.cross(c)).abs();
+            let denominator = F32s::splat(1.0) + a.dot(b) + b.dot(c) + c.dot(a);
+            // A NaN (a corner at p) fails both comparisons and leaves the lane open.
+            let exact_small = denominator.gt(F32s::splat(0.0))
+                & numerator.lt(denominator * F32s::splat(TAN_HALF_F32_THRESHOLD));
+            bounded_small | (open & exact_small)
+        } else {
+            bounded_small
+        };
         // A uniform point on the triangle (pbrt-v4's square-root mapping).
         let su = u.0.sqrt();
         let (b0, b1) = (1.0 - su, u.1 * su);
@@ -988,6 +1020,85 @@ pub(crate) mod tests {
             quick > 10_000,
             "only {quick} quick rejections: the test tests little"
         );
+    }
+
+    #[test]
+    fn the_tangent_of_the_f32_threshold_is_the_thresholds() {
+        let half = f64::from(SPHERICAL_SAMPLING_MIN_SOLID_ANGLE - F32_MARGIN) / 2.0;
+        assert!((f64::from(TAN_HALF_F32_THRESHOLD) - half.tan()).abs() < 1e-8);
+    }
+
+    /// The light kernel decides by area only where [`SphericalTriangle::seen_from`] samples by
+    /// area: random two-sided triangles seen from points whose solid angle lies around
+    /// [`SPHERICAL_SAMPLING_MIN_SOLID_ANGLE`] (where the bounds leave lanes open and the f32
+    /// solid angle decides), at W = 16 and 4.
+    #[test]
+    fn lanes_decide_by_area_only_where_seen_from_does() {
+        fn check<const W: usize>(seed: u64) -> (usize, usize) {
+            let mut rng = crate::sampler::Pcg32::new(seed, 3);
+            let (mut by_f32, mut near) = (0, 0);
+            for _ in 0..20_000 / W {
+                let mut r = || rng.next_f32() * 2.0 - 1.0;
+                let v = [
+                    Vec3::new(r(), r(), r()),
+                    Vec3::new(r(), r(), r()),
+                    Vec3::new(r(), r(), r()),
+                ];
+                let light = triangle_light(v, Vec3::ONE, true);
+                let Light::Triangle {
+                    n, area, sphere, ..
+                } = light
+                else {
+                    unreachable!()
+                };
+                let centroid = sphere.0;
+                let mut lanes = TriangleLanes::<W>::new();
+                let mut points = [Vec3::ZERO; W];
+                for (i, point) in points.iter_mut().enumerate() {
+                    lanes.set(i, &light);
+                    // Distances where a triangle of this area subtends about 0.2 sr.
+                    let dir = Vec3::new(r(), r(), r()).normalize_or_zero();
+                    let d = (area / 0.2).sqrt() * (0.6 + 0.8 * (r() * 0.5 + 0.5));
+                    *point = centroid + dir * d;
+                }
+                let p = V3s::from_fn(|i| points[i]);
+                let out = lanes.sample(p, (F32s::splat(0.5), F32s::splat(0.5)));
+                for (i, &p) in points.iter().enumerate() {
+                    let seen = SphericalTriangle::seen_from(p, v, (n, area), sphere);
+                    let q = p.as_dvec3();
+                    let [a, b, c] = v.map(|c| (c.as_dvec3() - q).normalize_or_zero());
+                    let omega = solid_angle_of(a, b, c);
+                    let bound = f64::from(SPHERICAL_SAMPLING_MIN_SOLID_ANGLE);
+                    if (bound - 2e-3..bound).contains(&omega) {
+                        near += 1;
+                    }
+                    if out.decided.lane(i) {
+                        assert!(
+                            seen.is_none(),
+                            "{v:?} from {p:?}: Ω {omega}, decided by area"
+                        );
+                        let (d2, r2) = ((p - centroid).length_squared(), sphere.1);
+                        let bounded = far_beyond_sphere(d2, r2)
+                            || (d2 > r2
+                                && (sphere_solid_angle(r2 / d2)
+                                    < SPHERICAL_SAMPLING_MIN_SOLID_ANGLE
+                                    || near_plane_bound_rejects(p, (v[0], n, area), d2, r2)));
+                        by_f32 += usize::from(!bounded);
+                    }
+                }
+            }
+            (by_f32, near)
+        }
+        for (by_f32, near) in [check::<16>(21), check::<4>(22)] {
+            assert!(
+                by_f32 > 2_000,
+                "only {by_f32} lanes decided by the f32 solid angle"
+            );
+            assert!(
+                near > 50,
+                "only {near} points within 0.002 sr under the threshold"
+            );
+        }
     }
 
     /// The bound for points near a triangle's plane, A·h / (d − r)³, is never below the solid
