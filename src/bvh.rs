@@ -224,6 +224,19 @@ impl Bvh {
         box_of: impl Fn(usize) -> Aabb + Sync,
         leaf_cost: LeafCost,
     ) -> Bvh {
+        let mut bvh = Bvh::build_transient(count, box_of, leaf_cost);
+        bvh.nodes.shrink_to_fit();
+        bvh
+    }
+
+    /// [`Bvh::build_from`] for a tree that is read once and dropped (as the binary tree that
+    /// [`crate::geometry::TriangleBvh`] collapses): its node array keeps the capacity of the
+    /// bound 2n − 1, untouched beyond the nodes written, instead of being shrunk by a copy.
+    pub(crate) fn build_transient(
+        count: usize,
+        box_of: impl Fn(usize) -> Aabb + Sync,
+        leaf_cost: LeafCost,
+    ) -> Bvh {
         // Written in place (an indexed collect), then the unhittable ones (empty or
         // non-finite boxes) are dropped, in the rare case that there are any.
         let mut refs: Vec<PrimRef> = (0..count as u32)
@@ -254,8 +267,7 @@ impl Bvh {
         }
         let range = Range::of_par(&refs);
         // A binary tree over n ≥ 1 primitives has at most 2n − 1 nodes. The array is reserved
-        // at that size, but only the pages of the nodes written are ever touched, and it is
-        // shrunk (in place) afterwards.
+        // at that size, but only the pages of the nodes written are ever touched.
         // SAFETY: `build_node` writes the node it is given and every index it takes.
         let nodes = unsafe {
             Arena::fill(2 * refs.len(), |arena| {
@@ -481,6 +493,9 @@ impl Range {
 /// Nodes with more primitives than this bin them in parallel chunks of `PAR_CHUNK`.
 const PAR_BINNING: usize = 4 * PAR_CHUNK;
 const PAR_CHUNK: usize = 16 * 1024;
+/// Nodes of at least this many primitives bin the even and the odd ones into two sets of bins,
+/// merged at the end.
+const TWO_BIN_SETS: usize = 64;
 
 /// Per-bin boxes, centroid boxes and counts along one axis, `N` bins.
 #[derive(Clone, Copy)]
@@ -566,15 +581,32 @@ fn split_along<const AXIS: usize, const BINS: usize>(
     if span > 0.0 {
         // Bin the centroids and sweep for the cheapest split (SAH).
         let scale = BINS as f32 / span;
-        let bin_of = |c: Vec3A| ((c.to_array()[AXIS] - lo) * scale).min((BINS - 1) as f32) as usize;
+        let bin_of = |c: Vec3A| {
+            let x = ((c.to_array()[AXIS] - lo) * scale)
+                .max(0.0)
+                .min((BINS - 1) as f32);
+            // SAFETY: clamped to 0..=BINS − 1 (`max` of a NaN and 0 is 0).
+            unsafe { x.to_int_unchecked::<u32>() as usize }
+        };
+        let add = |bins: &mut Bins<BINS>, r: &PrimRef| {
+            let b = bin_of(r.center());
+            bins.range[b] = bins.range[b].add(r);
+            bins.count[b] += 1;
+        };
         let bin = |refs: &[PrimRef]| {
             let mut bins = Bins::<BINS>::EMPTY;
-            for r in refs {
-                let b = bin_of(r.center());
-                bins.range[b] = bins.range[b].add(r);
-                bins.count[b] += 1;
+            if refs.len() < TWO_BIN_SETS {
+                refs.iter().for_each(|r| add(&mut bins, r));
+                return bins;
             }
-            bins
+            let mut odd = Bins::<BINS>::EMPTY;
+            let (pairs, rest) = refs.as_chunks::<2>();
+            for [r, s] in pairs {
+                add(&mut bins, r);
+                add(&mut odd, s);
+            }
+            rest.iter().for_each(|r| add(&mut bins, r));
+            bins.merge(odd)
         };
         let bins = if count > PAR_BINNING {
             refs.par_chunks(PAR_CHUNK)
@@ -643,9 +675,10 @@ pub(crate) struct Arena<T> {
 unsafe impl<T: Send> Sync for Arena<T> {}
 
 impl<T> Arena<T> {
-    /// Runs `build` over an arena of at most `cap` elements and returns the elements it took.
-    /// The capacity is reserved but only the pages written are touched, and the array is
-    /// shrunk (in place) afterwards.
+    /// Runs `build` over an arena of at most `cap` elements and returns the elements it took,
+    /// in a vector of capacity `cap`: the capacity is reserved, but only the pages written are
+    /// touched. A caller that keeps the vector shrinks it (for elements aligned to more than 16
+    /// bytes, Rust's system allocator shrinks by allocating, copying and freeing).
     ///
     /// # Safety
     /// `build` must write ([`Arena::set`]) every index it takes ([`Arena::take`]).
@@ -661,7 +694,6 @@ impl<T> Arena<T> {
         // SAFETY: `len` ≤ `cap` (checked by `take`), and the caller guarantees that every
         // index below it, handed out by `take`, was written.
         unsafe { v.set_len(len) };
-        v.shrink_to_fit();
         v
     }
 

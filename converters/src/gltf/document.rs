@@ -17,11 +17,32 @@ pub struct Loaded {
     pub file: PathBuf,
     /// The parsed and structurally validated document.
     pub doc: gltf::Document,
-    /// Buffer contents by index (`None` for a buffer we could not need yet: never happens
-    /// after [`Loaded::open`], kept as a Vec of bytes).
-    pub buffers: Vec<Vec<u8>>,
+    /// Buffer contents by index.
+    pub buffers: Vec<BufferBytes>,
     /// The external buffer files that were read (not the glTF file itself).
     pub buffer_files: Vec<PathBuf>,
+}
+
+/// One buffer's bytes: `data[range]`. The GLB binary chunk keeps the whole file's bytes and
+/// its range in them, so that the geometry of a big `.glb` is never copied (a copy of a
+/// 31 MB chunk cost a few milliseconds and as many fresh pages at every start).
+#[derive(Debug)]
+pub struct BufferBytes {
+    data: Vec<u8>,
+    range: std::ops::Range<usize>,
+}
+
+impl BufferBytes {
+    /// A buffer that is all of `data`.
+    fn whole(data: Vec<u8>) -> BufferBytes {
+        let range = 0..data.len();
+        BufferBytes { data, range }
+    }
+
+    /// The buffer's bytes.
+    pub fn bytes(&self) -> &[u8] {
+        &self.data[self.range.clone()]
+    }
 }
 
 /// Reads a file with a size limit.
@@ -215,20 +236,36 @@ fn parse_error(file: &Path, e: gltf::Error) -> GltfError {
 impl Loaded {
     /// Reads, parses and validates a .gltf or .glb file and loads all its buffers.
     pub fn open(file: &Path) -> Result<Loaded, GltfError> {
-        let bytes = read_file(file)?;
-        Self::from_bytes(file, &bytes, true)
+        Self::from_file_bytes(file, read_file(file)?, true)
     }
 
     /// Parses bytes as the file `file` (used for messages and to resolve relative URIs).
     /// With `external` false, external buffer files are not read (an error names them).
     pub fn from_bytes(file: &Path, bytes: &[u8], external: bool) -> Result<Loaded, GltfError> {
-        precheck(file, bytes)?;
-        let parsed = match gltf::Gltf::from_slice(bytes) {
+        Self::from_file_bytes(file, bytes.to_vec(), external)
+    }
+
+    /// [`Loaded::from_bytes`] taking the file's bytes, which a GLB's binary chunk then keeps.
+    fn from_file_bytes(file: &Path, bytes: Vec<u8>, external: bool) -> Result<Loaded, GltfError> {
+        precheck(file, &bytes)?;
+        // A GLB's JSON chunk is parsed alone and its binary chunk located, not copied out (as
+        // `gltf::Gltf::from_slice` would); the gltf crate parses a GLB just so otherwise.
+        let (json, bin_range) = if bytes.starts_with(b"glTF") {
+            let glb = gltf::Glb::from_slice(&bytes).map_err(|e| parse_error(file, e))?;
+            let bin_range = glb.bin.as_deref().map(|bin| {
+                let start = bin.as_ptr() as usize - bytes.as_ptr() as usize;
+                start..start + bin.len()
+            });
+            (glb.json, bin_range)
+        } else {
+            (std::borrow::Cow::Borrowed(&bytes[..]), None)
+        };
+        let parsed = match gltf::Gltf::from_slice(&json) {
             // The gltf crate refuses required extensions it does not parse itself (clearcoat,
             // sheen); when those are the only complaints and lumo implements them, take the
             // document as parsed (the importer reads those extensions from the raw JSON).
-            Err(gltf::Error::Validation(errors)) if only_handled_required(&errors, bytes) => {
-                gltf::Gltf::from_slice_without_validation(bytes)
+            Err(gltf::Error::Validation(errors)) if only_handled_required(&errors, &json) => {
+                gltf::Gltf::from_slice_without_validation(&json)
             }
             other => other,
         };
@@ -239,7 +276,7 @@ impl Loaded {
             } = &mut err
             {
                 // Recover the extension's name from the raw JSON for the message.
-                if let Ok(raw) = gltf::Gltf::from_slice_without_validation(bytes) {
+                if let Ok(raw) = gltf::Gltf::from_slice_without_validation(&json) {
                     if let Some(name) = raw.document.extensions_required().nth(*index) {
                         *extension = name.to_string();
                     }
@@ -247,7 +284,9 @@ impl Loaded {
             }
             err
         })?;
-        let gltf::Gltf { document, mut blob } = gltf;
+        drop(json);
+        let document = gltf.document;
+        let mut blob = bin_range.map(|range| BufferBytes { data: bytes, range });
         // The GLB binary chunk moves into the one buffer that refers to it (a second such
         // buffer, which glTF does not allow, gets a copy).
         let bin_users = document
@@ -261,8 +300,10 @@ impl Loaded {
             let element = format!("buffers[{}]", buffer.index());
             let data = match buffer.source() {
                 gltf::buffer::Source::Bin => match &mut blob {
-                    Some(b) if bin_users == 1 => std::mem::take(b),
-                    Some(b) => b.clone(),
+                    Some(b) if bin_users == 1 => {
+                        std::mem::replace(b, BufferBytes::whole(Vec::new()))
+                    }
+                    Some(b) => BufferBytes::whole(b.bytes().to_vec()),
                     None => {
                         return Err(GltfError::invalid(
                             file,
@@ -272,7 +313,7 @@ impl Loaded {
                     }
                 },
                 gltf::buffer::Source::Uri(uri) => match decode_data_uri(file, &element, uri) {
-                    Some(r) => r?.0,
+                    Some(r) => BufferBytes::whole(r?.0),
                     None => {
                         let path = dir.join(percent_decode(uri));
                         if !external {
@@ -291,17 +332,17 @@ impl Loaded {
                         }
                         let data = read_file(&path)?;
                         buffer_files.push(path);
-                        data
+                        BufferBytes::whole(data)
                     }
                 },
             };
-            if data.len() < buffer.length() {
+            if data.bytes().len() < buffer.length() {
                 return Err(GltfError::invalid(
                     file,
                     element,
                     format!(
                         "holds {} bytes but its byteLength is {}: the buffer is truncated",
-                        data.len(),
+                        data.bytes().len(),
                         buffer.length()
                     ),
                 ));
@@ -318,7 +359,7 @@ impl Loaded {
 
     /// The bytes of a buffer view, checked against its buffer.
     pub fn view_bytes(&self, view: &gltf::buffer::View, element: &str) -> Result<&[u8], GltfError> {
-        let buf = &self.buffers[view.buffer().index()];
+        let buf = self.buffers[view.buffer().index()].bytes();
         let declared = view.buffer().length().min(buf.len());
         let end = view.offset().checked_add(view.length());
         match end {
