@@ -106,8 +106,8 @@ impl Mesh {
         data.colors = data.colors.filter(|a| a.len() == n);
         let positions = &data.positions;
         let area = |[a, b, c]: [Vec3A; 3]| (b - a).cross(c - a).length_squared() > 0.0;
-        // In SIMD registers (`Vec3A`: each `min` and `max` one instruction, against four for
-        // `Vec3`'s per-component NaN-aware form, with the same result: `x < y ? x : y`, and a
+        // In SIMD registers (`Vec3A`: each `min` and `max` one instruction, against a compare
+        // and blend per component for `Vec3`'s form, with the same result: `x < y ? x : y`, and a
         // cross product of the same products), over chunks of triangles in their order, each
         // corner's position (scattered: vertices are shared with neighbours numbered anywhere)
         // asked for a few triangles ahead, as the BVH's box pass does.
