@@ -522,39 +522,38 @@ impl Loaded {
     }
 
     /// A SCALAR accessor of unsigned integers without sparse substitution (the common case of
-    /// triangle indices), read straight into `u32` (no f64 round trip; the same values as
-    /// [`Loaded::read_accessor`]); `None` for any other accessor.
-    pub fn read_u32s(
+    /// triangle indices), read straight into groups of `N` `u32`s (no f64 round trip, no flat
+    /// copy regrouped afterwards; the same values as [`Loaded::read_accessor`]); `None` for any
+    /// other accessor, or when its count is not a multiple of `N`.
+    pub fn read_u32s<const N: usize>(
         &self,
         acc: &gltf::Accessor,
         element: &str,
-    ) -> Result<Option<Vec<u32>>, GltfError> {
+    ) -> Result<Option<Vec<[u32; N]>>, GltfError> {
         let dt = acc.data_type();
         if acc.dimensions() != Dimensions::Scalar
             || !matches!(dt, DataType::U8 | DataType::U16 | DataType::U32)
             || acc.sparse().is_some()
+            || !acc.count().is_multiple_of(N)
         {
             return Ok(None);
         }
         let Some((bytes, stride)) = self.dense_bytes(acc, element, 1)? else {
             return Ok(None);
         };
-        let count = acc.count();
+        let groups = acc.count() / N;
+        let group = |g: usize, one: &dyn Fn(&[u8]) -> u32| -> [u32; N] {
+            std::array::from_fn(|k| one(&bytes[(g * N + k) * stride..]))
+        };
         Ok(Some(match dt {
-            DataType::U8 => (0..count).map(|i| u32::from(bytes[i * stride])).collect(),
-            DataType::U16 => (0..count)
-                .map(|i| {
-                    u32::from(u16::from_le_bytes([
-                        bytes[i * stride],
-                        bytes[i * stride + 1],
-                    ]))
-                })
+            DataType::U8 => (0..groups)
+                .map(|g| group(g, &|b| u32::from(b[0])))
                 .collect(),
-            _ => (0..count)
-                .map(|i| {
-                    let b = &bytes[i * stride..];
-                    u32::from_le_bytes([b[0], b[1], b[2], b[3]])
-                })
+            DataType::U16 => (0..groups)
+                .map(|g| group(g, &|b| u32::from(u16::from_le_bytes([b[0], b[1]]))))
+                .collect(),
+            _ => (0..groups)
+                .map(|g| group(g, &|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
                 .collect(),
         }))
     }

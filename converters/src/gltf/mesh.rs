@@ -270,41 +270,55 @@ pub fn read_primitive(
         Some(acc) => Some(vertex_colors(loaded, &acc, &el, n)?),
         None => None,
     };
-    let flat: Vec<u32> = match p.indices() {
+    let not_triangles = |count: usize| {
+        GltfError::invalid(
+            file,
+            el.clone(),
+            format!("{count} indices is not a multiple of 3 (TRIANGLES)"),
+        )
+    };
+    let indices: Vec<[u32; 3]> = match p.indices() {
         Some(acc) => {
             let ie = format!("{el}.indices");
             if acc.dimensions() != gltf::accessor::Dimensions::Scalar {
                 return Err(GltfError::invalid(file, ie, "indices must be SCALAR"));
             }
-            let out = match loaded.read_u32s(&acc, &ie)? {
-                Some(out) => out,
-                None => {
-                    let raw = loaded.read_accessor(&acc, &ie)?;
-                    raw.iter()
-                        .map(|&x| (x as u64).min(u64::from(u32::MAX)) as u32)
-                        .collect()
-                }
-            };
-            if let Some(k) = out.iter().position(|&i| i as usize >= n) {
-                return Err(GltfError::invalid(
+            let out_of_range = |flat: &[u32]| {
+                let k = flat.iter().position(|&i| i as usize >= n)?;
+                Some(GltfError::invalid(
                     file,
                     format!("{ie} (accessors[{}])", acc.index()),
-                    format!("index {k} is {}, out of range for {n} vertices", out[k]),
-                ));
+                    format!("index {k} is {}, out of range for {n} vertices", flat[k]),
+                ))
+            };
+            // Most index accessors are read straight into triangles; any other is read flat
+            // and checked in the same order (range first, then count).
+            match loaded.read_u32s::<3>(&acc, &ie)? {
+                Some(indices) => match out_of_range(indices.as_flattened()) {
+                    Some(e) => return Err(e),
+                    None => indices,
+                },
+                None => {
+                    let flat: Vec<u32> = loaded
+                        .read_accessor(&acc, &ie)?
+                        .iter()
+                        .map(|&x| (x as u64).min(u64::from(u32::MAX)) as u32)
+                        .collect();
+                    if let Some(e) = out_of_range(&flat) {
+                        return Err(e);
+                    }
+                    if !flat.len().is_multiple_of(3) {
+                        return Err(not_triangles(flat.len()));
+                    }
+                    flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+                }
             }
-            out
         }
-        None => (0..n as u32).collect(),
+        None if n.is_multiple_of(3) => (0..n as u32 / 3)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect(),
+        None => return Err(not_triangles(n)),
     };
-    if !flat.len().is_multiple_of(3) {
-        return Err(GltfError::invalid(
-            file,
-            el,
-            format!("{} indices is not a multiple of 3 (TRIANGLES)", flat.len()),
-        ));
-    }
-    let indices: Vec<[u32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    drop(flat);
     let tangents = match (&normals, p.get(&Semantic::Tangents)) {
         // glTF §3.7.2.1: without normals, given tangents are ignored (shading is flat).
         (None, _) => None,
@@ -534,4 +548,70 @@ fn vec3s(loaded: &Loaded, acc: &gltf::Accessor, element: &str) -> Result<Vec<[f3
         .chunks_exact(3)
         .map(|c| [c[0] as f32, c[1] as f32, c[2] as f32])
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use base64::Engine as _;
+
+    /// A one-primitive glTF: three vertices and an index accessor of `component_type` (5121
+    /// bytes, 5123 shorts, 5125 ints) holding `indices`, in a data-URI buffer.
+    fn triangles(component_type: u32, indices: &[u32]) -> Result<MeshData, GltfError> {
+        let mut bin = Vec::new();
+        for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+            p.iter()
+                .for_each(|c| bin.extend_from_slice(&c.to_le_bytes()));
+        }
+        let at = bin.len();
+        for &i in indices {
+            match component_type {
+                5121 => bin.push(i as u8),
+                5123 => bin.extend_from_slice(&(i as u16).to_le_bytes()),
+                _ => bin.extend_from_slice(&i.to_le_bytes()),
+            }
+        }
+        let uri = base64::engine::general_purpose::STANDARD.encode(&bin);
+        let json = serde_json::json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{uri}")}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": at},
+                {"buffer": 0, "byteOffset": at, "byteLength": bin.len() - at}
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 0]},
+                {"bufferView": 1, "componentType": component_type, "count": indices.len(), "type": "SCALAR"}
+            ],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}]
+        });
+        let text = serde_json::to_vec(&json).unwrap();
+        let loaded = Loaded::from_bytes(Path::new("t.gltf"), &text, false)?;
+        read_primitive(&loaded, 0, 0)
+    }
+
+    /// Indices of every integer type become the same triangles; a count that is not a multiple
+    /// of three and an index past the last vertex are refused with the index named, the range
+    /// checked first.
+    #[test]
+    fn index_accessors_become_triangles_or_located_errors() {
+        for ty in [5121, 5123, 5125] {
+            let mesh = triangles(ty, &[0, 1, 2, 2, 1, 0]).unwrap();
+            assert_eq!(
+                mesh.indices,
+                vec![[0, 1, 2], [2, 1, 0]],
+                "componentType {ty}"
+            );
+            let err = triangles(ty, &[0, 1, 2, 1]).unwrap_err().to_string();
+            assert!(err.contains("4 indices is not a multiple of 3"), "{err}");
+            let err = triangles(ty, &[0, 1, 2, 2, 3, 0]).unwrap_err().to_string();
+            assert!(
+                err.contains("index 4 is 3, out of range for 3 vertices"),
+                "{err}"
+            );
+            let err = triangles(ty, &[0, 1, 2, 7]).unwrap_err().to_string();
+            assert!(err.contains("index 3 is 7, out of range"), "{err}");
+        }
+    }
 }
