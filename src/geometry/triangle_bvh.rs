@@ -587,22 +587,42 @@ impl LeafStarts {
         self.before[first / 64] + below.count_ones()
     }
 
-    /// Each leaf's first slot and slot count, in slot order, over `slots` slots.
-    fn leaves(&self, slots: usize) -> Vec<(usize, usize)> {
+    /// The leaves in slot order, over `slots` slots.
+    fn leaves(&self, slots: usize) -> Leaves {
         let mut firsts = Vec::with_capacity(self.before.last().map_or(0, |&b| b as usize) + 64);
         for (w, &word) in self.bits.iter().enumerate() {
             let mut rest = word;
             while rest != 0 {
-                firsts.push(w * 64 + rest.trailing_zeros() as usize);
+                firsts.push((w * 64) as u32 + rest.trailing_zeros());
                 rest &= rest - 1;
             }
         }
-        let ends = firsts.iter().skip(1).copied().chain([slots]);
-        firsts
-            .iter()
-            .zip(ends)
-            .map(|(&first, end)| (first, end - first))
-            .collect()
+        Leaves { firsts, slots }
+    }
+}
+
+/// A binary tree's leaves in slot order, as their first slots alone (4 bytes a leaf): leaf k
+/// runs from its first slot to the next leaf's.
+struct Leaves {
+    firsts: Vec<u32>,
+    slots: usize,
+}
+
+impl Leaves {
+    fn len(&self) -> usize {
+        self.firsts.len()
+    }
+
+    /// Leaf `k`'s first slot and slot count (`k` < [`Leaves::len`]).
+    fn span(&self, k: usize) -> (usize, usize) {
+        let first = self.firsts[k] as usize;
+        let end = self.firsts.get(k + 1).map_or(self.slots, |&e| e as usize);
+        (first, end - first)
+    }
+
+    /// [`Leaves::span`], or `None` past the last leaf.
+    fn get(&self, k: usize) -> Option<(usize, usize)> {
+        (k < self.len()).then(|| self.span(k))
     }
 }
 
@@ -802,16 +822,16 @@ impl TriangleBvh {
         drop((bin, starts));
         crate::phases::mark("bvh: 8-wide nodes");
         let ahead = |j: usize, stage: Prefetch| {
-            if let Some(&(first, count)) = leaves.get(j) {
+            if let Some((first, count)) = leaves.get(j) {
                 for &t in &prims[first..first + count] {
                     prefetch(t as usize, stage);
                 }
             }
         };
-        let packets: Vec<Packet> = leaves
-            .par_iter()
-            .enumerate()
-            .map(|(j, &(first, count))| {
+        let packets: Vec<Packet> = (0..leaves.len())
+            .into_par_iter()
+            .map(|j| {
+                let (first, count) = leaves.span(j);
                 ahead(j + 2 * PREFETCH_LEAVES, Prefetch::Indices);
                 ahead(j + PREFETCH_LEAVES, Prefetch::Corners);
                 Packet::new(
@@ -1493,7 +1513,10 @@ mod tests {
                 }
             }
             let starts = LeafStarts::of(&bin.nodes, bin.prims.len());
-            assert_eq!(starts.leaves(bin.prims.len()), walk, "{count} triangles");
+            let leaves = starts.leaves(bin.prims.len());
+            let found: Vec<_> = (0..leaves.len() + 1).map(|k| leaves.get(k)).collect();
+            let expected: Vec<_> = walk.iter().copied().map(Some).chain([None]).collect();
+            assert_eq!(found, expected, "{count} triangles");
             for (n, packet) in bin.nodes.iter().zip(&packet_of) {
                 if let Some(p) = packet {
                     assert_eq!(starts.packet(n.first() as usize), *p, "{count} triangles");
