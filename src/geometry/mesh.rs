@@ -105,6 +105,7 @@ impl Mesh {
         data.tangents = data.tangents.filter(|a| a.len() == n);
         data.colors = data.colors.filter(|a| a.len() == n);
         let positions = &data.positions;
+        let corners = |t: &[u32; 3]| t.map(|i| Vec3A::from(positions[i as usize]));
         let area = |[a, b, c]: [Vec3A; 3]| (b - a).cross(c - a).length_squared() > 0.0;
         // In SIMD registers (`Vec3A`: each `min` and `max` one instruction, against a compare
         // and blend per component for `Vec3`'s form, with the same result: `x < y ? x : y`, and a
@@ -122,11 +123,11 @@ impl Mesh {
                                 prefetch_line(positions.as_ptr().wrapping_add(i as usize));
                             }
                         }
-                        let corners = t.map(|i| Vec3A::from(positions[i as usize]));
-                        for c in corners {
+                        let t = corners(t);
+                        for c in t {
                             (min, max) = (min.min(c), max.max(c));
                         }
-                        ok &= area(corners);
+                        ok &= area(t);
                     }
                     (min, max, ok)
                 })
@@ -144,7 +145,7 @@ impl Mesh {
         let (mut bounds, all_ok) = bounds_of(&data.triangles);
         // Copied only when some triangle is dropped; else shared with the caller.
         if !all_ok {
-            let kept = |t: &[u32; 3]| area(t.map(|i| Vec3A::from(positions[i as usize])));
+            let kept = |t: &[u32; 3]| area(corners(t));
             data.triangles = Arc::new(data.triangles.par_iter().copied().filter(kept).collect());
             bounds = bounds_of(&data.triangles).0;
         }

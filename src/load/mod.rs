@@ -172,7 +172,7 @@ pub struct Loaded {
     pub description: SceneFile,
     /// The meshes and images the scene references.
     pub assets: Assets,
-    /// The input file's SHA-256, begun when loading began (see [`Loaded::content_hash`]).
+    /// A glTF input file's SHA-256, begun when loading began (see [`Loaded::content_hash`]).
     input_hash: EarlyHash,
 }
 
@@ -357,7 +357,12 @@ pub fn is_fragment_file(path: &Path) -> bool {
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, LoadError> {
     let path = path.as_ref();
     crate::phases::mark("load: start");
-    let input_hash = EarlyHash::start(path);
+    // A glTF input is itself among the assets the content hash covers (a JSON or legacy
+    // input is hashed as the scene it describes, not as a file).
+    let input_hash = match kind_of(path) {
+        Ok(InputKind::Gltf) => EarlyHash::start(path),
+        _ => EarlyHash::default(),
+    };
     let (description, opened) = read_scene_keeping_gltf(path, options)?;
     crate::phases::mark("load: scene read and validated");
     let assets = Assets::read_with(&description.scene, &description.base_dir, opened)
@@ -519,7 +524,8 @@ mod tests {
     use super::*;
 
     /// A `.glb` input's content hash is the same whether its bytes were hashed as loading began
-    /// or are hashed when the hash is asked for, and the early hash is the file's SHA-256.
+    /// or are hashed when the hash is asked for, and the early hash is the file's SHA-256; a
+    /// JSON input starts no such hash.
     #[test]
     fn an_input_hashed_early_hashes_the_same() {
         let dir = tempfile::tempdir().unwrap();
@@ -537,5 +543,8 @@ mod tests {
         let mut late = early.clone();
         late.input_hash = EarlyHash::default();
         assert_eq!(late.content_hash().unwrap(), hash);
+        // A JSON input is no asset: nothing is hashed for it ahead.
+        let json = load(scenes.join("cornell.json"), &LoadOptions::default()).unwrap();
+        assert!(json.input_hash.0.is_none());
     }
 }

@@ -541,20 +541,26 @@ impl Loaded {
         let Some((bytes, stride)) = self.dense_bytes(acc, element, 1)? else {
             return Ok(None);
         };
-        let groups = acc.count() / N;
-        let group = |g: usize, one: &dyn Fn(&[u8]) -> u32| -> [u32; N] {
-            std::array::from_fn(|k| one(&bytes[(g * N + k) * stride..]))
-        };
+        // Each element type its own loop (`one` reads the element at the start of a slice).
+        fn groups<const N: usize>(
+            bytes: &[u8],
+            stride: usize,
+            count: usize,
+            one: impl Fn(&[u8]) -> u32,
+        ) -> Vec<[u32; N]> {
+            (0..count / N)
+                .map(|g| std::array::from_fn(|k| one(&bytes[(g * N + k) * stride..])))
+                .collect()
+        }
+        let count = acc.count();
         Ok(Some(match dt {
-            DataType::U8 => (0..groups)
-                .map(|g| group(g, &|b| u32::from(b[0])))
-                .collect(),
-            DataType::U16 => (0..groups)
-                .map(|g| group(g, &|b| u32::from(u16::from_le_bytes([b[0], b[1]]))))
-                .collect(),
-            _ => (0..groups)
-                .map(|g| group(g, &|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
-                .collect(),
+            DataType::U8 => groups(bytes, stride, count, |b| u32::from(b[0])),
+            DataType::U16 => groups(bytes, stride, count, |b| {
+                u32::from(u16::from_le_bytes([b[0], b[1]]))
+            }),
+            _ => groups(bytes, stride, count, |b| {
+                u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            }),
         }))
     }
 
