@@ -21,7 +21,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use lumo_schema as schema;
@@ -30,7 +30,7 @@ use crate::aov::{Aov, AovSet, PassImage, PassPixels};
 use crate::denoise::{DenoiseError, Oidn, Prefilter};
 use crate::image::Image;
 use crate::light_sampler::{LightSampler, LightSamplerKind};
-use crate::load::{LoadError, Loaded};
+use crate::load::{HashInputs, LoadError, Loaded};
 use crate::multilayer::ChannelGroup;
 use crate::output::{write_image, ToneMap};
 use crate::partial_film::{self, FilmHeader, PartialFilm};
@@ -92,6 +92,15 @@ pub struct JobSettings {
     pub command: Option<Vec<String>>,
     /// Render passes besides the beauty ([`crate::aov`]).
     pub aovs: AovSet,
+    /// Take the scene's content hash (the `scene_hash` of the job's films) only when a film or
+    /// checkpoint is first made, not while the job is set up: for jobs that make one only if
+    /// interrupted (`lumo render` without `--film`, `--checkpoint` or `--resume`), which then
+    /// spend no start time on it (a 31 MB glTF: about 20 ms of a core, beside a scene build
+    /// that wants every core). A hash taken late is of the files as they are then: when one
+    /// of them changed since the scene was loaded (its length or time of last change), the
+    /// films carry no hash that any other film matches, and no checkpoint is made. Not with
+    /// `resume` or `checkpoint`, which need the hash from the start.
+    pub defer_scene_hash: bool,
 }
 
 /// Why a job could not be set up or finished.
@@ -135,7 +144,7 @@ pub const SPLIT_EXCLUDES_BUDGETS: &str =
 pub struct RenderJob {
     scene: Scene,
     settings: JobSettings,
-    scene_hash: String,
+    scene_hash: Arc<SceneHash>,
     sampler: String,
     window: Window,
     first_sample: u32,
@@ -182,12 +191,64 @@ pub struct Finished {
     /// Samples per pixel of the checkpoint the job resumed.
     resumed_spp: Option<u64>,
     /// What the film is of, but its build id, which hashes the running program and is only
-    /// worth its time (tens of milliseconds) when a film is asked for.
+    /// worth its time (tens of milliseconds) when a film is asked for, and the scene's hash.
     header: FilmHeader,
+    /// The scene's content hash, perhaps still to be taken.
+    scene_hash: Arc<SceneHash>,
     /// The partial film, made on first use.
     film: std::sync::OnceLock<PartialFilm>,
     /// The render passes asked for.
     aovs: AovSet,
+}
+
+/// A job's scene content hash ([`Loaded::content_hash`]): taken as the job was set up, or
+/// deferred to the first film ([`JobSettings::defer_scene_hash`]).
+#[derive(Debug)]
+enum SceneHash {
+    Taken(String),
+    /// What to hash, and once taken, the hash or why it could not be.
+    Deferred(Box<HashInputs>, OnceLock<Result<String, String>>),
+}
+
+impl SceneHash {
+    /// The hash, taken now if it was deferred; where it cannot be, a value that names why and
+    /// that no other film's hash matches.
+    fn get(&self) -> &str {
+        match self {
+            SceneHash::Taken(hash) => hash,
+            SceneHash::Deferred(inputs, hash) => match Self::take(inputs, hash) {
+                Ok(hash) | Err(hash) => hash,
+            },
+        }
+    }
+
+    /// Why a deferred hash could not be taken.
+    fn failure(&self) -> Option<&str> {
+        match self {
+            SceneHash::Taken(_) => None,
+            SceneHash::Deferred(inputs, hash) => {
+                Self::take(inputs, hash).as_ref().err().map(String::as_str)
+            }
+        }
+    }
+
+    /// The deferred hash, taken on the first call.
+    fn take<'a>(
+        inputs: &HashInputs,
+        hash: &'a OnceLock<Result<String, String>>,
+    ) -> &'a Result<String, String> {
+        hash.get_or_init(|| {
+            if let Some(changed) = inputs.changed_file() {
+                return Err(format!(
+                    "unknown: {} changed after the scene was loaded",
+                    changed.display()
+                ));
+            }
+            inputs
+                .content_hash()
+                .map_err(|e| format!("unknown: the scene's files could not be read again: {e}"))
+        })
+    }
 }
 
 impl RenderJob {
@@ -249,17 +310,25 @@ impl RenderJob {
                 }
             }
         })?;
-        // The content hash reads and hashes every file again (a 31 MB glTF: ~25 ms): on a
-        // thread of its own, while the scene is built (whose start is mostly serial).
-        let (scene_hash, built) = std::thread::scope(|s| {
-            let hashing = s.spawn(|| loaded.content_hash());
-            let built = loaded.build();
-            let hash = hashing
-                .join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-            (hash, built)
-        });
-        let scene_hash = scene_hash.map_err(|e| JobError::Io(e.to_string()))?;
+        let defer = s.defer_scene_hash && s.resume.is_none() && s.checkpoint.is_none();
+        let (scene_hash, built) = if defer {
+            let inputs = Box::new(loaded.hash_inputs());
+            (SceneHash::Deferred(inputs, OnceLock::new()), loaded.build())
+        } else {
+            // The content hash reads and hashes every file again (a 31 MB glTF: ~25 ms): on a
+            // thread of its own, while the scene is built (whose start is mostly serial).
+            let (hash, built) = std::thread::scope(|s| {
+                let hashing = s.spawn(|| loaded.content_hash());
+                let built = loaded.build();
+                let hash = hashing
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                (hash, built)
+            });
+            let hash = hash.map_err(|e| JobError::Io(e.to_string()))?;
+            (SceneHash::Taken(hash), built)
+        };
+        let scene_hash = Arc::new(scene_hash);
         let sampler_kind = loaded.description.scene.render.sampler;
         let (mut scene, notes) = built.map_err(|e| {
             JobError::Invalid(format!("{}: {e}", loaded.description.file.display()))
@@ -420,23 +489,21 @@ impl RenderJob {
     pub fn header(&self, samples: Vec<[u32; 2]>, time_left_s: Option<f64>) -> FilmHeader {
         FilmHeader {
             build_id: partial_film::build_id(),
-            ..self.header_without_build_id(samples, time_left_s)
+            scene_hash: self.scene_hash.get().to_string(),
+            ..self.header_without_ids(samples, time_left_s)
         }
     }
 
-    /// [`RenderJob::header`] with an empty build id.
-    fn header_without_build_id(
-        &self,
-        samples: Vec<[u32; 2]>,
-        time_left_s: Option<f64>,
-    ) -> FilmHeader {
+    /// [`RenderJob::header`] with an empty build id and scene hash (both taken when a film
+    /// is made).
+    fn header_without_ids(&self, samples: Vec<[u32; 2]>, time_left_s: Option<f64>) -> FilmHeader {
         let w = self.window;
         FilmHeader {
             format: partial_film::FORMAT.to_string(),
             format_version: partial_film::FORMAT_VERSION,
             lumo_version: env!("CARGO_PKG_VERSION").to_string(),
             build_id: String::new(),
-            scene_hash: self.scene_hash.clone(),
+            scene_hash: String::new(),
             width: self.width(),
             height: self.height(),
             crop: [w.x0, w.y0, w.x1, w.y1],
@@ -541,7 +608,8 @@ impl RenderJob {
             time_left_s: time_left(),
             command: self.settings.command.clone(),
             resumed_spp: self.settings.resume.as_ref().map(|r| r.header.spp()),
-            header: self.header_without_build_id(vec![[first, first + taken]], None),
+            header: self.header_without_ids(vec![[first, first + taken]], None),
+            scene_hash: Arc::clone(&self.scene_hash),
             film: std::sync::OnceLock::new(),
             aovs: self.settings.aovs,
         })
@@ -555,15 +623,25 @@ impl Finished {
     }
 
     /// The job's samples as a partial film, whose header says what render they belong to (for
-    /// `lumo merge`; made, and the program hashed for its build id, on first use).
+    /// `lumo merge`; made, and the program hashed for its build id, on first use, and the
+    /// scene's files then too when [`JobSettings::defer_scene_hash`] deferred their hash).
     pub fn film(&self) -> &PartialFilm {
         self.film.get_or_init(|| PartialFilm {
             header: FilmHeader {
                 build_id: partial_film::build_id(),
+                scene_hash: self.scene_hash.get().to_string(),
                 ..self.header.clone()
             },
             film: self.sums.clone(),
         })
+    }
+
+    /// Why the job's films carry no usable scene hash, when it was deferred
+    /// ([`JobSettings::defer_scene_hash`]) and could not be taken: a file of the scene changed
+    /// or could not be read since the scene was loaded. Such a job makes no
+    /// [`checkpoint`](Self::checkpoint).
+    pub fn scene_hash_failure(&self) -> Option<&str> {
+        self.scene_hash.failure()
     }
 
     /// The window of the image the job rendered.
@@ -623,7 +701,8 @@ impl Finished {
     /// `None` when there is nothing to resume (no sample taken, or an adaptive render, whose
     /// pixels hold different samples).
     pub fn checkpoint(&self) -> Option<PartialFilm> {
-        (self.uniform && self.samples_per_pixel() > 0).then(|| {
+        let resumable = self.uniform && self.samples_per_pixel() > 0;
+        (resumable && self.scene_hash_failure().is_none()).then(|| {
             let mut ck = self.film().clone();
             ck.header.time_left_s = self.time_left_s;
             ck.header.command.clone_from(&self.command);

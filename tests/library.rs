@@ -183,6 +183,74 @@ fn two_sample_range_jobs_merge_into_one_job() {
     assert_eq!(merged.film.image().pixels, whole.image.pixels);
 }
 
+/// A job whose scene hash is deferred (`lumo render` without `--film`, `--checkpoint` or
+/// `--resume`) spends no start time on it, and its films still carry the hash an eager job
+/// takes, so an interrupted render's checkpoint resumes; when a file of the scene changed
+/// after loading, its films match no other film and it keeps no checkpoint.
+#[test]
+fn a_deferred_scene_hash_is_the_eager_one_or_none() {
+    use lumo::job::{Hooks, JobSettings, RenderJob};
+    let dir = tempfile::tempdir().unwrap();
+    copy_dir(&common::root().join("scenes"), dir.path());
+    copy_dir(
+        &common::root().join("scenes/assets"),
+        &dir.path().join("assets"),
+    );
+    let options = LoadOptions {
+        defer_input_hash: true,
+        ..LoadOptions::default()
+    };
+    let mut loaded = lumo::load(dir.path().join("glass_bunny.json"), &options).unwrap();
+    loaded
+        .edit(|s| {
+            s.image.width = 16;
+            s.image.height = 12;
+        })
+        .unwrap();
+    let run = |defer_scene_hash: bool| {
+        RenderJob::new(
+            &loaded,
+            JobSettings {
+                spp: Some(2),
+                defer_scene_hash,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+        .run(&Hooks::default())
+        .unwrap()
+    };
+    let eager = run(false);
+    let deferred = run(true);
+    let hash = &eager.film().header.scene_hash;
+    assert!(hash.starts_with("sha256:"), "{hash}");
+    assert_eq!(&deferred.film().header.scene_hash, hash);
+    assert!(deferred.scene_hash_failure().is_none());
+    assert!(deferred.checkpoint().is_some());
+
+    // A mesh rewritten (one byte longer) after the job was set up.
+    let later = run(true);
+    let mesh = loaded
+        .files()
+        .into_iter()
+        .find(|f| f.extension().is_some_and(|e| e == "obj"))
+        .expect("the glass bunny reads an OBJ mesh");
+    let mut bytes = std::fs::read(&mesh).unwrap();
+    bytes.push(b'\n');
+    std::fs::write(&mesh, bytes).unwrap();
+    let failure = later
+        .scene_hash_failure()
+        .expect("the changed mesh is noticed");
+    assert!(
+        failure.contains(&*mesh.file_name().unwrap().to_string_lossy()),
+        "{failure}"
+    );
+    assert!(later.checkpoint().is_none());
+    assert_ne!(&later.film().header.scene_hash, hash);
+    // The eager job's films were hashed when it was set up.
+    assert_eq!(&eager.film().header.scene_hash, hash);
+}
+
 /// A job checks what it cannot render before it starts: a window outside the image, a sample
 /// range together with a time budget, and a checkpoint of another resolution (named as such,
 /// not as another scene).

@@ -545,6 +545,7 @@ fn convert_cmd(
         camera: camera.map(camera_choice),
         scene_dir: json_out.then(|| out_dir.clone()),
         composition: compose.composition(Vec::new())?,
+        defer_input_hash: false,
     };
     let inp = lumo::load::read_scene(input_path, &options)?;
     let base_dir = inp.base_dir;
@@ -713,11 +714,22 @@ fn validate_cmd(files: &[PathBuf], compose: &ComposeArgs) -> Result<(), CliError
 
 /// Loads a scene of any input kind and applies the overrides.
 pub fn load_overridden(scene: &Path, o: &SceneOverrides) -> Result<lumo::load::Loaded, CliError> {
+    load_with(scene, o, false)
+}
+
+/// [`load_overridden`], with the input not hashed while it is parsed when `defer_input_hash`
+/// ([`LoadOptions::defer_input_hash`]).
+fn load_with(
+    scene: &Path,
+    o: &SceneOverrides,
+    defer_input_hash: bool,
+) -> Result<lumo::load::Loaded, CliError> {
     let options = LoadOptions {
         lights: o.lights,
         camera: o.camera.as_deref().map(camera_choice),
         scene_dir: None,
         composition: o.compose.composition(shorthands(o)?)?,
+        defer_input_hash,
     };
     Ok(lumo::load(scene, &options)?)
 }
@@ -932,7 +944,15 @@ fn job_settings(args: &RenderArgs, scene: &Path, resume: Option<PartialFilm>) ->
         }),
         command: Some(recorded_command(args, scene)),
         aovs: render_aovs(args),
+        defer_scene_hash: defers_scene_hash(args),
     }
+}
+
+/// Whether a render's films are only a possibility (the checkpoint kept when it is
+/// interrupted), so that the scene's content hash is taken only if one is written: not with
+/// `--film`, `--checkpoint` or `--resume`, whose films are the point of the render.
+fn defers_scene_hash(args: &RenderArgs) -> bool {
+    args.film.is_none() && args.checkpoint.is_none() && args.resume.is_none()
 }
 
 /// The passes a render keeps: `--aov`'s, with albedo and normal for `--denoise`.
@@ -994,6 +1014,11 @@ fn keep_interrupted(
             );
         }
         _ if !finished.uniform => said += "; adaptive renders keep no checkpoint",
+        (Some(_), None) => {
+            if let Some(why) = finished.scene_hash_failure() {
+                said += &format!("; no checkpoint: {}", why.trim_start_matches("unknown: "));
+            }
+        }
         _ => {}
     }
     CliError {
@@ -1028,7 +1053,7 @@ fn render_cmd(args: &RenderArgs) -> Result<(), CliError> {
         Some(p) => Some(split::read_film(p)?),
         None => None,
     };
-    let loaded = load_overridden(scene_path, &args.overrides)?;
+    let loaded = load_with(scene_path, &args.overrides, defers_scene_hash(args))?;
     let reference = match &args.reference {
         Some(p) => Some(lumo::output::read_image(p).map_err(|e| CliError::failure(e.to_string()))?),
         None => None,

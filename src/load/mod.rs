@@ -56,6 +56,11 @@ pub struct LoadOptions {
     /// scene before it is validated, so that everything downstream (assets read, the content
     /// hash of partial films, bundles, conversions) sees the composed scene.
     pub composition: schema::compose::Composition,
+    /// Do not start hashing a glTF input while it is parsed (for jobs that take the scene's
+    /// content hash only when a film is asked for, [`crate::job::JobSettings::defer_scene_hash`]:
+    /// hashing a 31 MB `.glb` costs about 20 ms of a core, beside a scene build that wants
+    /// every core).
+    pub defer_input_hash: bool,
 }
 
 /// Why an input could not be loaded. Every message names the file.
@@ -239,6 +244,70 @@ impl Loaded {
     }
 
     /// A hash of what the render of this scene depends on, whatever the files are called or
+    /// where they are: see [`HashInputs::content_hash`].
+    pub fn content_hash(&self) -> std::io::Result<String> {
+        self.hash_inputs().content_hash()
+    }
+
+    /// What [`content_hash`](Self::content_hash) reads, to hash later without the assets in
+    /// memory: the scene description, the files read, and each file's length and time of last
+    /// change as they are now.
+    pub fn hash_inputs(&self) -> HashInputs {
+        let stamps = self.files().into_iter().map(|f| (stamp(&f), f)).collect();
+        HashInputs {
+            description: self.description.clone(),
+            assets: self.assets.files().to_vec(),
+            input_hash: self.input_hash.clone(),
+            stamps,
+        }
+    }
+
+    /// The same input with another scene description (the scene edited as data, a Python
+    /// dict's overrides): validated against the input's folder, with every mesh and image the
+    /// two scenes share kept in memory, not read again, and those only the new one references
+    /// read. [`Loaded::files`] then lists the files of both.
+    pub fn with_scene(&self, scene: schema::Scene) -> Result<Loaded, LoadError> {
+        let d = &self.description;
+        let scene =
+            Validated::new(scene, Some(&d.base_dir)).map_err(|e| invalid_report(&d.file, e))?;
+        let mut assets = self.assets.clone();
+        assets
+            .read_missing(&scene, &d.base_dir, None)
+            .map_err(|e| LoadError::rejected(&d.file, format!("{}: {e}", d.file.display())))?;
+        Ok(Loaded {
+            description: SceneFile { scene, ..d.clone() },
+            assets,
+            input_hash: self.input_hash.clone(),
+        })
+    }
+
+    /// See [`SceneFile::edit`]. Overrides must not change what the scene references: the
+    /// assets were read for the scene as loaded (a build then reports the missing asset).
+    pub fn edit(&mut self, change: impl FnOnce(&mut schema::Scene)) -> Result<(), LoadError> {
+        self.description.edit(change)?;
+        // An override may name an environment image the scene did not have.
+        let d = &self.description;
+        self.assets
+            .read_environment(&d.scene.background, &d.base_dir)
+            .map_err(|e| LoadError::rejected(&d.file, format!("{}: {e}", d.file.display())))
+    }
+}
+
+/// What a scene's content hash is taken from ([`Loaded::hash_inputs`]), kept apart from the
+/// assets so that the hash can be taken after they are dropped.
+#[derive(Debug, Clone)]
+pub struct HashInputs {
+    description: SceneFile,
+    /// The assets' files, in the order first read.
+    assets: Vec<PathBuf>,
+    input_hash: EarlyHash,
+    /// Every file read (the input, its fragments, its assets) with its length and time of
+    /// last change when the inputs were taken (`None` where they could not be read).
+    stamps: Vec<(Option<(u64, std::time::SystemTime)>, PathBuf)>,
+}
+
+impl HashInputs {
+    /// A hash of what the render of this scene depends on, whatever the files are called or
     /// where they are: SHA-256 of the scene (after overrides) as lumo JSON with every file
     /// reference replaced by the SHA-256 of the file's bytes, then of the bytes of every other
     /// file read (glTF buffers and images), in the order of their hashes. The sample count and
@@ -250,7 +319,7 @@ impl Loaded {
         // Every file read, hashed once (the scene's references are among them, under the
         // paths the loader resolved: base_dir joined with the reference).
         let mut read: Vec<(&PathBuf, [u8; 32])> = Vec::new();
-        for f in self.assets.files() {
+        for f in &self.assets {
             let hash = match self.input_hash.of(f) {
                 Some(hash) => hash,
                 None => sha256_file(f)?,
@@ -301,35 +370,21 @@ impl Loaded {
         Ok(format!("sha256:{}", hex(&sha256(&all))))
     }
 
-    /// The same input with another scene description (the scene edited as data, a Python
-    /// dict's overrides): validated against the input's folder, with every mesh and image the
-    /// two scenes share kept in memory, not read again, and those only the new one references
-    /// read. [`Loaded::files`] then lists the files of both.
-    pub fn with_scene(&self, scene: schema::Scene) -> Result<Loaded, LoadError> {
-        let d = &self.description;
-        let scene =
-            Validated::new(scene, Some(&d.base_dir)).map_err(|e| invalid_report(&d.file, e))?;
-        let mut assets = self.assets.clone();
-        assets
-            .read_missing(&scene, &d.base_dir, None)
-            .map_err(|e| LoadError::rejected(&d.file, format!("{}: {e}", d.file.display())))?;
-        Ok(Loaded {
-            description: SceneFile { scene, ..d.clone() },
-            assets,
-            input_hash: self.input_hash.clone(),
-        })
+    /// The first file read for the scene that has changed (or gone) since
+    /// [`Loaded::hash_inputs`]: its length or time of last change differs. A hash taken now
+    /// would describe what is on disk, no longer what was loaded.
+    pub fn changed_file(&self) -> Option<&Path> {
+        self.stamps
+            .iter()
+            .find(|(then, f)| stamp(f) != *then)
+            .map(|(_, f)| f.as_path())
     }
+}
 
-    /// See [`SceneFile::edit`]. Overrides must not change what the scene references: the
-    /// assets were read for the scene as loaded (a build then reports the missing asset).
-    pub fn edit(&mut self, change: impl FnOnce(&mut schema::Scene)) -> Result<(), LoadError> {
-        self.description.edit(change)?;
-        // An override may name an environment image the scene did not have.
-        let d = &self.description;
-        self.assets
-            .read_environment(&d.scene.background, &d.base_dir)
-            .map_err(|e| LoadError::rejected(&d.file, format!("{}: {e}", d.file.display())))
-    }
+/// A file's length and time of last change, if they can be read.
+fn stamp(path: &Path) -> Option<(u64, std::time::SystemTime)> {
+    let meta = std::fs::metadata(path).ok()?;
+    Some((meta.len(), meta.modified().ok()?))
 }
 
 /// The input kind of a path, by extension.
@@ -360,7 +415,7 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Loa
     // A glTF input is itself among the assets the content hash covers (a JSON or legacy
     // input is hashed as the scene it describes, not as a file).
     let input_hash = match kind_of(path) {
-        Ok(InputKind::Gltf) => EarlyHash::start(path),
+        Ok(InputKind::Gltf) if !options.defer_input_hash => EarlyHash::start(path),
         _ => EarlyHash::default(),
     };
     let (description, opened) = read_scene_keeping_gltf(path, options)?;
