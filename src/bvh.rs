@@ -584,8 +584,8 @@ fn split_sorted<const AXIS: usize>(
     let mut order = [0u8; SMALL_NODE];
     let mut keys = [0.0f32; SMALL_NODE];
     // Insertion sort, stable: equal keys keep the primitives' order.
-    for i in 0..n {
-        let k = key(&refs[i]);
+    for (i, r) in refs.iter().enumerate() {
+        let k = key(r);
         let mut j = i;
         while j > 0 && keys[j - 1] > k {
             keys[j] = keys[j - 1];
