@@ -210,6 +210,9 @@ enum SceneHash {
     Deferred(Box<HashInputs>, OnceLock<Result<String, String>>),
 }
 
+/// How a deferred scene hash that could not be taken begins (no SHA-256 hash does).
+const UNKNOWN: &str = "unknown: ";
+
 impl SceneHash {
     /// The hash, taken now if it was deferred; where it cannot be, a value that names why and
     /// that no other film's hash matches.
@@ -222,13 +225,14 @@ impl SceneHash {
         }
     }
 
-    /// Why a deferred hash could not be taken.
+    /// Why a deferred hash could not be taken (the hash value without its `unknown: `).
     fn failure(&self) -> Option<&str> {
         match self {
             SceneHash::Taken(_) => None,
-            SceneHash::Deferred(inputs, hash) => {
-                Self::take(inputs, hash).as_ref().err().map(String::as_str)
-            }
+            SceneHash::Deferred(inputs, hash) => Self::take(inputs, hash)
+                .as_ref()
+                .err()
+                .map(|why| why.trim_start_matches(UNKNOWN)),
         }
     }
 
@@ -240,13 +244,13 @@ impl SceneHash {
         hash.get_or_init(|| {
             if let Some(changed) = inputs.changed_file() {
                 return Err(format!(
-                    "unknown: {} changed after the scene was loaded",
+                    "{UNKNOWN}{} changed after the scene was loaded",
                     changed.display()
                 ));
             }
             inputs
                 .content_hash()
-                .map_err(|e| format!("unknown: the scene's files could not be read again: {e}"))
+                .map_err(|e| format!("{UNKNOWN}the scene's files could not be read again: {e}"))
         })
     }
 }

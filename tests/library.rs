@@ -78,16 +78,22 @@ fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// Building reads no file: the scene builds (and renders the same) after every file it
-/// read is gone.
-#[test]
-fn building_reads_no_file() {
+/// A temporary copy of `scenes/` with its assets.
+fn scenes_copy() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     copy_dir(&common::root().join("scenes"), dir.path());
     copy_dir(
         &common::root().join("scenes/assets"),
         &dir.path().join("assets"),
     );
+    dir
+}
+
+/// Building reads no file: the scene builds (and renders the same) after every file it
+/// read is gone.
+#[test]
+fn building_reads_no_file() {
+    let dir = scenes_copy();
     let mut loaded =
         lumo::load(dir.path().join("glass_bunny.json"), &LoadOptions::default()).unwrap();
     loaded
@@ -190,12 +196,7 @@ fn two_sample_range_jobs_merge_into_one_job() {
 #[test]
 fn a_deferred_scene_hash_is_the_eager_one_or_none() {
     use lumo::job::{Hooks, JobSettings, RenderJob};
-    let dir = tempfile::tempdir().unwrap();
-    copy_dir(&common::root().join("scenes"), dir.path());
-    copy_dir(
-        &common::root().join("scenes/assets"),
-        &dir.path().join("assets"),
-    );
+    let dir = scenes_copy();
     let options = LoadOptions {
         defer_input_hash: true,
         ..LoadOptions::default()

@@ -1016,7 +1016,7 @@ fn keep_interrupted(
         _ if !finished.uniform => said += "; adaptive renders keep no checkpoint",
         (Some(_), None) => {
             if let Some(why) = finished.scene_hash_failure() {
-                said += &format!("; no checkpoint: {}", why.trim_start_matches("unknown: "));
+                said += &format!("; no checkpoint: {why}");
             }
         }
         _ => {}

@@ -246,7 +246,7 @@ impl Loaded {
     /// A hash of what the render of this scene depends on, whatever the files are called or
     /// where they are: see [`HashInputs::content_hash`].
     pub fn content_hash(&self) -> std::io::Result<String> {
-        self.hash_inputs().content_hash()
+        content_hash_of(&self.description, self.assets.files(), &self.input_hash)
     }
 
     /// What [`content_hash`](Self::content_hash) reads, to hash later without the assets in
@@ -314,60 +314,7 @@ impl HashInputs {
     /// time budget are left out (sample ranges of one render, or a checkpoint resumed with a new
     /// target, are the same scene).
     pub fn content_hash(&self) -> std::io::Result<String> {
-        use crate::hash::{hex, sha256, sha256_file};
-        let d = &self.description;
-        // Every file read, hashed once (the scene's references are among them, under the
-        // paths the loader resolved: base_dir joined with the reference).
-        let mut read: Vec<(&PathBuf, [u8; 32])> = Vec::new();
-        for f in &self.assets {
-            let hash = match self.input_hash.of(f) {
-                Some(hash) => hash,
-                None => sha256_file(f)?,
-            };
-            read.push((f, hash));
-        }
-        // The same file however it is spelt (`./a.glb` and `a.glb`): a file read is not read
-        // and hashed again.
-        let canonical = |p: &Path| std::fs::canonicalize(p).ok();
-        let file_hash = |f: &str| -> std::io::Result<String> {
-            let path = d.base_dir.join(f);
-            let found = read.iter().find(|(p, _)| **p == path).or_else(|| {
-                let c = canonical(&path)?;
-                read.iter().find(|(p, _)| canonical(p).as_ref() == Some(&c))
-            });
-            let hash = match found {
-                Some((_, h)) => *h,
-                None => sha256_file(&path)?,
-            };
-            Ok(format!("sha256:{}", hex(&hash)))
-        };
-        let mut scene = (*d.scene).clone();
-        scene.render.spp = 1;
-        scene.render.time_budget_s = None;
-        // Where an editor finds the schema is no part of the render.
-        scene.schema = None;
-        for t in scene.textures.values_mut() {
-            t.file = file_hash(&t.file)?;
-        }
-        for o in &mut scene.objects {
-            if let schema::Object::Mesh(m) = o {
-                match &mut m.source {
-                    schema::MeshSource::Obj(f) => *f = file_hash(f)?,
-                    schema::MeshSource::Gltf(g) => g.file = file_hash(&g.file)?,
-                    schema::MeshSource::Inline(_) => {}
-                }
-            }
-        }
-        if let Some(image) = &mut scene.background.image {
-            *image = file_hash(image)?;
-        }
-        let mut others: Vec<[u8; 32]> = read.iter().map(|(_, h)| *h).collect();
-        others.sort_unstable();
-        let mut all = schema::to_json(&scene).into_bytes();
-        for h in others {
-            all.extend_from_slice(&h);
-        }
-        Ok(format!("sha256:{}", hex(&sha256(&all))))
+        content_hash_of(&self.description, &self.assets, &self.input_hash)
     }
 
     /// The first file read for the scene that has changed (or gone) since
@@ -379,6 +326,68 @@ impl HashInputs {
             .find(|(then, f)| stamp(f) != *then)
             .map(|(_, f)| f.as_path())
     }
+}
+
+/// [`HashInputs::content_hash`] of a scene description `d`, its assets' files and its input's
+/// early hash.
+fn content_hash_of(
+    d: &SceneFile,
+    assets: &[PathBuf],
+    input_hash: &EarlyHash,
+) -> std::io::Result<String> {
+    use crate::hash::{hex, sha256, sha256_file};
+    // Every file read, hashed once (the scene's references are among them, under the
+    // paths the loader resolved: base_dir joined with the reference).
+    let mut read: Vec<(&PathBuf, [u8; 32])> = Vec::new();
+    for f in assets {
+        let hash = match input_hash.of(f) {
+            Some(hash) => hash,
+            None => sha256_file(f)?,
+        };
+        read.push((f, hash));
+    }
+    // The same file however it is spelt (`./a.glb` and `a.glb`): a file read is not read
+    // and hashed again.
+    let canonical = |p: &Path| std::fs::canonicalize(p).ok();
+    let file_hash = |f: &str| -> std::io::Result<String> {
+        let path = d.base_dir.join(f);
+        let found = read.iter().find(|(p, _)| **p == path).or_else(|| {
+            let c = canonical(&path)?;
+            read.iter().find(|(p, _)| canonical(p).as_ref() == Some(&c))
+        });
+        let hash = match found {
+            Some((_, h)) => *h,
+            None => sha256_file(&path)?,
+        };
+        Ok(format!("sha256:{}", hex(&hash)))
+    };
+    let mut scene = (*d.scene).clone();
+    scene.render.spp = 1;
+    scene.render.time_budget_s = None;
+    // Where an editor finds the schema is no part of the render.
+    scene.schema = None;
+    for t in scene.textures.values_mut() {
+        t.file = file_hash(&t.file)?;
+    }
+    for o in &mut scene.objects {
+        if let schema::Object::Mesh(m) = o {
+            match &mut m.source {
+                schema::MeshSource::Obj(f) => *f = file_hash(f)?,
+                schema::MeshSource::Gltf(g) => g.file = file_hash(&g.file)?,
+                schema::MeshSource::Inline(_) => {}
+            }
+        }
+    }
+    if let Some(image) = &mut scene.background.image {
+        *image = file_hash(image)?;
+    }
+    let mut others: Vec<[u8; 32]> = read.iter().map(|(_, h)| *h).collect();
+    others.sort_unstable();
+    let mut all = schema::to_json(&scene).into_bytes();
+    for h in others {
+        all.extend_from_slice(&h);
+    }
+    Ok(format!("sha256:{}", hex(&sha256(&all))))
 }
 
 /// A file's length and time of last change, if they can be read.
