@@ -96,3 +96,42 @@ fn advise_huge_pages(p: *mut u8, len: usize) {
     #[cfg(not(target_os = "linux"))]
     let _ = (p, len);
 }
+
+/// The size of the blocks [`release_unused`] gives back: a transparent huge page, so that no
+/// huge page is split.
+const RELEASE_BLOCK: usize = 2 << 20;
+
+/// Gives the memory of the whole 2 MiB-aligned blocks within `len` bytes at `p` back to the
+/// operating system (Linux's `madvise(MADV_DONTNEED)`); they read back as zeros. For arrays
+/// whose tail or middle is finished with before the array is freed (the BVH builder's
+/// primitive records, each range of which is dead once its subtree is built), so that the
+/// process's peak does not hold them beside what is built from them. Elsewhere than Linux, and
+/// for ranges holding no whole block, it does nothing.
+///
+/// # Safety
+/// Nothing may read the range's contents afterwards expecting what was there (a write, or a
+/// read expecting anything, is fine: the memory stays mapped and owned by its allocation).
+pub(crate) unsafe fn release_unused(p: *const u8, len: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        /// Linux's `MADV_DONTNEED` (asm-generic/mman-common.h).
+        const MADV_DONTNEED: std::ffi::c_int = 4;
+        unsafe extern "C" {
+            fn madvise(
+                addr: *mut std::ffi::c_void,
+                len: usize,
+                advice: std::ffi::c_int,
+            ) -> std::ffi::c_int;
+        }
+        let start = (p as usize).next_multiple_of(RELEASE_BLOCK);
+        let end = (p as usize + len) / RELEASE_BLOCK * RELEASE_BLOCK;
+        if end > start {
+            // SAFETY: the range lies within the caller's block (rounded inwards to whole
+            // blocks), whose contents the caller has finished with; on failure nothing
+            // changes.
+            unsafe { madvise(start as *mut std::ffi::c_void, end - start, MADV_DONTNEED) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (p, len);
+}

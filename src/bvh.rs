@@ -265,16 +265,23 @@ impl Bvh {
             };
         }
         let range = Range::of_par(&refs);
+        // Each leaf writes its slots' primitives as it is made, and each finished subtree
+        // gives its records' memory back (see `build_node`): the records (32 bytes per
+        // primitive) are never in memory whole beside the whole tree and slot list.
+        let mut prims = vec![0u32; refs.len()];
+        let slots = SlotWriter {
+            ptr: prims.as_mut_ptr(),
+            len: prims.len(),
+        };
         // A binary tree over n ≥ 1 primitives has at most 2n − 1 nodes. The array is reserved
         // at that size, but only the pages of the nodes written are ever touched.
         // SAFETY: `build_node` writes the node it is given and every index it takes.
         let nodes = unsafe {
             Arena::fill(2 * refs.len(), |arena| {
                 let root = arena.take(1);
-                build_node(leaf_cost, arena, root, &mut refs, range, 0);
+                build_node(leaf_cost, arena, &slots, root, &mut refs, range, 0);
             })
         };
-        let prims = refs.par_iter().map(PrimRef::id).collect();
         Bvh { nodes, prims }
     }
 
@@ -788,13 +795,37 @@ impl<T> Arena<T> {
     }
 }
 
+/// The slot list of a tree being built, written by its leaves as they are made.
+struct SlotWriter {
+    ptr: *mut u32,
+    len: usize,
+}
+
+// SAFETY: the leaves tile the slots, so each slot is written by one thread, once, and nothing
+// reads the list before the build is over.
+unsafe impl Sync for SlotWriter {}
+
+impl SlotWriter {
+    /// Records the primitives of the leaf `refs`, which holds slots `offset..`.
+    #[inline]
+    fn leaf(&self, offset: usize, refs: &[PrimRef]) {
+        assert!(offset + refs.len() <= self.len, "a leaf past the slots");
+        for (k, r) in refs.iter().enumerate() {
+            // SAFETY: in bounds (checked above); each slot belongs to one leaf (see `Sync`).
+            unsafe { self.ptr.add(offset + k).write(r.id()) };
+        }
+    }
+}
+
 /// Builds the subtree over `refs` (slots `offset..offset + refs.len()`, their range `range`)
-/// with its root at node `index`; nodes of more than [`PARALLEL_THRESHOLD`] primitives build
-/// their two halves in parallel. Siblings are adjacent; the numbering depends on the threads'
-/// timing, the tree does not.
+/// with its root at node `index`, its leaves' primitives written to `slots`; nodes of more
+/// than [`PARALLEL_THRESHOLD`] primitives build their two halves in parallel. Siblings are
+/// adjacent; the numbering depends on the threads' timing, the tree does not. Once a node's
+/// subtree is built its records are dead, and the whole huge pages they fill are given back.
 fn build_node(
     lc: LeafCost,
     arena: &Arena<Node>,
+    slots: &SlotWriter,
     index: usize,
     refs: &mut [PrimRef],
     range: Range,
@@ -807,7 +838,7 @@ fn build_node(
         // At most 2n − 1 nodes: reserved at once, as growing it cost a copy per doubling.
         let mut local = Vec::with_capacity(2 * refs.len());
         local.push(Node::new(&Bx::EMPTY, 0, 0));
-        build_sequential(lc, &mut local, 0, refs, range, offset);
+        build_sequential(lc, &mut local, slots, 0, refs, range, offset);
         let base = if local.len() > 1 {
             arena.take(local.len() - 1)
         } else {
@@ -832,6 +863,7 @@ fn build_node(
     }
     let (mid, lr, rr) = match split(lc, refs, range) {
         Split::Leaf => {
+            slots.leaf(offset, refs);
             let leaf = Node::new(&range.bounds, offset as u32, refs.len() as u32);
             // SAFETY: `index` was handed to this call alone.
             unsafe { arena.set(index, leaf) };
@@ -844,15 +876,20 @@ fn build_node(
     unsafe { arena.set(index, Node::new(&range.bounds, first as u32, 0)) };
     let (lp, rp) = refs.split_at_mut(mid);
     rayon::join(
-        || build_node(lc, arena, first, lp, lr, offset),
-        || build_node(lc, arena, first + 1, rp, rr, offset + mid),
+        || build_node(lc, arena, slots, first, lp, lr, offset),
+        || build_node(lc, arena, slots, first + 1, rp, rr, offset + mid),
     );
+    // SAFETY: the subtree is built; nothing reads these records again (the parent's split is
+    // done, and the slot list has their primitives).
+    unsafe { crate::alloc::release_unused(refs.as_ptr().cast(), std::mem::size_of_val(refs)) };
 }
 
-/// Builds the subtree over `refs` into `nodes`, its root at `nodes[index]`.
+/// Builds the subtree over `refs` into `nodes`, its root at `nodes[index]`, its leaves' primitives
+/// written to `slots`.
 fn build_sequential(
     lc: LeafCost,
     nodes: &mut Vec<Node>,
+    slots: &SlotWriter,
     index: usize,
     refs: &mut [PrimRef],
     range: Range,
@@ -860,6 +897,7 @@ fn build_sequential(
 ) {
     let (mid, lr, rr) = match split(lc, refs, range) {
         Split::Leaf => {
+            slots.leaf(offset, refs);
             nodes[index] = Node::new(&range.bounds, offset as u32, refs.len() as u32);
             return;
         }
@@ -870,8 +908,8 @@ fn build_sequential(
     nodes.push(Node::new(&Bx::EMPTY, 0, 0));
     nodes[index] = Node::new(&range.bounds, first as u32, 0);
     let (lp, rp) = refs.split_at_mut(mid);
-    build_sequential(lc, nodes, first, lp, lr, offset);
-    build_sequential(lc, nodes, first + 1, rp, rr, offset + mid);
+    build_sequential(lc, nodes, slots, first, lp, lr, offset);
+    build_sequential(lc, nodes, slots, first + 1, rp, rr, offset + mid);
 }
 
 /// Reorders `s` so elements satisfying `pred` come first; returns their number. Branch-free
@@ -1059,6 +1097,35 @@ mod tests {
             assert_eq!(dist(a), dist(b), "ray {o:?} {d:?}");
         }
         assert!(hits > 100, "the test must exercise hits, got {hits}");
+    }
+
+    /// A build large enough to give its finished records' memory back while it runs (nodes
+    /// whose records span whole 2 MiB blocks) reads no record after giving it back: the slots
+    /// hold every primitive once, and each leaf's box is the union of its primitives' boxes.
+    #[test]
+    fn records_given_back_during_the_build_are_not_read_again() {
+        let mut s = 17u64;
+        let boxes = random_boxes(16 * PARALLEL_THRESHOLD, &mut s);
+        assert!(boxes.len() * std::mem::size_of::<PrimRef>() > 3 * (2 << 20));
+        let bvh = Bvh::build(&boxes);
+        let mut seen = vec![false; boxes.len()];
+        for &p in &bvh.prims {
+            assert!(
+                !std::mem::replace(&mut seen[p as usize], true),
+                "primitive {p} twice"
+            );
+        }
+        assert!(seen.iter().all(|&x| x), "a primitive is missing");
+        let mut leaves = 0;
+        for n in bvh.nodes.iter().filter(|n| n.count() > 0) {
+            let (first, count) = (n.first() as usize, n.count() as usize);
+            let union = bvh.prims[first..first + count]
+                .iter()
+                .fold(Aabb::EMPTY, |b, &p| b.union(boxes[p as usize]));
+            assert_eq!(n.aabb(), union, "leaf at slot {first}");
+            leaves += 1;
+        }
+        assert!(leaves > boxes.len() / 16, "{leaves} leaves");
     }
 
     /// The parallel build (above the threshold) gives the same tree as the sequential one.

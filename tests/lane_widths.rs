@@ -47,27 +47,6 @@ fn same_at_every_width(file: &Path, edit: impl Fn(&mut lumo_schema::Scene), adap
     }
 }
 
-fn files_in(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = entry.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p
-                .extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| extensions.contains(&e))
-            {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 #[test]
 fn every_scene_renders_the_same_bits_at_every_lane_width() {
     let scenes = common::root().join("scenes");
@@ -77,7 +56,7 @@ fn every_scene_renders_the_same_bits_at_every_lane_width() {
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|e| e == "json"))
         .collect();
-    files.extend(files_in(&scenes.join("legacy"), &["txt"]));
+    files.extend(common::files_in(&scenes.join("legacy"), &["txt"]));
     files.sort();
     assert!(files.len() >= 10, "only {} scenes", files.len());
     for file in &files {
@@ -114,7 +93,7 @@ fn every_shared_gltf_model_renders_the_same_bits_at_every_lane_width() {
         return;
     };
     let sky = shared.join("hdri/sunrise.exr");
-    let files = files_in(&shared.join("gltf"), &["gltf", "glb"]);
+    let files = common::files_in(&shared.join("gltf"), &["gltf", "glb"]);
     assert!(files.len() >= 20, "only {} sample files", files.len());
     for file in &files {
         same_at_every_width(

@@ -5,7 +5,8 @@ use std::sync::{Arc, OnceLock};
 use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 
-use crate::geometry::triangle_bvh::{prefetch_line, Prefetch, TriRay, TriangleBvh};
+use crate::geometry::triangle_bvh::{self, prefetch_line, Prefetch, TriRay, TriangleBvh};
+use crate::geometry::triangle_source::{SourcePart, TriangleSource};
 use crate::geometry::RawHit;
 use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{Aabb, Affine3A, Mat3, Vec2, Vec3};
@@ -177,13 +178,36 @@ impl Mesh {
     /// The mesh's own BVH (object space), built on first call.
     pub fn bvh(&self) -> &TriangleBvh {
         self.bvh.get_or_init(|| {
+            let count = self.data.triangles.len();
+            if triangle_bvh::indexed_leaves(count) {
+                let source = TriangleSource::new(vec![self.triangle_source_part(0, 0, None)]);
+                return TriangleBvh::build_indexed(count, source, |p| p as u32);
+            }
             TriangleBvh::build(
-                self.data.triangles.len(),
+                count,
                 |p| self.corners(p as u32).map(Vec3A::from),
                 |p| [0, p as u32],
                 |p, stage| self.prefetch_corners(p as u32, stage),
             )
         })
+    }
+
+    /// This mesh's triangles as part of a [`TriangleSource`]: its first triangle numbered
+    /// `first`, its ids tagged `tag`, placed by `to_world` (none: the identity). The mesh's own
+    /// tree reads the part `(0, 0, None)`, whose corners are [`Mesh::corners`].
+    pub fn triangle_source_part(
+        &self,
+        first: u32,
+        tag: u32,
+        to_world: Option<Affine3A>,
+    ) -> SourcePart {
+        SourcePart {
+            first,
+            tag,
+            positions: Arc::clone(&self.data.positions),
+            triangles: Arc::clone(&self.data.triangles),
+            to_world,
+        }
     }
 
     /// Asks the memory system for what [`corners`](Self::corners) of `prim` reads: its index

@@ -7,6 +7,7 @@ pub mod small_set;
 pub mod sphere;
 pub mod triangle;
 pub mod triangle_bvh;
+pub mod triangle_source;
 
 use std::sync::Arc;
 
@@ -20,6 +21,7 @@ use small_set::SmallSet;
 pub use sphere::{Plane, Sphere};
 use triangle::TriHit;
 pub use triangle_bvh::{TriRay, TriRayLanes, TriangleBvh};
+use triangle_source::TriangleSource;
 
 /// A shape in its own object space.
 #[derive(Debug, Clone)]
@@ -660,15 +662,31 @@ impl Geometry {
         // chosen[c] - c <= j.
         let shifted: Vec<usize> = chosen.iter().enumerate().map(|(c, &i)| i - c).collect();
         let rest = |j: usize| j + shifted.partition_point(|&x| x <= j);
-        let flat_bvh = TriangleBvh::build(
-            flat_count - chosen.len(),
-            |j| corners(rest(j)),
-            |j| id(rest(j)),
-            |j, stage| {
-                let (_, prim, mesh) = locate(rest(j));
-                mesh.prefetch_corners(prim, stage);
-            },
-        );
+        let tree_count = flat_count - chosen.len();
+        let flat_bvh = if triangle_bvh::indexed_leaves(tree_count)
+            && flat_count <= u32::MAX as usize
+        {
+            // The same corners as `corners` gives, read from the meshes at each query.
+            let parts = flat
+                .iter()
+                .map(|&(k, first, mesh)| {
+                    let inst = &instances[k];
+                    let placed = (!inst.identity).then_some(inst.to_world);
+                    mesh.triangle_source_part(first as u32, k as u32, placed)
+                })
+                .collect();
+            TriangleBvh::build_indexed(tree_count, TriangleSource::new(parts), |j| rest(j) as u32)
+        } else {
+            TriangleBvh::build(
+                tree_count,
+                |j| corners(rest(j)),
+                |j| id(rest(j)),
+                |j, stage| {
+                    let (_, prim, mesh) = locate(rest(j));
+                    mesh.prefetch_corners(prim, stage);
+                },
+            )
+        };
         drop(flat);
         Geometry {
             flat: flat_bvh,

@@ -15,11 +15,17 @@
 //! 2013) in SIMD lanes. Each lane computes exactly the products and sums of the scalar test in
 //! [`triangle::intersect`](super::triangle::intersect), including its double-precision fallback on
 //! edges, so the two agree bit for bit.
+//!
+//! Sets of a million triangles or more ([`INDEXED_TRIANGLES`]) keep no packets: their leaves name
+//! their triangles (vertex indices and a source index, 16 bytes each) in a [`TriangleSource`],
+//! and a query gathers a leaf's packet as it meets it, as Embree's compact mode and pbrt-v4 do.
+//! That halves the memory of a big mesh's start for a slower traversal; the answers are the same
+//! bits.
 
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use glam::{BVec4A, Vec3A, Vec4};
+use glam::{BVec4A, Mat4, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use crate::bvh::pop_nearer;
@@ -28,6 +34,7 @@ use crate::bvh::{Arena, Bvh, LeafCost};
 use crate::geometry::node8::Avx2;
 use crate::geometry::node8::{self, avx2_available, BoxTest, Node4, Node8, Sse};
 use crate::geometry::triangle::{edge_functions_f64, shear_axes, TriHit};
+use crate::geometry::triangle_source::TriangleSource;
 use crate::lanes::{F32s, Mask, V3s};
 use crate::math::{Aabb, Vec3};
 
@@ -250,20 +257,38 @@ impl Packet {
         first: usize,
         count: usize,
     ) -> Packet {
-        let slot = |lane: usize| first + if lane < count { lane } else { 0 };
-        let tris: [[Vec3A; 3]; 4] = std::array::from_fn(|lane| corners(slot(lane)));
-        let v = std::array::from_fn(|k| {
-            let (c, axis) = (k / 3, k % 3);
-            Vec4::new(
-                tris[0][c][axis],
-                tris[1][c][axis],
-                tris[2][c][axis],
-                tris[3][c][axis],
+        debug_assert!((1..=4).contains(&count));
+        // Each triangle read once; the lanes past `count` copy lane 0.
+        let mut tris = [corners(first); 4];
+        let mut ids = [id(first); 4];
+        for lane in 1..count {
+            tris[lane] = corners(first + lane);
+            ids[lane] = id(first + lane);
+        }
+        Packet::of_lanes(&tris, ids, count)
+    }
+
+    /// The packet of triangles `tris` with ids `ids`, `count` of them its own (the lanes past
+    /// it repeat lane 0).
+    #[inline(always)]
+    fn of_lanes(tris: &[[Vec3A; 3]; 4], ids: [[u32; 2]; 4], count: usize) -> Packet {
+        // Each corner's four lanes transposed from rows (x, y, z) to one vector per axis.
+        let axes = |c: usize| {
+            Mat4::from_cols(
+                tris[0][c].extend(0.0),
+                tris[1][c].extend(0.0),
+                tris[2][c].extend(0.0),
+                tris[3][c].extend(0.0),
             )
-        });
+            .transpose()
+        };
+        let (a, b, c) = (axes(0), axes(1), axes(2));
         Packet {
-            v,
-            ids: std::array::from_fn(|lane| id(slot(lane))),
+            v: [
+                a.x_axis, a.y_axis, a.z_axis, b.x_axis, b.y_axis, b.z_axis, c.x_axis, c.y_axis,
+                c.z_axis,
+            ],
+            ids,
             count: count as u32,
         }
     }
@@ -340,11 +365,52 @@ impl Packet {
     }
 }
 
+/// Leaves that name their triangles in a [`TriangleSource`] instead of holding their corners
+/// ([`TriangleBvh::build_indexed`]). A leaf's reference holds its first slot and its triangle
+/// count less one (2 bits); a query gathers the leaf's packet from the source as it meets it.
+#[derive(Debug, Clone)]
+struct Indexed {
+    /// Each slot's triangle ([`TriangleSource::entry`]: its corners' vertex indices and its
+    /// source index), the leaves' slots in order. With the vertex indices here a leaf's
+    /// corners are one dependent load away, not two (16 bytes a triangle instead of 4; the
+    /// array is made after the build's peak).
+    slots: Vec<[u32; 4]>,
+    source: TriangleSource,
+}
+
+impl Indexed {
+    /// The most slots a tree with indexed leaves may have: a reference keeps 29 bits for its
+    /// leaf's first slot.
+    const MAX_SLOTS: usize = 1 << 29;
+
+    /// The reference to the leaf of `count` (1 to 4) slots from `first`.
+    fn reference(first: u32, count: u32) -> u32 {
+        debug_assert!((1..=4).contains(&count) && (first as usize) < Self::MAX_SLOTS);
+        LEAF | first << 2 | (count - 1)
+    }
+
+    /// The packet of leaf `reference`, as the build would have made it.
+    #[inline(always)]
+    fn packet(&self, reference: u32) -> Packet {
+        let leaf = reference & !LEAF;
+        let (first, count) = ((leaf >> 2) as usize, (leaf & 3) as usize + 1);
+        let slots = &self.slots[first..first + count];
+        // Spelled out, as in `Packet::corners`: closures would not inline into the traversal.
+        let (corners, id) = self.source.entry_triangle(slots[0]);
+        let mut tris = [corners; 4];
+        let mut ids = [id; 4];
+        for lane in 1..count {
+            (tris[lane], ids[lane]) = self.source.entry_triangle(slots[lane]);
+        }
+        Packet::of_lanes(&tris, ids, count)
+    }
+}
+
 /// What a traversal does with the packets it reaches.
-trait Leaf<'a> {
-    /// Tests packet `p` within (t_min, *t_max), shrinking `*t_max` on a closer hit; `true` stops
-    /// the traversal.
-    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool;
+trait Leaf {
+    /// Tests packet `p` (the leaf `reference` names) within (t_min, *t_max), shrinking `*t_max`
+    /// on a closer hit; `true` stops the traversal.
+    fn visit(&mut self, p: &Packet, reference: u32, t_max: &mut f32) -> bool;
 }
 
 /// The culling bound after a closest hit at `t`: a little beyond t, so that boxes and shapes
@@ -366,9 +432,9 @@ struct Closest<'a, const CORNERS: bool> {
     ray: &'a TriRay,
     t_min: f32,
     best: Option<([u32; 2], TriHit)>,
-    /// Where `CORNERS`: the packet and lane of the best hit, whose corners are read once the
-    /// walk is over (not at every closer hit on the way).
-    found_in: Option<(&'a Packet, usize)>,
+    /// Where `CORNERS`: the leaf and lane of the best hit, whose corners are read once the walk
+    /// is over (not at every closer hit on the way).
+    found_in: Option<(u32, usize)>,
 }
 
 /// Whether a hit at distance `t` on the primitive named `key` comes before one at `other_t` on
@@ -386,9 +452,9 @@ fn precedes(t: f32, id: [u32; 2], best: &Option<([u32; 2], TriHit)>) -> bool {
         .is_none_or(|(b, bh)| comes_before(t, id, bh.t, *b))
 }
 
-impl<'a, const CORNERS: bool> Leaf<'a> for Closest<'a, CORNERS> {
+impl<const CORNERS: bool> Leaf for Closest<'_, CORNERS> {
     #[inline(always)]
-    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &Packet, reference: u32, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
         if h.mask != 0 {
             let nearest = h.t.min_element();
@@ -407,7 +473,7 @@ impl<'a, const CORNERS: bool> Leaf<'a> for Closest<'a, CORNERS> {
                 self.best = Some((p.ids[lane], h.hit(lane)));
                 *t_max = tie_bound(nearest);
                 if CORNERS {
-                    self.found_in = Some((p, lane));
+                    self.found_in = Some((reference, lane));
                 }
             }
         }
@@ -427,9 +493,9 @@ struct ClosestAccepted<'a> {
     best: Option<([u32; 2], TriHit)>,
 }
 
-impl<'a> Leaf<'a> for ClosestAccepted<'_> {
+impl Leaf for ClosestAccepted<'_> {
     #[inline(always)]
-    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &Packet, _: u32, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
         let mut mask = h.mask & p.own_lanes();
         while mask != 0 {
@@ -466,9 +532,9 @@ struct AnyAccepted<'a> {
     accept: &'a mut dyn FnMut([u32; 2], &TriHit) -> bool,
 }
 
-impl<'a> Leaf<'a> for AnyAccepted<'_> {
+impl Leaf for AnyAccepted<'_> {
     #[inline(always)]
-    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &Packet, _: u32, t_max: &mut f32) -> bool {
         let h = p.hits(self.ray, self.t_min, *t_max);
         let mut mask = h.mask & p.own_lanes();
         while mask != 0 {
@@ -489,9 +555,9 @@ struct AnyHit<'a> {
     t_min: f32,
 }
 
-impl<'a> Leaf<'a> for AnyHit<'_> {
+impl Leaf for AnyHit<'_> {
     #[inline(always)]
-    fn visit(&mut self, p: &'a Packet, t_max: &mut f32) -> bool {
+    fn visit(&mut self, p: &Packet, _: u32, t_max: &mut f32) -> bool {
         p.hits(self.ray, self.t_min, *t_max).mask != 0
     }
 }
@@ -541,6 +607,8 @@ struct Wide<'a> {
     nodes: &'a Arena<Node8>,
     narrow: &'a Arena<Node4>,
     compact: bool,
+    /// Whether leaves are referenced by their slots ([`Indexed`]) rather than their packets.
+    indexed: bool,
 }
 
 /// Sets of at least this many triangles store nodes of at most four children as [`Node4`]s
@@ -550,6 +618,26 @@ struct Wide<'a> {
 /// Smaller trees stay in cache and keep only 8-wide nodes, which take fewer instructions (the
 /// narrow test costs +6.6 % on a 5k-triangle mesh). Both give identical hits.
 const COMPACT_TRIANGLES: usize = 16_384;
+
+/// Sets of at least this many triangles get indexed leaves ([`TriangleBvh::build_indexed`]):
+/// about 55 bytes per triangle at the start's peak instead of 110 (packets take 53), for a
+/// slower traversal (each leaf met gathers its corners through the mesh's indices). Below it
+/// the packets' speed is kept: a 327,680-triangle mesh's packets fit in 17 MB.
+pub const INDEXED_TRIANGLES: usize = 1 << 20;
+
+/// The environment variable that overrides [`INDEXED_TRIANGLES`]: `indexed` or `packets` gives
+/// every set that kind of leaf (the two give identical answers; for tests and measurements).
+pub const LEAVES_VARIABLE: &str = "LUMO_BVH_LEAVES";
+
+/// Whether a set of `count` triangles gets indexed leaves: from [`LEAVES_VARIABLE`] when it
+/// says `indexed` or `packets`, else when `count` ≥ [`INDEXED_TRIANGLES`].
+pub fn indexed_leaves(count: usize) -> bool {
+    match std::env::var(LEAVES_VARIABLE).as_deref() {
+        Ok("indexed") => true,
+        Ok("packets") => false,
+        _ => count >= INDEXED_TRIANGLES,
+    }
+}
 
 /// The first slots of a binary tree's leaves, as bits. A left-first walk meets the leaves in
 /// slot order, and they tile the slots, so leaf k (and packet k) is the one whose first slot is
@@ -638,6 +726,9 @@ fn collapse(
 ) -> (u32, usize) {
     let n = bin.nodes[index];
     if n.count() > 0 {
+        if out.indexed {
+            return (Indexed::reference(n.first(), n.count()), 0);
+        }
         return (LEAF | starts.packet(n.first() as usize), 0);
     }
     // Open the interior child with the largest surface area until there are eight children
@@ -707,7 +798,10 @@ pub struct TriangleBvh {
     nodes: Vec<Node8>,
     /// Nodes of two to four children (references marked [`NARROW`]).
     narrow: Vec<Node4>,
+    /// The leaves, unless they are indexed.
     packets: Vec<Packet>,
+    /// The leaves, when they name their triangles in a source instead of holding packets.
+    indexed: Option<Box<Indexed>>,
     /// Number of triangles.
     triangles: usize,
     /// The root: a node index, or a leaf when there are at most four triangles.
@@ -737,6 +831,7 @@ impl Default for TriangleBvh {
             nodes: Vec::new(),
             narrow: Vec::new(),
             packets: Vec::new(),
+            indexed: None,
             triangles: 0,
             root: 0,
             depth: 0,
@@ -756,6 +851,33 @@ impl TriangleBvh {
         TriangleBvh::build(corners.len(), |i| corners[i], |i| ids[i], |_, _| {})
     }
 
+    /// The BVH over `count` triangles of `source`, triangle j being `source`'s triangle
+    /// `index(j)`, with indexed leaves: a leaf names its triangles (4 bytes each) and a query
+    /// reads their corners from the source, by the operations that make packets, instead of
+    /// holding them in packets (about 53 bytes per triangle). Embree's compact mode; the same
+    /// tree, and the same answers bit for bit, as [`TriangleBvh::build`] over
+    /// `source.corners(index(j))` and `source.id(index(j))`. Sets of more than 2²⁹ triangles
+    /// get packets all the same (a leaf reference holds its first slot in 29 bits).
+    pub fn build_indexed(
+        count: usize,
+        source: TriangleSource,
+        index: impl Fn(usize) -> u32 + Sync,
+    ) -> TriangleBvh {
+        let src = &source;
+        let corners = |j: usize| src.corners(index(j));
+        let id = |j: usize| src.id(index(j));
+        let prefetch = |j: usize, stage: Prefetch| src.prefetch(index(j), stage);
+        if count > Indexed::MAX_SLOTS {
+            return TriangleBvh::build(count, corners, id, prefetch);
+        }
+        let (mut tree, slots) = TriangleBvh::build_as(count, corners, id, prefetch, Some(&index));
+        if !tree.is_empty() {
+            let slots = slots.par_iter().map(|&i| source.entry(i)).collect();
+            tree.indexed = Some(Box::new(Indexed { slots, source }));
+        }
+        tree
+    }
+
     /// [`TriangleBvh::new`] over `count` triangles whose corners and ids the functions give
     /// (called in parallel, `corners` twice per triangle: once for its box, once for its leaf),
     /// so that no array of corners is made: the build holds 32 bytes per triangle (its box and
@@ -766,6 +888,18 @@ impl TriangleBvh {
         id: impl Fn(usize) -> [u32; 2] + Sync,
         prefetch: impl Fn(usize, Prefetch) + Sync,
     ) -> TriangleBvh {
+        TriangleBvh::build_as(count, corners, id, prefetch, None).0
+    }
+
+    /// [`TriangleBvh::build`] with packets, or, given `index`, the tree of
+    /// [`TriangleBvh::build_indexed`] and its slots' source indices.
+    fn build_as(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3A; 3] + Sync,
+        id: impl Fn(usize) -> [u32; 2] + Sync,
+        prefetch: impl Fn(usize, Prefetch) + Sync,
+        index: Option<&(dyn Fn(usize) -> u32 + Sync)>,
+    ) -> (TriangleBvh, Vec<u32>) {
         let mut bin = Bvh::build_transient(
             count,
             |i| {
@@ -781,7 +915,7 @@ impl TriangleBvh {
             LeafCost::PACKET4,
         );
         if bin.prims.is_empty() {
-            return TriangleBvh::default();
+            return (TriangleBvh::default(), Vec::new());
         }
         crate::phases::mark("bvh: binary SAH tree");
         let prims = std::mem::take(&mut bin.prims);
@@ -803,6 +937,7 @@ impl TriangleBvh {
                         nodes,
                         narrow,
                         compact,
+                        indexed: index.is_some(),
                     };
                     root = collapse(&bin, &starts, &out, 0, 1);
                 });
@@ -821,34 +956,44 @@ impl TriangleBvh {
         let (bounds, binary_nodes) = (bin.bounds(), bin.nodes.len());
         drop((bin, starts));
         crate::phases::mark("bvh: 8-wide nodes");
-        let ahead = |j: usize, stage: Prefetch| {
-            if let Some((first, count)) = leaves.get(j) {
-                for &t in &prims[first..first + count] {
-                    prefetch(t as usize, stage);
+        let mut prims = prims;
+        let packets: Vec<Packet> = if let Some(index) = index {
+            // Indexed leaves: the slots name the source's triangles; no packets.
+            prims.par_iter_mut().for_each(|p| *p = index(*p as usize));
+            Vec::new()
+        } else {
+            let ahead = |j: usize, stage: Prefetch| {
+                if let Some((first, count)) = leaves.get(j) {
+                    for &t in &prims[first..first + count] {
+                        prefetch(t as usize, stage);
+                    }
                 }
-            }
+            };
+            let packets = (0..leaves.len())
+                .into_par_iter()
+                .map(|j| {
+                    let (first, count) = leaves.span(j);
+                    ahead(j + 2 * PREFETCH_LEAVES, Prefetch::Indices);
+                    ahead(j + PREFETCH_LEAVES, Prefetch::Corners);
+                    Packet::new(
+                        |slot| corners(prims[slot] as usize),
+                        |slot| id(prims[slot] as usize),
+                        first,
+                        count,
+                    )
+                })
+                .collect();
+            prims = Vec::new();
+            packets
         };
-        let packets: Vec<Packet> = (0..leaves.len())
-            .into_par_iter()
-            .map(|j| {
-                let (first, count) = leaves.span(j);
-                ahead(j + 2 * PREFETCH_LEAVES, Prefetch::Indices);
-                ahead(j + PREFETCH_LEAVES, Prefetch::Corners);
-                Packet::new(
-                    |slot| corners(prims[slot] as usize),
-                    |slot| id(prims[slot] as usize),
-                    first,
-                    count,
-                )
-            })
-            .collect();
-        drop((leaves, prims));
+        drop(leaves);
         let nodes_bytes = std::mem::size_of_val(&nodes[..]) + std::mem::size_of_val(&narrow[..]);
-        let packets_bytes = std::mem::size_of_val(&packets[..]);
+        let packets_bytes = std::mem::size_of_val(&packets[..]) + std::mem::size_of_val(&prims[..]);
         let mut out = TriangleBvh {
             bounds,
             triangles,
             packets,
+            indexed: None,
             nodes,
             narrow,
             root: root.0,
@@ -858,16 +1003,19 @@ impl TriangleBvh {
             root_boxes: Vec::new(),
         };
         out.root_boxes = out.children_of_root();
+        let leaves = match index {
+            Some(_) => "indexed leaves".to_string(),
+            None => format!("{} packets", out.packets.len()),
+        };
         crate::phases::mark(&format!(
-            "bvh: leaf packets ({} triangles, depth {}, {binary_nodes} binary nodes, {} packets, {} 8-wide \
+            "bvh: leaves ({} triangles, depth {}, {binary_nodes} binary nodes, {leaves}, {} 8-wide \
              and {} 4-wide nodes)",
             out.triangles,
             out.depth,
-            out.packets.len(),
             out.nodes.len(),
             out.narrow.len()
         ));
-        out
+        (out, prims)
     }
 
     /// The boxes of the root's children (the tree's bounds when the root is a packet).
@@ -1061,12 +1209,12 @@ impl TriangleBvh {
     /// The traversal with AVX2 box tests, for the queries with an `accept` function.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn traverse_avx2<'s, const ORDERED: bool>(
-        &'s self,
+    unsafe fn traverse_avx2<const ORDERED: bool>(
+        &self,
         r: &TriRay,
         t_min: f32,
         t_max: &mut f32,
-        leaf: &mut impl Leaf<'s>,
+        leaf: &mut impl Leaf,
     ) -> bool {
         // SAFETY: this function runs only on CPUs with AVX2.
         unsafe { self.traverse::<Avx2, ORDERED>(r, t_min, t_max, leaf) }
@@ -1144,7 +1292,12 @@ impl TriangleBvh {
         // SAFETY: passed on from the caller.
         unsafe { self.traverse::<B, true>(ray, t_min, &mut t_max, &mut closest) };
         let corners = match closest.found_in {
-            Some((p, lane)) if CORNERS => p.corners(lane),
+            Some((reference, lane)) if CORNERS => match &self.indexed {
+                Some(indexed) => indexed.packet(reference).corners(lane),
+                // SAFETY: the build references only packets it made.
+                None => unsafe { self.packets.get_unchecked((reference & !LEAF) as usize) }
+                    .corners(lane),
+            },
             _ => [Vec3::ZERO; 3],
         };
         closest.best.map(|(id, h)| (id, h, corners))
@@ -1169,12 +1322,12 @@ impl TriangleBvh {
     /// # Safety
     /// The CPU must support `B`'s instructions.
     #[inline(always)]
-    unsafe fn traverse<'s, B: BoxTest, const ORDERED: bool>(
-        &'s self,
+    unsafe fn traverse<B: BoxTest, const ORDERED: bool>(
+        &self,
         r: &TriRay,
         t_min: f32,
         t_max: &mut f32,
-        leaf: &mut impl Leaf<'s>,
+        leaf: &mut impl Leaf,
     ) -> bool {
         // A node pushes at most seven children, so 7·depth + 1 entries always suffice.
         // Left uninitialised: only entries below the stack pointer are read, each written first.
@@ -1192,22 +1345,31 @@ impl TriangleBvh {
             // a loop without their test) gets its own copies of the loop.
             let s = &mut stack;
             unsafe {
-                match (r.robust, self.narrow.is_empty()) {
-                    (false, true) => {
-                        self.traverse_with::<B, false, false, ORDERED>(&br, t_min, t_max, leaf, s)
-                    }
-                    (false, false) => {
-                        self.traverse_with::<B, false, true, ORDERED>(&br, t_min, t_max, leaf, s)
-                    }
-                    (true, _) => {
-                        self.traverse_with::<B, true, true, ORDERED>(&br, t_min, t_max, leaf, s)
-                    }
+                match (r.robust, self.narrow.is_empty(), self.indexed.is_some()) {
+                    (false, true, false) => self.traverse_with::<B, false, false, ORDERED, false>(
+                        &br, t_min, t_max, leaf, s,
+                    ),
+                    (false, false, false) => self.traverse_with::<B, false, true, ORDERED, false>(
+                        &br, t_min, t_max, leaf, s,
+                    ),
+                    (true, _, false) => self
+                        .traverse_with::<B, true, true, ORDERED, false>(&br, t_min, t_max, leaf, s),
+                    (false, _, true) => self
+                        .traverse_with::<B, false, true, ORDERED, true>(&br, t_min, t_max, leaf, s),
+                    (true, _, true) => self
+                        .traverse_with::<B, true, true, ORDERED, true>(&br, t_min, t_max, leaf, s),
                 }
             }
         } else {
             let mut stack = vec![MaybeUninit::<(u32, f32)>::uninit(); (WIDTH - 1) * self.depth + 1];
             let s = &mut stack;
-            unsafe { self.traverse_with::<B, true, true, ORDERED>(&br, t_min, t_max, leaf, s) }
+            unsafe {
+                if self.indexed.is_some() {
+                    self.traverse_with::<B, true, true, ORDERED, true>(&br, t_min, t_max, leaf, s)
+                } else {
+                    self.traverse_with::<B, true, true, ORDERED, false>(&br, t_min, t_max, leaf, s)
+                }
+            }
         }
     }
 
@@ -1216,11 +1378,24 @@ impl TriangleBvh {
     #[inline(always)]
     fn prefetch(&self, reference: u32) {
         let (p, lines) = if reference & LEAF != 0 {
-            let p = self
-                .packets
-                .as_ptr()
-                .wrapping_add((reference & !LEAF) as usize);
-            (p.cast::<u8>(), std::mem::size_of::<Packet>().div_ceil(64))
+            if let Some(indexed) = &self.indexed {
+                // The leaf's slots: what its triangles' indices are found from.
+                let first = (reference & !LEAF) >> 2;
+                (
+                    indexed
+                        .slots
+                        .as_ptr()
+                        .wrapping_add(first as usize)
+                        .cast::<u8>(),
+                    2,
+                )
+            } else {
+                let p = self
+                    .packets
+                    .as_ptr()
+                    .wrapping_add((reference & !LEAF) as usize);
+                (p.cast::<u8>(), std::mem::size_of::<Packet>().div_ceil(64))
+            }
         } else if reference & NARROW != 0 {
             let p = self
                 .narrow
@@ -1240,17 +1415,17 @@ impl TriangleBvh {
     /// The CPU must support `B`'s instructions.
     #[inline(always)]
     unsafe fn traverse_with<
-        's,
         B: BoxTest,
         const ROBUST: bool,
         const NARROW_NODES: bool,
         const ORDERED: bool,
+        const INDEXED: bool,
     >(
-        &'s self,
+        &self,
         r: &B::Ray,
         t_min: f32,
         t_max: &mut f32,
-        leaf: &mut impl Leaf<'s>,
+        leaf: &mut impl Leaf,
         stack: &mut [MaybeUninit<(u32, f32)>],
     ) -> bool {
         let mut sp = 0usize;
@@ -1276,9 +1451,16 @@ impl TriangleBvh {
         let mut cur = self.root;
         loop {
             if cur & LEAF != 0 {
-                // SAFETY: the build references only packets it made.
-                let packet = unsafe { self.packets.get_unchecked((cur & !LEAF) as usize) };
-                if leaf.visit(packet, t_max) {
+                let stop = if INDEXED {
+                    // SAFETY: `INDEXED` traversals run on trees with indexed leaves only.
+                    let indexed = unsafe { self.indexed.as_deref().unwrap_unchecked() };
+                    leaf.visit(&indexed.packet(cur), cur, t_max)
+                } else {
+                    // SAFETY: the build references only packets it made.
+                    let packet = unsafe { self.packets.get_unchecked((cur & !LEAF) as usize) };
+                    leaf.visit(packet, cur, t_max)
+                };
+                if stop {
                     return true;
                 }
             } else {
@@ -1444,6 +1626,8 @@ mod tests {
     use super::*;
 
     use crate::geometry::triangle::{self, RayShear};
+    use crate::geometry::triangle_source::SourcePart;
+    use crate::math::Affine3A;
     use crate::sampler::test_lcg as lcg;
 
     fn bvh_of(tris: &[[Vec3; 3]]) -> TriangleBvh {
@@ -1477,6 +1661,113 @@ mod tests {
                 [0, 1, 2].map(|_| c + (Vec3::new(lcg(s), lcg(s), lcg(s)) - 0.5) * size)
             })
             .collect()
+    }
+
+    /// A tree with indexed leaves gives the answers of the tree with packets over the same
+    /// triangles, bit for bit, for every kind of query: here over a source of three parts (one
+    /// placed by a rotation, scale and translation; coincident triangles among them, whose ties
+    /// go to the lowest id), taken through a permutation as a world-space set takes its own.
+    #[test]
+    fn indexed_leaves_answer_as_packets_do() {
+        let mut s = 0x5eed_u64;
+        let mut part = |first: u32, tag: u32, count: usize, to_world: Option<Affine3A>| {
+            let positions: Vec<Vec3> = (0..count / 2 + 3)
+                .map(|_| Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 2.0 - 1.0)
+                .collect();
+            let n = positions.len() as u32;
+            let mut triangles: Vec<[u32; 3]> = (0..count)
+                .map(|t| {
+                    // Mostly neighbours in the vertex list (small triangles), a few long ones.
+                    let a = (t as u32 * 7 + 1) % n;
+                    let spread = if t % 50 == 0 { n / 2 } else { 3 };
+                    [a, (a + 1) % n, (a + 2 + t as u32 % spread) % n]
+                })
+                .filter(|[a, b, c]| a != b && b != c && a != c)
+                .collect();
+            // Coincident copies: hits at equal distances, told apart by id.
+            let copies: Vec<[u32; 3]> = triangles.iter().step_by(97).copied().collect();
+            triangles.extend(copies);
+            SourcePart {
+                first,
+                tag,
+                positions: std::sync::Arc::new(positions),
+                triangles: std::sync::Arc::new(triangles),
+                to_world,
+            }
+        };
+        let a = part(0, 3, 9_000, None);
+        let placed = Affine3A::from_scale_rotation_translation(
+            Vec3::new(0.5, 1.5, 1.0),
+            glam::Quat::from_rotation_y(0.7),
+            Vec3::new(0.3, -0.2, 0.1),
+        );
+        let b = part(a.triangles.len() as u32, 5, 9_000, Some(placed));
+        let c = part(
+            (a.triangles.len() + b.triangles.len()) as u32,
+            9,
+            2_000,
+            None,
+        );
+        let source = TriangleSource::new(vec![a, b, c]);
+        let n = source.len();
+        assert!(
+            n > COMPACT_TRIANGLES,
+            "narrow nodes should be exercised too"
+        );
+        // A permutation of the source (7919 is prime, and n is not a multiple of it).
+        assert!(!n.is_multiple_of(7919));
+        let index = |j: usize| ((j * 7919) % n) as u32;
+        let packets = TriangleBvh::build(
+            n,
+            |j| source.corners(index(j)),
+            |j| source.id(index(j)),
+            |_, _| {},
+        );
+        let indexed = TriangleBvh::build_indexed(n, source.clone(), index);
+        assert!(indexed.indexed.is_some() && indexed.packets.is_empty());
+        assert!(packets.indexed.is_none());
+        assert_eq!(
+            (indexed.len(), indexed.bounds()),
+            (packets.len(), packets.bounds())
+        );
+        let bits = |h: &Option<([u32; 2], TriHit)>| {
+            h.map(|(id, h)| (id, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits()))
+        };
+        let odd = |id: [u32; 2], _: &TriHit| id[1] % 2 == 1;
+        let mut hits = 0;
+        for k in 0..3_000 {
+            let o = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 3.0 - 1.5;
+            let mut d = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) - 0.5;
+            if k % 10 == 0 {
+                d.x = 0.0; // the robust box test
+            }
+            let ray = TriRay::new(o, d);
+            for tree in [&packets, &indexed] {
+                assert_eq!(tree.uses_avx2(), packets.uses_avx2());
+            }
+            let p = packets.intersect(&ray, 0.0, f32::INFINITY);
+            let i = indexed.intersect(&ray, 0.0, f32::INFINITY);
+            assert_eq!(bits(&p), bits(&i), "ray {o:?} {d:?}");
+            hits += usize::from(p.is_some());
+            let pc = packets.intersect_corners(&ray, 0.0, f32::INFINITY);
+            let ic = indexed.intersect_corners(&ray, 0.0, f32::INFINITY);
+            assert_eq!(pc.map(|x| (x.0, x.2)), ic.map(|x| (x.0, x.2)));
+            if let Some((_, h)) = p {
+                let t_max = h.t * 0.75;
+                assert_eq!(
+                    packets.occluded(&ray, 0.0, t_max),
+                    indexed.occluded(&ray, 0.0, t_max)
+                );
+            }
+            let pa = packets.intersect_accepted(&ray, 0.0, f32::INFINITY, &mut { odd });
+            let ia = indexed.intersect_accepted(&ray, 0.0, f32::INFINITY, &mut { odd });
+            assert_eq!(bits(&pa), bits(&ia));
+            assert_eq!(
+                packets.occluded_accepted(&ray, 0.0, 2.0, &mut { odd }),
+                indexed.occluded_accepted(&ray, 0.0, 2.0, &mut { odd })
+            );
+        }
+        assert!(hits > 1_000, "only {hits} hits");
     }
 
     /// The leaves found from their first slots' bits are the leaves a left-first walk of the

@@ -27,6 +27,28 @@ pub fn shared() -> Option<PathBuf> {
     None
 }
 
+/// The files under `dir` (recursively) with one of `extensions`, sorted.
+pub fn files_in(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = entry.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| extensions.contains(&e))
+            {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
 /// Loads and builds a scene file from the workspace, with settings overridden for a small test.
 pub fn load_scene(path: &Path) -> lumo_schema::Scene {
     lumo_schema::load_scene_file(path)
