@@ -13,11 +13,16 @@
 //! With THREADS > 1 the timed passes split the rays into chunks of 4,096 traced on a rayon pool
 //! of that many threads (as the `bvh` bench's "all cores" runs).
 //!
-//! `LUMO_BVH_NO_AVX2=1` runs the SSE fallback instead of the AVX2 box test.
+//! `LUMO_BVH_NO_AVX2=1` runs the SSE fallback instead of the AVX2 box test;
+//! `LUMO_BVH_LEAVES=indexed` builds the tree with indexed leaves (the soup's corners as a mesh
+//! of three vertices per triangle) instead of leaf packets.
 #[path = "../benches/common/mod.rs"]
 mod common;
 use glam::Vec3A;
+use lumo::geometry::triangle_bvh::LEAVES_VARIABLE;
+use lumo::geometry::triangle_source::{SourcePart, TriangleSource};
 use lumo::geometry::{TriRay, TriangleBvh};
+use std::sync::Arc;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -32,7 +37,22 @@ fn main() {
     let corners: Vec<[Vec3A; 3]> = soup.tris.iter().map(|t| t.map(Vec3A::from)).collect();
     let ids = (0..soup.tris.len() as u32).map(|i| [0, i]).collect();
     let t0 = Instant::now();
-    let bvh = TriangleBvh::new(corners, ids);
+    let bvh = if std::env::var(LEAVES_VARIABLE).is_ok_and(|v| v == "indexed") {
+        let positions = soup.tris.iter().flatten().copied().collect();
+        let triangles = (0..soup.tris.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect();
+        let source = TriangleSource::new(vec![SourcePart {
+            first: 0,
+            tag: 0,
+            positions: Arc::new(positions),
+            triangles: Arc::new(triangles),
+            to_world: None,
+        }]);
+        TriangleBvh::build_indexed(source.len(), source, |i| i as u32)
+    } else {
+        TriangleBvh::new(corners, ids)
+    };
     eprintln!("build {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
     let (_, rays, prim) = sets.into_iter().find(|s| s.0 == kind).unwrap();
     let (o, d) = (
