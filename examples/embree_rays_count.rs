@@ -22,8 +22,8 @@ use glam::Vec3A;
 use lumo::geometry::triangle_bvh::LEAVES_VARIABLE;
 use lumo::geometry::triangle_source::{SourcePart, TriangleSource};
 use lumo::geometry::{TriRay, TriangleBvh};
-use std::sync::Arc;
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
 
 fn main() {
