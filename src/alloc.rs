@@ -78,20 +78,10 @@ fn advise_huge_pages(p: *mut u8, len: usize) {
         /// Linux's `MADV_HUGEPAGE` (asm-generic/mman-common.h).
         const MADV_HUGEPAGE: std::ffi::c_int = 14;
         const PAGE: usize = 4096;
-        unsafe extern "C" {
-            fn madvise(
-                addr: *mut std::ffi::c_void,
-                len: usize,
-                advice: std::ffi::c_int,
-            ) -> std::ffi::c_int;
-        }
         let start = (p as usize).next_multiple_of(PAGE);
-        let end = p as usize + len;
-        if end > start {
-            // SAFETY: the range lies within the block just allocated (rounded inwards to whole
-            // pages); madvise with MADV_HUGEPAGE changes no contents and fails harmlessly.
-            unsafe { madvise(start as *mut std::ffi::c_void, end - start, MADV_HUGEPAGE) };
-        }
+        // SAFETY: the range lies within the block just allocated (from its first whole page);
+        // madvise with MADV_HUGEPAGE changes no contents and fails harmlessly.
+        unsafe { advise(start, p as usize + len, MADV_HUGEPAGE) };
     }
     #[cfg(not(target_os = "linux"))]
     let _ = (p, len);
@@ -116,22 +106,32 @@ pub(crate) unsafe fn release_unused(p: *const u8, len: usize) {
     {
         /// Linux's `MADV_DONTNEED` (asm-generic/mman-common.h).
         const MADV_DONTNEED: std::ffi::c_int = 4;
-        unsafe extern "C" {
-            fn madvise(
-                addr: *mut std::ffi::c_void,
-                len: usize,
-                advice: std::ffi::c_int,
-            ) -> std::ffi::c_int;
-        }
         let start = (p as usize).next_multiple_of(RELEASE_BLOCK);
         let end = (p as usize + len) / RELEASE_BLOCK * RELEASE_BLOCK;
-        if end > start {
-            // SAFETY: the range lies within the caller's block (rounded inwards to whole
-            // blocks), whose contents the caller has finished with; on failure nothing
-            // changes.
-            unsafe { madvise(start as *mut std::ffi::c_void, end - start, MADV_DONTNEED) };
-        }
+        // SAFETY: the range lies within the caller's block (rounded inwards to whole blocks),
+        // whose contents the caller has finished with; on failure nothing changes.
+        unsafe { advise(start, end, MADV_DONTNEED) };
     }
     #[cfg(not(target_os = "linux"))]
     let _ = (p, len);
+}
+
+/// Linux's `madvise(advice)` on the bytes from `start` (page-aligned) to `end`, if any; its
+/// failure is ignored (an advice not taken).
+///
+/// # Safety
+/// The range must belong to one allocation, and `advice` must suit what its owner does with it.
+#[cfg(target_os = "linux")]
+unsafe fn advise(start: usize, end: usize, advice: std::ffi::c_int) {
+    unsafe extern "C" {
+        fn madvise(
+            addr: *mut std::ffi::c_void,
+            len: usize,
+            advice: std::ffi::c_int,
+        ) -> std::ffi::c_int;
+    }
+    if end > start {
+        // SAFETY: passed on from the caller.
+        unsafe { madvise(start as *mut std::ffi::c_void, end - start, advice) };
+    }
 }

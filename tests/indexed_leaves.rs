@@ -10,25 +10,12 @@ use std::path::{Path, PathBuf};
 
 use lumo::geometry::triangle_bvh::LEAVES_VARIABLE;
 use lumo::render::{render_with_error, PixelSum, RenderOptions};
-use lumo::LoadOptions;
 
 /// The film of `file` (rendered small, with `edit` applied) with the leaves `LUMO_BVH_LEAVES`
 /// names.
 fn film(file: &Path, edit: &dyn Fn(&mut lumo_schema::Scene), leaves: &str) -> Vec<PixelSum> {
     std::env::set_var(LEAVES_VARIABLE, leaves);
-    let mut input = lumo::load(file, &LoadOptions::default())
-        .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
-    input
-        .edit(|s| {
-            s.image.width = 24;
-            s.image.height = 18;
-            s.render.spp = 4;
-            edit(s);
-        })
-        .unwrap();
-    let (scene, _) = input
-        .build()
-        .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    let scene = common::small_scene(file, edit);
     let film = render_with_error(&scene, &RenderOptions::default()).film;
     assert!(film.samples_taken() > 0, "{}: no samples", file.display());
     film.pixels().to_vec()

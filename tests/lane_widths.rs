@@ -9,24 +9,11 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use lumo::render::{render_with_error, RenderOptions};
-use lumo::LoadOptions;
 
 /// The films of `file` (rendered small, with `edit` applied) at every lane width, compared
 /// with W = 1's; `adaptive` renders with adaptive sampling.
 fn same_at_every_width(file: &Path, edit: impl Fn(&mut lumo_schema::Scene), adaptive: bool) {
-    let mut input = lumo::load(file, &LoadOptions::default())
-        .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
-    input
-        .edit(|s| {
-            s.image.width = 24;
-            s.image.height = 18;
-            s.render.spp = 4;
-            edit(s);
-        })
-        .unwrap();
-    let (scene, _) = input
-        .build()
-        .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    let scene = common::small_scene(file, edit);
     let film_at = |width: usize| {
         let options = RenderOptions {
             lane_width: Some(width),

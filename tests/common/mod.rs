@@ -27,6 +27,25 @@ pub fn shared() -> Option<PathBuf> {
     None
 }
 
+/// `file` loaded, made small (24 × 18 pixels, 4 spp), edited by `edit` and built, panicking
+/// with the file's name on any error.
+pub fn small_scene(file: &Path, edit: impl Fn(&mut lumo_schema::Scene)) -> lumo::scene::Scene {
+    let mut input = lumo::load(file, &lumo::LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    input
+        .edit(|s| {
+            s.image.width = 24;
+            s.image.height = 18;
+            s.render.spp = 4;
+            edit(s);
+        })
+        .unwrap();
+    input
+        .build()
+        .unwrap_or_else(|e| panic!("{}: {e}", file.display()))
+        .0
+}
+
 /// The files under `dir` (recursively) with one of `extensions`, sorted.
 pub fn files_in(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
     let mut out = Vec::new();
