@@ -5,7 +5,7 @@ use std::sync::{Arc, OnceLock};
 use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 
-use crate::geometry::triangle_bvh::{self, prefetch_line, Prefetch, TriRay, TriangleBvh};
+use crate::geometry::triangle_bvh::{prefetch_line, TriRay, TriangleBvh};
 use crate::geometry::triangle_source::{SourcePart, TriangleSource};
 use crate::geometry::RawHit;
 use crate::lanes::{F32s, Mask, V3s};
@@ -178,17 +178,8 @@ impl Mesh {
     /// The mesh's own BVH (object space), built on first call.
     pub fn bvh(&self) -> &TriangleBvh {
         self.bvh.get_or_init(|| {
-            let count = self.data.triangles.len();
-            if triangle_bvh::indexed_leaves(count) {
-                let source = TriangleSource::new(vec![self.triangle_source_part(0, 0, None)]);
-                return TriangleBvh::build_indexed(count, source, |p| p as u32);
-            }
-            TriangleBvh::build(
-                count,
-                |p| self.corners(p as u32).map(Vec3A::from),
-                |p| [0, p as u32],
-                |p, stage| self.prefetch_corners(p as u32, stage),
-            )
+            let source = TriangleSource::new(vec![self.triangle_source_part(0, 0, None)]);
+            TriangleBvh::from_source(self.data.triangles.len(), source, |p| p as u32)
         })
     }
 
@@ -207,23 +198,6 @@ impl Mesh {
             positions: Arc::clone(&self.data.positions),
             triangles: Arc::clone(&self.data.triangles),
             to_world,
-        }
-    }
-
-    /// Asks the memory system for what [`corners`](Self::corners) of `prim` reads: its index
-    /// triple, or (once that has arrived) its three positions.
-    #[inline]
-    pub fn prefetch_corners(&self, prim: u32, stage: Prefetch) {
-        let d = &self.data;
-        match stage {
-            Prefetch::Indices => prefetch_line(d.triangles.as_ptr().wrapping_add(prim as usize)),
-            Prefetch::Corners => {
-                if let Some(tri) = d.triangles.get(prim as usize) {
-                    for &i in tri {
-                        prefetch_line(d.positions.as_ptr().wrapping_add(i as usize));
-                    }
-                }
-            }
         }
     }
 

@@ -598,21 +598,19 @@ impl Geometry {
             let (k, first, mesh) = flat[flat.partition_point(|&(_, first, _)| first <= i) - 1];
             (k, (i - first) as u32, mesh)
         };
-        let corners = |i| {
-            let (k, prim, mesh) = locate(i);
-            let inst = &instances[k];
-            let c = mesh.corners(prim);
-            let c = if inst.identity {
-                c
-            } else {
-                c.map(|p| inst.to_world.transform_point3(p))
-            };
-            c.map(Vec3A::from)
-        };
-        let id = |i| {
-            let (k, prim, _) = locate(i);
-            [k as u32, prim]
-        };
+        // The set's triangles in world space, each instance's mesh read in place: triangle i
+        // is `source`'s triangle i, its id (instance, index in the mesh).
+        let source = TriangleSource::new(
+            flat.iter()
+                .map(|&(k, first, mesh)| {
+                    let inst = &instances[k];
+                    let placed = (!inst.identity).then_some(inst.to_world);
+                    mesh.triangle_source_part(first as u32, k as u32, placed)
+                })
+                .collect(),
+        );
+        let corners = |i: usize| source.corners(i as u32);
+        let id = |i: usize| source.id(i as u32);
         // The triangles the small set takes, as indices into the set, increasing: all of them
         // when they are the whole scene and few, else its big triangles (if any).
         let chosen: Vec<usize> = if top_instances.is_empty()
@@ -662,31 +660,8 @@ impl Geometry {
         // chosen[c] - c <= j.
         let shifted: Vec<usize> = chosen.iter().enumerate().map(|(c, &i)| i - c).collect();
         let rest = |j: usize| j + shifted.partition_point(|&x| x <= j);
-        let tree_count = flat_count - chosen.len();
-        let flat_bvh = if triangle_bvh::indexed_leaves(tree_count)
-            && flat_count <= u32::MAX as usize
-        {
-            // The same corners as `corners` gives, read from the meshes at each query.
-            let parts = flat
-                .iter()
-                .map(|&(k, first, mesh)| {
-                    let inst = &instances[k];
-                    let placed = (!inst.identity).then_some(inst.to_world);
-                    mesh.triangle_source_part(first as u32, k as u32, placed)
-                })
-                .collect();
-            TriangleBvh::build_indexed(tree_count, TriangleSource::new(parts), |j| rest(j) as u32)
-        } else {
-            TriangleBvh::build(
-                tree_count,
-                |j| corners(rest(j)),
-                |j| id(rest(j)),
-                |j, stage| {
-                    let (_, prim, mesh) = locate(rest(j));
-                    mesh.prefetch_corners(prim, stage);
-                },
-            )
-        };
+        let flat_bvh =
+            TriangleBvh::from_source(flat_count - chosen.len(), source, |j| rest(j) as u32);
         drop(flat);
         Geometry {
             flat: flat_bvh,

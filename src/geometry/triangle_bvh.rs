@@ -607,8 +607,6 @@ struct Wide<'a> {
     nodes: &'a Arena<Node8>,
     narrow: &'a Arena<Node4>,
     compact: bool,
-    /// Whether leaves are referenced by their slots ([`Indexed`]) rather than their packets.
-    indexed: bool,
 }
 
 /// Sets of at least this many triangles store nodes of at most four children as [`Node4`]s
@@ -719,17 +717,18 @@ impl Leaves {
 /// nodes in it (`depth` is this node's level; 0 for a leaf).
 fn collapse(
     bin: &Bvh,
-    starts: &LeafStarts,
+    starts: Option<&LeafStarts>,
     out: &Wide,
     index: usize,
     depth: usize,
 ) -> (u32, usize) {
     let n = bin.nodes[index];
     if n.count() > 0 {
-        if out.indexed {
-            return (Indexed::reference(n.first(), n.count()), 0);
-        }
-        return (LEAF | starts.packet(n.first() as usize), 0);
+        let reference = match starts {
+            Some(starts) => LEAF | starts.packet(n.first() as usize),
+            None => Indexed::reference(n.first(), n.count()),
+        };
+        return (reference, 0);
     }
     // Open the interior child with the largest surface area until there are eight children
     // (the greedy collapse of Wald et al. 2008, "Getting Rid of Packets").
@@ -852,27 +851,44 @@ impl TriangleBvh {
     }
 
     /// The BVH over `count` triangles of `source`, triangle j being `source`'s triangle
-    /// `index(j)`, with indexed leaves: a leaf names its triangles (4 bytes each) and a query
-    /// reads their corners from the source, by the operations that make packets, instead of
-    /// holding them in packets (about 53 bytes per triangle). Embree's compact mode; the same
-    /// tree, and the same answers bit for bit, as [`TriangleBvh::build`] over
-    /// `source.corners(index(j))` and `source.id(index(j))`. Sets of more than 2²⁹ triangles
-    /// get packets all the same (a leaf reference holds its first slot in 29 bits).
+    /// `index(j)`: with indexed leaves when [`indexed_leaves`] says so, else with packets.
+    pub fn from_source(
+        count: usize,
+        source: TriangleSource,
+        index: impl Fn(usize) -> u32 + Sync,
+    ) -> TriangleBvh {
+        TriangleBvh::build_from_source(count, source, index, indexed_leaves(count))
+    }
+
+    /// [`TriangleBvh::from_source`] with indexed leaves: a leaf names its triangles (16 bytes
+    /// each: vertex indices and source index) and a query reads their corners from the
+    /// source, by the operations that make packets, instead of holding them in packets (about
+    /// 53 bytes per triangle). Embree's compact mode; the same tree, and the same answers bit
+    /// for bit, as with packets. Sets of more than 2²⁹ triangles get packets all the same (a
+    /// leaf reference holds its first slot in 29 bits).
     pub fn build_indexed(
         count: usize,
         source: TriangleSource,
         index: impl Fn(usize) -> u32 + Sync,
     ) -> TriangleBvh {
+        TriangleBvh::build_from_source(count, source, index, true)
+    }
+
+    /// [`TriangleBvh::from_source`], with indexed leaves where `indexed` (and the set fits).
+    fn build_from_source(
+        count: usize,
+        source: TriangleSource,
+        index: impl Fn(usize) -> u32 + Sync,
+        indexed: bool,
+    ) -> TriangleBvh {
         let src = &source;
         let corners = |j: usize| src.corners(index(j));
         let id = |j: usize| src.id(index(j));
         let prefetch = |j: usize, stage: Prefetch| src.prefetch(index(j), stage);
-        if count > Indexed::MAX_SLOTS {
-            return TriangleBvh::build(count, corners, id, prefetch);
-        }
-        let (mut tree, slots) = TriangleBvh::build_as(count, corners, id, prefetch, Some(&index));
-        if !tree.is_empty() {
-            let slots = slots.par_iter().map(|&i| source.entry(i)).collect();
+        let indexed = indexed && count <= Indexed::MAX_SLOTS;
+        let leaves = indexed.then_some((src, &index as &(dyn Fn(usize) -> u32 + Sync)));
+        let (mut tree, slots) = TriangleBvh::build_as(count, corners, id, prefetch, leaves);
+        if indexed && !tree.is_empty() {
             tree.indexed = Some(Box::new(Indexed { slots, source }));
         }
         tree
@@ -891,15 +907,16 @@ impl TriangleBvh {
         TriangleBvh::build_as(count, corners, id, prefetch, None).0
     }
 
-    /// [`TriangleBvh::build`] with packets, or, given `index`, the tree of
-    /// [`TriangleBvh::build_indexed`] and its slots' source indices.
+    /// [`TriangleBvh::build`] with packets, or, given the source and the triangles' indices in
+    /// it, the tree of [`TriangleBvh::build_indexed`] (without its [`Indexed`]) and its slots'
+    /// entries ([`TriangleSource::entry`]).
     fn build_as(
         count: usize,
         corners: impl Fn(usize) -> [Vec3A; 3] + Sync,
         id: impl Fn(usize) -> [u32; 2] + Sync,
         prefetch: impl Fn(usize, Prefetch) + Sync,
-        index: Option<&(dyn Fn(usize) -> u32 + Sync)>,
-    ) -> (TriangleBvh, Vec<u32>) {
+        indexed: Option<(&TriangleSource, &(dyn Fn(usize) -> u32 + Sync))>,
+    ) -> (TriangleBvh, Vec<[u32; 4]>) {
         let mut bin = Bvh::build_transient(
             count,
             |i| {
@@ -920,8 +937,10 @@ impl TriangleBvh {
         crate::phases::mark("bvh: binary SAH tree");
         let prims = std::mem::take(&mut bin.prims);
         let triangles = prims.len();
-        let starts = LeafStarts::of(&bin.nodes, triangles);
-        let leaves = starts.leaves(triangles);
+        // Packets are numbered by their leaves' first slots; indexed leaves hold those slots.
+        let starts = indexed
+            .is_none()
+            .then(|| LeafStarts::of(&bin.nodes, triangles));
         // The wide nodes first, so that the binary tree is freed before the packets are
         // made: the two are never in memory together. A binary tree of n nodes has (n - 1) / 2
         // interior ones; a node of k children takes k - 1 of them.
@@ -937,9 +956,8 @@ impl TriangleBvh {
                         nodes,
                         narrow,
                         compact,
-                        indexed: index.is_some(),
                     };
-                    root = collapse(&bin, &starts, &out, 0, 1);
+                    root = collapse(&bin, starts.as_ref(), &out, 0, 1);
                 });
             })
         };
@@ -954,41 +972,47 @@ impl TriangleBvh {
             narrow.shrink_to_fit();
         }
         let (bounds, binary_nodes) = (bin.bounds(), bin.nodes.len());
-        drop((bin, starts));
+        let leaves = starts.map(|starts| starts.leaves(triangles));
+        drop(bin);
         crate::phases::mark("bvh: 8-wide nodes");
-        let mut prims = prims;
-        let packets: Vec<Packet> = if let Some(index) = index {
-            // Indexed leaves: the slots name the source's triangles; no packets.
-            prims.par_iter_mut().for_each(|p| *p = index(*p as usize));
-            Vec::new()
-        } else {
-            let ahead = |j: usize, stage: Prefetch| {
-                if let Some((first, count)) = leaves.get(j) {
-                    for &t in &prims[first..first + count] {
-                        prefetch(t as usize, stage);
+        let (packets, slots): (Vec<Packet>, Vec<[u32; 4]>) = match (indexed, leaves) {
+            (Some((source, index)), _) => {
+                // Indexed leaves: each slot names its triangle in the source; no packets.
+                let slots = prims
+                    .par_iter()
+                    .map(|&p| source.entry(index(p as usize)))
+                    .collect();
+                (Vec::new(), slots)
+            }
+            (None, None) => unreachable!("leaf starts are made for packets"),
+            (None, Some(leaves)) => {
+                let ahead = |j: usize, stage: Prefetch| {
+                    if let Some((first, count)) = leaves.get(j) {
+                        for &t in &prims[first..first + count] {
+                            prefetch(t as usize, stage);
+                        }
                     }
-                }
-            };
-            let packets = (0..leaves.len())
-                .into_par_iter()
-                .map(|j| {
-                    let (first, count) = leaves.span(j);
-                    ahead(j + 2 * PREFETCH_LEAVES, Prefetch::Indices);
-                    ahead(j + PREFETCH_LEAVES, Prefetch::Corners);
-                    Packet::new(
-                        |slot| corners(prims[slot] as usize),
-                        |slot| id(prims[slot] as usize),
-                        first,
-                        count,
-                    )
-                })
-                .collect();
-            prims = Vec::new();
-            packets
+                };
+                let packets = (0..leaves.len())
+                    .into_par_iter()
+                    .map(|j| {
+                        let (first, count) = leaves.span(j);
+                        ahead(j + 2 * PREFETCH_LEAVES, Prefetch::Indices);
+                        ahead(j + PREFETCH_LEAVES, Prefetch::Corners);
+                        Packet::new(
+                            |slot| corners(prims[slot] as usize),
+                            |slot| id(prims[slot] as usize),
+                            first,
+                            count,
+                        )
+                    })
+                    .collect();
+                (packets, Vec::new())
+            }
         };
-        drop(leaves);
+        drop(prims);
         let nodes_bytes = std::mem::size_of_val(&nodes[..]) + std::mem::size_of_val(&narrow[..]);
-        let packets_bytes = std::mem::size_of_val(&packets[..]) + std::mem::size_of_val(&prims[..]);
+        let packets_bytes = std::mem::size_of_val(&packets[..]) + std::mem::size_of_val(&slots[..]);
         let mut out = TriangleBvh {
             bounds,
             triangles,
@@ -1003,7 +1027,7 @@ impl TriangleBvh {
             root_boxes: Vec::new(),
         };
         out.root_boxes = out.children_of_root();
-        let leaves = match index {
+        let leaves = match indexed {
             Some(_) => "indexed leaves".to_string(),
             None => format!("{} packets", out.packets.len()),
         };
@@ -1015,7 +1039,7 @@ impl TriangleBvh {
             out.nodes.len(),
             out.narrow.len()
         ));
-        (out, prims)
+        (out, slots)
     }
 
     /// The boxes of the root's children (the tree's bounds when the root is a packet).

@@ -31,6 +31,26 @@ pub struct SourcePart {
     pub to_world: Option<Affine3A>,
 }
 
+impl SourcePart {
+    /// The corners of the triangle of vertices `v`, placed: the one computation of a source's
+    /// corners, whether a build reads them or a query gathers them.
+    #[inline(always)]
+    fn corners(&self, v: [u32; 3]) -> [Vec3A; 3] {
+        let p = &self.positions;
+        // Spelled out (no `map` closures), so that it inlines into the traversal.
+        let c = [p[v[0] as usize], p[v[1] as usize], p[v[2] as usize]];
+        let c = match &self.to_world {
+            None => c,
+            Some(m) => [
+                m.transform_point3(c[0]),
+                m.transform_point3(c[1]),
+                m.transform_point3(c[2]),
+            ],
+        };
+        [Vec3A::from(c[0]), Vec3A::from(c[1]), Vec3A::from(c[2])]
+    }
+}
+
 /// Triangles numbered from 0 over a list of [`SourcePart`]s (see the module documentation).
 #[derive(Debug, Clone, Default)]
 pub struct TriangleSource {
@@ -82,13 +102,7 @@ impl TriangleSource {
     #[inline(always)]
     pub fn corners(&self, i: u32) -> [Vec3A; 3] {
         let (part, prim) = self.locate(i);
-        let positions = &part.positions;
-        let c = part.triangles[prim as usize].map(|v| positions[v as usize]);
-        let c = match &part.to_world {
-            None => c,
-            Some(m) => c.map(|p| m.transform_point3(p)),
-        };
-        c.map(Vec3A::from)
+        part.corners(part.triangles[prim as usize])
     }
 
     /// Triangle `i`'s entry: its corners' indices in its part's positions, then `i`.
@@ -104,23 +118,8 @@ impl TriangleSource {
     #[inline(always)]
     pub fn entry_triangle(&self, entry: [u32; 4]) -> ([Vec3A; 3], [u32; 2]) {
         let (part, prim) = self.locate(entry[3]);
-        let positions = &part.positions;
-        // Spelled out (no `map` closures), so that it inlines into the traversal.
-        let c = [
-            positions[entry[0] as usize],
-            positions[entry[1] as usize],
-            positions[entry[2] as usize],
-        ];
-        let c = match &part.to_world {
-            None => c,
-            Some(m) => [
-                m.transform_point3(c[0]),
-                m.transform_point3(c[1]),
-                m.transform_point3(c[2]),
-            ],
-        };
         (
-            [Vec3A::from(c[0]), Vec3A::from(c[1]), Vec3A::from(c[2])],
+            part.corners([entry[0], entry[1], entry[2]]),
             [part.tag, prim],
         )
     }
