@@ -268,18 +268,19 @@ impl Bvh {
         // Each leaf writes its slots' primitives as it is made, and each finished subtree
         // gives its records' memory back (see `build_node`): the records (32 bytes per
         // primitive) are never in memory whole beside the whole tree and slot list.
-        let mut prims = vec![0u32; refs.len()];
-        let slots = SlotWriter {
-            ptr: prims.as_mut_ptr(),
-            len: prims.len(),
-        };
+        let n = refs.len();
+        let mut nodes = Vec::new();
         // A binary tree over n ≥ 1 primitives has at most 2n − 1 nodes. The array is reserved
         // at that size, but only the pages of the nodes written are ever touched.
-        // SAFETY: `build_node` writes the node it is given and every index it takes.
-        let nodes = unsafe {
-            Arena::fill(2 * refs.len(), |arena| {
-                let root = arena.take(1);
-                build_node(leaf_cost, arena, &slots, root, &mut refs, range, 0);
+        // SAFETY: every slot is taken at once and the leaves, which tile the slots, write them
+        // (`build_node`); `build_node` writes the node it is given and every index it takes.
+        let prims = unsafe {
+            Arena::fill(n, |slots| {
+                slots.take(n);
+                nodes = Arena::fill(2 * n, |arena| {
+                    let root = arena.take(1);
+                    build_node(leaf_cost, arena, slots, root, &mut refs, range, 0);
+                });
             })
         };
         Bvh { nodes, prims }
@@ -795,25 +796,12 @@ impl<T> Arena<T> {
     }
 }
 
-/// The slot list of a tree being built, written by its leaves as they are made.
-struct SlotWriter {
-    ptr: *mut u32,
-    len: usize,
-}
-
-// SAFETY: the leaves tile the slots, so each slot is written by one thread, once, and nothing
-// reads the list before the build is over.
-unsafe impl Sync for SlotWriter {}
-
-impl SlotWriter {
-    /// Records the primitives of the leaf `refs`, which holds slots `offset..`.
-    #[inline]
-    fn leaf(&self, offset: usize, refs: &[PrimRef]) {
-        assert!(offset + refs.len() <= self.len, "a leaf past the slots");
-        for (k, r) in refs.iter().enumerate() {
-            // SAFETY: in bounds (checked above); each slot belongs to one leaf (see `Sync`).
-            unsafe { self.ptr.add(offset + k).write(r.id()) };
-        }
+/// Writes the primitives of the leaf `refs`, which holds slots `offset..`, to the slot list.
+#[inline]
+fn write_leaf(slots: &Arena<u32>, offset: usize, refs: &[PrimRef]) {
+    for (k, r) in refs.iter().enumerate() {
+        // SAFETY: the slots are all taken at once; each belongs to one leaf, written once.
+        unsafe { slots.set(offset + k, r.id()) };
     }
 }
 
@@ -825,7 +813,7 @@ impl SlotWriter {
 fn build_node(
     lc: LeafCost,
     arena: &Arena<Node>,
-    slots: &SlotWriter,
+    slots: &Arena<u32>,
     index: usize,
     refs: &mut [PrimRef],
     range: Range,
@@ -863,7 +851,7 @@ fn build_node(
     }
     let (mid, lr, rr) = match split(lc, refs, range) {
         Split::Leaf => {
-            slots.leaf(offset, refs);
+            write_leaf(slots, offset, refs);
             let leaf = Node::new(&range.bounds, offset as u32, refs.len() as u32);
             // SAFETY: `index` was handed to this call alone.
             unsafe { arena.set(index, leaf) };
@@ -889,7 +877,7 @@ fn build_node(
 fn build_sequential(
     lc: LeafCost,
     nodes: &mut Vec<Node>,
-    slots: &SlotWriter,
+    slots: &Arena<u32>,
     index: usize,
     refs: &mut [PrimRef],
     range: Range,
@@ -897,7 +885,7 @@ fn build_sequential(
 ) {
     let (mid, lr, rr) = match split(lc, refs, range) {
         Split::Leaf => {
-            slots.leaf(offset, refs);
+            write_leaf(slots, offset, refs);
             nodes[index] = Node::new(&range.bounds, offset as u32, refs.len() as u32);
             return;
         }
