@@ -180,6 +180,45 @@ impl Frame {
     }
 }
 
+/// a × b, each product rounded before the subtraction: the bits of glam's `Vec3A::cross` in a
+/// build for baseline x86-64, whatever the build targets. glam fuses that product and
+/// subtraction into one FMA where the build has FMA (`-C target-cpu=native` on any x86-64 of the
+/// last decade), which would make lumo's images depend on how lumo was compiled; `clippy.toml`
+/// therefore disallows glam's functions that do so, and these stand in for them.
+#[inline]
+pub fn cross(a: Vec3A, b: Vec3A) -> Vec3A {
+    Vec3A::new(
+        a.y * b.z - b.y * a.z,
+        a.z * b.x - b.z * a.x,
+        a.x * b.y - b.x * a.y,
+    )
+}
+
+/// The determinant of `m`, with glam's operations and [`cross`] (see there).
+#[inline]
+pub fn determinant(m: &glam::Mat3A) -> f32 {
+    m.x_axis.dot(cross(m.y_axis, m.z_axis))
+}
+
+/// The inverse of the invertible `m`, with glam's operations and [`cross`] (see there).
+pub fn inverse(m: &glam::Mat3A) -> glam::Mat3A {
+    let tmp0 = cross(m.y_axis, m.z_axis);
+    let tmp1 = cross(m.z_axis, m.x_axis);
+    let tmp2 = cross(m.x_axis, m.y_axis);
+    let inv_det = Vec3A::splat(1.0 / m.x_axis.dot(tmp0));
+    glam::Mat3A::from_cols(tmp0 * inv_det, tmp1 * inv_det, tmp2 * inv_det).transpose()
+}
+
+/// The inverse of the invertible affine map `a`, with glam's operations and [`cross`] (see
+/// there).
+pub fn inverse_affine(a: &Affine3A) -> Affine3A {
+    let matrix3 = inverse(&a.matrix3);
+    Affine3A {
+        matrix3,
+        translation: -(matrix3 * a.translation),
+    }
+}
+
 /// Moves a surface point off the surface along the geometric normal `n` (towards the side `w`
 /// points to) by a bound on its floating-point error, so that a ray spawned there does not hit
 /// the same surface again. Method of Wächter and Binder, "A Fast and Robust Method for Avoiding
@@ -414,6 +453,38 @@ mod tests {
             assert!((f.s.cross(f.t) - n).length() < 1e-5);
             let v = Vec3::new(0.2, 0.4, -0.3);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-6);
+        }
+    }
+
+    /// `cross`, `determinant`, `inverse` and `inverse_affine` give the bits of glam's own in a
+    /// build without FMA (the default build), so replacing glam's changed no image, and give
+    /// them with FMA too (`-C target-cpu=native`), where glam's own differ (then this test
+    /// checks only the first: it cannot compare with glam's unfused bits there).
+    #[test]
+    #[allow(clippy::disallowed_methods)]
+    fn cross_and_inverses_have_the_unfused_bits() {
+        let mut state = 5u64;
+        let mut v = || {
+            let mut c = || (crate::sampler::test_lcg(&mut state) - 0.5) * 8.0;
+            Vec3A::new(c(), c(), c())
+        };
+        let fused = cfg!(target_feature = "fma");
+        let bits = |v: Vec3A| v.to_array().map(f32::to_bits);
+        for _ in 0..10_000 {
+            let (a, b) = (v(), v());
+            let want = Vec3::from(a).cross(Vec3::from(b));
+            assert_eq!(bits(cross(a, b)), bits(want.into()), "{a} × {b}");
+            let m = glam::Mat3A::from_cols(v(), v(), v());
+            let affine = Affine3A::from_mat3_translation(m.into(), v().into());
+            if !fused {
+                assert_eq!(bits(cross(a, b)), bits(a.cross(b)));
+                assert_eq!(determinant(&m).to_bits(), m.determinant().to_bits());
+                let columns = |m: glam::Mat3A| [m.x_axis, m.y_axis, m.z_axis].map(bits);
+                assert_eq!(columns(inverse(&m)), columns(m.inverse()));
+                let (got, want) = (inverse_affine(&affine), affine.inverse());
+                assert_eq!(columns(got.matrix3), columns(want.matrix3));
+                assert_eq!(bits(got.translation), bits(want.translation));
+            }
         }
     }
 }

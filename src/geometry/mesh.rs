@@ -107,7 +107,7 @@ impl Mesh {
         data.colors = data.colors.filter(|a| a.len() == n);
         let positions = &data.positions;
         let corners = |t: &[u32; 3]| t.map(|i| Vec3A::from(positions[i as usize]));
-        let area = |[a, b, c]: [Vec3A; 3]| (b - a).cross(c - a).length_squared() > 0.0;
+        let area = |[a, b, c]: [Vec3A; 3]| crate::math::cross(b - a, c - a).length_squared() > 0.0;
         // In SIMD registers (`Vec3A`: each `min` and `max` one instruction, against a compare
         // and blend per component for `Vec3`'s form, with the same result: `x < y ? x : y`, and a
         // cross product of the same products), over chunks of triangles in their order, each
@@ -765,7 +765,7 @@ mod tests {
                 let (axis, t) = (v3().normalize(), v3());
                 let rotation = glam::Quat::from_axis_angle(axis, t.x);
                 let m = Affine3A::from_scale_rotation_translation(v3().abs() + 0.1, rotation, t);
-                (m, m.matrix3.inverse().transpose().into())
+                (m, crate::math::inverse(&m.matrix3).transpose().into())
             });
             let mut state = round;
             let mut unit = || lcg(&mut state) * 0.5;

@@ -58,7 +58,7 @@ pub struct Instance {
 impl Instance {
     /// Places `shape` with the object → world map `to_world` (must be invertible).
     pub fn new(shape: Shape, to_world: Affine3A, material: u32) -> Instance {
-        let to_object = to_world.inverse();
+        let to_object = crate::math::inverse_affine(&to_world);
         let normal_to_world = Mat3::from(to_object.matrix3).transpose();
         let identity = to_world == Affine3A::IDENTITY;
         Instance {
@@ -244,7 +244,7 @@ impl Instance {
             if tangent != Vec4::ZERO {
                 // Tangents are directions on the surface: they transform as vectors. A mirroring
                 // transform flips cross(N, T), so the handedness flips with it.
-                let w = if self.to_world.matrix3.determinant() < 0.0 {
+                let w = if crate::math::determinant(&self.to_world.matrix3) < 0.0 {
                     -tangent.w
                 } else {
                     tangent.w
