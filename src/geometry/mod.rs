@@ -818,6 +818,7 @@ impl Geometry {
     /// (0, ∞) whatever their `t_max`), keeping the hits whose surfaces are computed in SIMD
     /// lanes as lanes: those go into `found` (and their entries of `hits` are `None`), the
     /// others' into `hits`.
+    #[inline(always)]
     pub fn intersect_wave<const W: usize>(
         &self,
         rays: &SegmentLanes<W>,
@@ -853,6 +854,7 @@ impl Geometry {
     /// `surfaces` and `found`, or their surfaces into `hits`, as
     /// [`intersect_wave`](Self::intersect_wave) keeps them. Returns the lanes whose small-set
     /// hit stands.
+    #[inline(always)]
     fn beyond_small<const W: usize>(
         &self,
         rays: &SegmentLanes<W>,
@@ -936,6 +938,7 @@ impl Geometry {
     /// The surfaces of the `lanes`' small-set hits (`slot_hits`): each lane's inputs from its
     /// slot's record where the set has them, else gathered from its mesh.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn small_surfaces<const W: usize>(
         &self,
         small: &SmallSet,
@@ -1116,6 +1119,7 @@ impl Geometry {
 
     /// Whether something blocks each of a wave's segments (over (0, `t_max`); idle lanes report
     /// `false`), as [`Accel::occluded`] finds it.
+    #[inline(always)]
     pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
         match &self.small {
             Some(small) if W >= crate::lanes::KERNELS_FROM => {

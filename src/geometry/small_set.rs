@@ -190,6 +190,7 @@ impl SmallSet {
     /// The closest hit of each lane's ray over (0, ∞) (`None` lanes are idle), lane by lane:
     /// as [`closest_lanes`](Self::closest_lanes) finds it, with the triangle's slot (its id
     /// is [`id`](Self::id)) instead of its id.
+    #[inline(always)]
     pub fn closest_slots<const W: usize>(&self, rays: &SegmentLanes<W>) -> SlotHits<W> {
         let wave = WaveRays::<W>::of_segments(rays);
         let mut hits = WaveHits {
@@ -227,6 +228,7 @@ impl SmallSet {
 
     /// Whether each live lane's segment (over (0, `t_max`)) meets a triangle (idle lanes report
     /// `false`), as [`TriangleBvh::occluded`](super::TriangleBvh::occluded) finds it.
+    #[inline(always)]
     pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
         let wave = WaveRays::<W>::of_segments(segments);
         let mut hits = WaveHits {
@@ -242,6 +244,7 @@ impl SmallSet {
 
     /// Runs the closest-hit (`CLOSEST`) or the occlusion kernel over the wave in chunks of the
     /// widest vectors that divide W.
+    #[inline(always)]
     fn run<const W: usize, const CLOSEST: bool>(
         &self,
         wave: &WaveRays<W>,
@@ -252,6 +255,7 @@ impl SmallSet {
         {
             use x86::{Avx2, Avx512, Sse2};
             #[target_feature(enable = "avx512f")]
+            #[inline]
             unsafe fn avx512<const W: usize, const CLOSEST: bool>(
                 set: &SmallSet,
                 wave: &WaveRays<W>,
@@ -264,6 +268,7 @@ impl SmallSet {
                 }
             }
             #[target_feature(enable = "avx2")]
+            #[inline]
             unsafe fn avx2<const W: usize, const CLOSEST: bool>(
                 set: &SmallSet,
                 wave: &WaveRays<W>,

@@ -817,6 +817,7 @@ impl<const W: usize> LambertRoute<W> {
     /// at a time (`u_light`: the lanes' light-sample points), and returns them. Their
     /// materials come from a table per instance, and their points and normals are taken as
     /// vectors.
+    #[inline(always)]
     pub fn enter_lanes(
         &mut self,
         scene: &Scene,
@@ -1042,6 +1043,7 @@ impl<const W: usize> LambertRoute<W> {
     /// Runs the light kernel over the route's lanes that need it (`paths` and `hits`: the
     /// wave's, `u_light` their light-sample points), leaving each lane's shadow ray for
     /// [`shadow`](Self::shadow).
+    #[inline(always)]
     pub fn sample_lights(
         &mut self,
         scene: &Scene,
@@ -1117,6 +1119,7 @@ impl<const W: usize> LambertRoute<W> {
     }
 
     /// Puts the shadow rays of the route's light samples in their lanes of `segments`.
+    #[inline(always)]
     pub fn shadows(&self, segments: &mut SegmentLanes<W>) {
         crate::lanes::widest!(
             W,
@@ -1142,6 +1145,7 @@ impl<const W: usize> LambertRoute<W> {
     /// path as [`Path::go_on`] does, in SIMD lanes, Russian roulette included (its numbers
     /// drawn from the lanes' samplers in `samplers` in lanes, only by the lanes that play it).
     /// Returns the lanes whose path ended.
+    #[inline(always)]
     pub fn scatter(
         &mut self,
         &(_, ux, uy): &(F32s<W>, F32s<W>, F32s<W>),

@@ -152,10 +152,12 @@ macro_rules! widest {
         #[cfg(target_arch = "x86_64")]
         {
             #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+            #[inline]
             unsafe fn avx512<const $w: usize>($($arg: $ty),+) -> $out {
                 $body
             }
             #[target_feature(enable = "avx2")]
+            #[inline]
             unsafe fn avx2<const $w: usize>($($arg: $ty),+) -> $out {
                 $body
             }

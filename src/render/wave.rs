@@ -19,7 +19,7 @@ use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::{LaneSurfaces, SegmentLanes, SurfaceHit};
 use crate::integrator::path::{LambertRoute, Path, PathLanes, Scratch, Vertex, WaveHits};
 use crate::integrator::{raycast, TraceStats};
-use crate::lanes::{F32s, Mask, V3s};
+use crate::lanes::{widest, F32s, Mask, V3s};
 use crate::math::{Ray, Rgb, Vec2};
 use crate::sampler::{Sampler, SamplerKind, SamplerLanes};
 use crate::scene::{IntegratorKind, Scene};
@@ -64,6 +64,31 @@ struct Lane {
 
 /// Runs every sample of `work` in a wave of W lanes, refilling lanes as their paths end.
 fn run_wave<const W: usize>(
+    scene: &Scene,
+    cancel: Option<&AtomicBool>,
+    origin: (u32, u32),
+    work: &[PixelWork],
+    sums: &mut Sink,
+    stats: &mut TraceStats,
+) {
+    widest!(
+        W,
+        (
+            scene: &Scene,
+            cancel: Option<&AtomicBool>,
+            origin: (u32, u32),
+            work: &[PixelWork],
+            sums: &mut Sink,
+            stats: &mut TraceStats
+        ) => (),
+        (scene, cancel, origin, work, sums, stats),
+        wave_loop::<W>(scene, cancel, origin, work, sums, stats)
+    )
+}
+
+/// [`run_wave`]'s loop, inlined into each of its copies.
+#[inline(always)]
+fn wave_loop<const W: usize>(
     scene: &Scene,
     cancel: Option<&AtomicBool>,
     origin: (u32, u32),
@@ -249,6 +274,7 @@ fn finish(lane: Option<Lane>, radiance: Rgb, aov: Option<&AovSample>, sums: &mut
 /// The next sample of the queue that traces a path in steps, as a lane and its pixel's
 /// position in the image; `None` when the queue is empty. Samples that trace no path in steps
 /// (the ray-cast preview's, or any with a depth of 0) are taken here whole.
+#[inline(always)]
 fn next_lane(
     scene: &Scene,
     (x0, y0): (u32, u32),

@@ -123,7 +123,7 @@ impl Scene {
     /// [`intersect_lanes`](Scene::intersect_lanes) of the rays of `rays`' live lanes (over
     /// (0, ∞)), keeping the hits whose surfaces are computed in SIMD lanes as lanes in `found` ([`Geometry::intersect_wave`](crate::geometry::Geometry::intersect_wave)):
     /// those are returned, the others go into `hits`.
-    #[inline]
+    #[inline(always)]
     pub fn intersect_wave<const W: usize>(
         &self,
         rays: &SegmentLanes<W>,
@@ -141,7 +141,7 @@ impl Scene {
 
     /// Whether something blocks each of a wave's segments (tested over (0, `t_max`); idle lanes
     /// report `false`), as [`occluded`](Scene::occluded) finds it.
-    #[inline]
+    #[inline(always)]
     pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
         if !self.has_alpha {
             return self.geometry.occluded_lanes(segments);
