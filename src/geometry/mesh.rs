@@ -603,6 +603,36 @@ impl<const W: usize> SurfaceLanes<W> {
         }
     }
 
+    /// [`set_flat`](Self::set_flat) in the `lanes` at once: their corners `positions`,
+    /// barycentrics `(b1, b2)` and normals `normal`, the `transformed` lanes (of `lanes`)
+    /// placed by their maps in `to_world` (the columns of the linear part, then the
+    /// translation; needed only when some lane is transformed).
+    #[inline(always)]
+    pub fn set_flat_lanes(
+        &mut self,
+        lanes: Mask<W>,
+        positions: [V3s<W>; 3],
+        (b1, b2): (F32s<W>, F32s<W>),
+        normal: V3s<W>,
+        (transformed, to_world): (Mask<W>, Option<[V3s<W>; 4]>),
+    ) {
+        for (corner, p) in self.corners.iter_mut().zip(positions) {
+            *corner = V3s::select(lanes, p, *corner);
+        }
+        self.b1 = F32s::select(lanes, b1, self.b1);
+        self.b2 = F32s::select(lanes, b2, self.b2);
+        self.smooth = self.smooth.and_not(lanes);
+        self.textured = self.textured.and_not(lanes);
+        self.given = self.given | lanes;
+        self.given_normal = V3s::select(lanes, normal, self.given_normal);
+        self.transformed = self.transformed.and_not(lanes) | transformed;
+        if let Some(to_world) = to_world {
+            for (column, v) in self.to_world.iter_mut().zip(to_world) {
+                *column = V3s::select(transformed, v, *column);
+            }
+        }
+    }
+
     /// Lane `i`'s object → world map: the columns of the linear part, then the translation.
     #[inline]
     fn set_to_world(&mut self, i: usize, to_world: &Affine3A) {

@@ -314,6 +314,103 @@ struct SmallSlot {
     flat_normal: Option<Vec3>,
 }
 
+/// What the lanes read of a [`SmallSlot`] whose triangle is flat, as 64-byte rows that a
+/// wave's sixteen rows turn into lanes in registers. The first holds the corners (9 values),
+/// the normal (3), the instance and the primitive (as bits), whether the triangle is flat and
+/// whether it is transformed (all bits set, else 0); the second its object → world map (the
+/// columns of the linear part, then the translation), read only where some lane's triangle is
+/// transformed.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct SlotRow([f32; 16]);
+
+impl SlotRow {
+    /// Where the row's fields start.
+    const POSITIONS: usize = 0;
+    const NORMAL: usize = 9;
+    const INSTANCE: usize = 12;
+    const PRIM: usize = 13;
+    const FLAT: usize = 14;
+    const TRANSFORMED: usize = 15;
+
+    /// The rows of `slot`, the set's triangle `id`.
+    fn new(slot: &SmallSlot, [instance, prim]: [u32; 2]) -> [SlotRow; 2] {
+        let mut row = [0.0; 16];
+        let positions = &slot.corners.positions;
+        for (c, p) in positions.iter().enumerate() {
+            row[Self::POSITIONS + 3 * c..][..3].copy_from_slice(&p.to_array());
+        }
+        let normal = slot.flat_normal.unwrap_or(Vec3::ZERO);
+        row[Self::NORMAL..][..3].copy_from_slice(&normal.to_array());
+        row[Self::INSTANCE] = f32::from_bits(instance);
+        row[Self::PRIM] = f32::from_bits(prim);
+        let all_bits = |b: bool| f32::from_bits(if b { u32::MAX } else { 0 });
+        row[Self::FLAT] = all_bits(slot.flat_normal.is_some());
+        row[Self::TRANSFORMED] = all_bits(slot.transformed);
+        let mut map = [0.0; 16];
+        let to_world = &slot.maps.0;
+        let m = &to_world.matrix3;
+        for (c, column) in [m.x_axis, m.y_axis, m.z_axis, to_world.translation]
+            .iter()
+            .enumerate()
+        {
+            map[3 * c..][..3].copy_from_slice(&column.to_array());
+        }
+        [SlotRow(row), SlotRow(map)]
+    }
+}
+
+/// [`Geometry::small_surfaces`] for a wave of sixteen lanes whose hits all lie on flat
+/// triangles (else it does nothing and returns `false`): the lanes' rows moved into lanes
+/// whole ([`transpose_16x16`](crate::lanes::transpose_16x16)), the same values as
+/// [`SurfaceLanes::set_flat`](mesh::SurfaceLanes::set_flat) puts lane by lane.
+///
+/// # Safety
+/// The CPU must have AVX-512 F. (W is 16: other widths would read the wrong lanes.)
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn flat_rows_in_lanes<const W: usize>(
+    rows: &[[SlotRow; 2]],
+    h: &small_set::SlotHits<W>,
+    lanes: Mask<W>,
+    surfaces: &mut mesh::SurfaceLanes<W>,
+    found: &mut LaneSurfaces<W>,
+) -> bool {
+    let slots: [&[SlotRow; 2]; 16] = std::array::from_fn(|i| &rows[h.slot[i % W] as usize]);
+    let columns = crate::lanes::transpose_16x16(slots.map(|r| &r[0].0));
+    let field =
+        |columns: &[[f32; 16]; 16], f: usize| F32s::<W>(std::array::from_fn(|i| columns[f][i]));
+    let flag = |f: usize| field(&columns, f).to_bits().ne(U32s::splat(0));
+    if lanes.and_not(flag(SlotRow::FLAT)).any() {
+        return false;
+    }
+    let vector = |columns: &[[f32; 16]; 16], f: usize| V3s {
+        x: field(columns, f),
+        y: field(columns, f + 1),
+        z: field(columns, f + 2),
+    };
+    let positions = [0, 1, 2].map(|c| vector(&columns, SlotRow::POSITIONS + 3 * c));
+    let transformed = lanes & flag(SlotRow::TRANSFORMED);
+    let to_world = transformed.any().then(|| {
+        let maps = crate::lanes::transpose_16x16(slots.map(|r| &r[1].0));
+        [0, 1, 2, 3].map(|c| vector(&maps, 3 * c))
+    });
+    surfaces.set_flat_lanes(
+        lanes,
+        positions,
+        (h.b1, h.b2),
+        vector(&columns, SlotRow::NORMAL),
+        (transformed, to_world),
+    );
+    let ids = (
+        field(&columns, SlotRow::INSTANCE).to_bits(),
+        field(&columns, SlotRow::PRIM).to_bits(),
+    );
+    found.set_lanes(lanes, h.t, ids);
+    true
+}
+
 /// A ray's hit on a surface, in world space.
 #[derive(Debug, Clone, Copy)]
 pub struct SurfaceHit {
@@ -519,6 +616,9 @@ pub struct Geometry {
     /// vertex attributes): a hit then reads its slot's record, not its instance, mesh and
     /// vertices in turn.
     small_slots: Option<Vec<SmallSlot>>,
+    /// The slots' rows, slot by slot (empty without `small_slots` or without a flat triangle
+    /// among them).
+    small_rows: Vec<[SlotRow; 2]>,
     top: Bvh,
     /// Instance index of each primitive of `top`.
     top_instances: Vec<u32>,
@@ -648,6 +748,14 @@ impl Geometry {
                 })
                 .collect::<Option<Vec<_>>>()
         });
+        let small_rows = match (&small, &small_slots) {
+            (Some(set), Some(slots)) if slots.iter().any(|s| s.flat_normal.is_some()) => {
+                (slots.iter().enumerate())
+                    .map(|(s, slot)| SlotRow::new(slot, set.id(s as u32)))
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
         // The small set's triangles again as a tree, for queries one ray at a time.
         let small_tree = TriangleBvh::build(
             chosen.len(),
@@ -668,6 +776,7 @@ impl Geometry {
             small_tree,
             small,
             small_slots,
+            small_rows,
             top: Bvh::build(&top_boxes),
             top_instances,
             instances,
@@ -952,6 +1061,13 @@ impl Geometry {
         let h = slot_hits;
         match &self.small_slots {
             Some(slots) => {
+                #[cfg(target_arch = "x86_64")]
+                if W == 16 && !self.small_rows.is_empty() && crate::lanes::has_avx512() {
+                    // SAFETY: the CPU has AVX-512 F.
+                    if unsafe { flat_rows_in_lanes(&self.small_rows, h, lanes, surfaces, found) } {
+                        return;
+                    }
+                }
                 for i in lanes.iter() {
                     let slot = &slots[h.slot[i] as usize];
                     let barycentrics = (h.b1[i], h.b2[i]);
@@ -1053,6 +1169,16 @@ impl<const W: usize> LaneSurfaces<W> {
         self.in_lanes.set(i, true);
         self.t[i] = t;
         (self.instance[i], self.prim[i]) = (instance, prim);
+    }
+
+    /// Makes the `lanes` hits at distances `t` on triangles `prim` of instances `instance`, as
+    /// [`set`](Self::set) makes each.
+    #[inline(always)]
+    pub fn set_lanes(&mut self, lanes: Mask<W>, t: F32s<W>, (instance, prim): (U32s<W>, U32s<W>)) {
+        self.in_lanes = self.in_lanes | lanes;
+        self.t = F32s::select(lanes, t, self.t);
+        self.instance = U32s::select(lanes, instance, self.instance);
+        self.prim = U32s::select(lanes, prim, self.prim);
     }
 
     /// Lane `i`'s hit (`i` in [`in_lanes`](Self::in_lanes)).

@@ -863,3 +863,24 @@ fn mask_bits_are_the_lanes() {
     check::<8>(3);
     check::<16>(4);
 }
+
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn transpose_16x16_moves_every_field_to_its_lane() {
+    if !crate::lanes::has_avx512() {
+        eprintln!("skipped: this CPU has no AVX-512");
+        return;
+    }
+    // Distinct bit patterns, NaNs and signed zeros among them: the fields move untouched.
+    let rows: Vec<[f32; 16]> = (0..16u32)
+        .map(|i| std::array::from_fn(|f| f32::from_bits(0x7fc0_0000 ^ (i << 8 | f as u32) << 3)))
+        .collect();
+    let refs: [&[f32; 16]; 16] = std::array::from_fn(|i| &rows[i]);
+    // SAFETY: the CPU has AVX-512 F.
+    let columns = unsafe { crate::lanes::transpose_16x16(refs) };
+    for (f, column) in columns.iter().enumerate() {
+        for (i, v) in column.iter().enumerate() {
+            assert_eq!(v.to_bits(), rows[i][f].to_bits(), "field {f} of row {i}");
+        }
+    }
+}
