@@ -603,32 +603,50 @@ impl<const W: usize> SurfaceLanes<W> {
         }
     }
 
-    /// [`set_flat`](Self::set_flat) in the `lanes` at once: their corners `positions`,
-    /// barycentrics `(b1, b2)` and normals `normal`, the `transformed` lanes (of `lanes`)
-    /// placed by their maps in `to_world` (the columns of the linear part, then the
-    /// translation; needed only when some lane is transformed).
-    #[inline(always)]
-    pub fn set_flat_lanes(
+    /// [`set_flat`](Self::set_flat) in the `lanes` (bits) of a wave of sixteen at once, from
+    /// their triangles' fields in lanes (`fields`, the corners' nine from `positions` on, the
+    /// normal's three from `normal` on), with barycentrics `(b1, b2)`; the `transformed` lanes
+    /// (bits, of `lanes`) placed by their maps (`maps`: the columns of the linear part, then
+    /// the translation; needed only when some lane is transformed).
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F.
+    ///
+    /// # Panics
+    /// Unless W is 16.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    pub unsafe fn set_flat_rows(
         &mut self,
-        lanes: Mask<W>,
-        positions: [V3s<W>; 3],
+        lanes: u16,
+        (fields, positions, normal): (&[std::arch::x86_64::__m512; 16], usize, usize),
         (b1, b2): (F32s<W>, F32s<W>),
-        normal: V3s<W>,
-        (transformed, to_world): (Mask<W>, Option<[V3s<W>; 4]>),
+        (transformed, maps): (u16, Option<&[std::arch::x86_64::__m512; 16]>),
     ) {
-        for (corner, p) in self.corners.iter_mut().zip(positions) {
-            *corner = V3s::select(lanes, p, *corner);
+        use crate::lanes::store_lanes_16 as store;
+        let mask = |bits: u16| Mask::<W>::from_bits(u64::from(bits));
+        for (c, corner) in self.corners.iter_mut().enumerate() {
+            let f = positions + 3 * c;
+            store(&mut corner.x, lanes, fields[f]);
+            store(&mut corner.y, lanes, fields[f + 1]);
+            store(&mut corner.z, lanes, fields[f + 2]);
         }
-        self.b1 = F32s::select(lanes, b1, self.b1);
-        self.b2 = F32s::select(lanes, b2, self.b2);
-        self.smooth = self.smooth.and_not(lanes);
-        self.textured = self.textured.and_not(lanes);
-        self.given = self.given | lanes;
-        self.given_normal = V3s::select(lanes, normal, self.given_normal);
-        self.transformed = self.transformed.and_not(lanes) | transformed;
-        if let Some(to_world) = to_world {
-            for (column, v) in self.to_world.iter_mut().zip(to_world) {
-                *column = V3s::select(transformed, v, *column);
+        let all = mask(lanes);
+        self.b1 = F32s::select(all, b1, self.b1);
+        self.b2 = F32s::select(all, b2, self.b2);
+        self.smooth = self.smooth.and_not(all);
+        self.textured = self.textured.and_not(all);
+        self.given = self.given | all;
+        store(&mut self.given_normal.x, lanes, fields[normal]);
+        store(&mut self.given_normal.y, lanes, fields[normal + 1]);
+        store(&mut self.given_normal.z, lanes, fields[normal + 2]);
+        self.transformed = self.transformed.and_not(all) | mask(transformed);
+        if let Some(maps) = maps {
+            for (c, column) in self.to_world.iter_mut().enumerate() {
+                store(&mut column.x, transformed, maps[3 * c]);
+                store(&mut column.y, transformed, maps[3 * c + 1]);
+                store(&mut column.z, transformed, maps[3 * c + 2]);
             }
         }
     }

@@ -366,7 +366,10 @@ impl SlotRow {
 /// [`SurfaceLanes::set_flat`](mesh::SurfaceLanes::set_flat) puts lane by lane.
 ///
 /// # Safety
-/// The CPU must have AVX-512 F. (W is 16: other widths would read the wrong lanes.)
+/// The CPU must have AVX-512 F.
+///
+/// # Panics
+/// Unless W is 16.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
@@ -377,37 +380,34 @@ unsafe fn flat_rows_in_lanes<const W: usize>(
     surfaces: &mut mesh::SurfaceLanes<W>,
     found: &mut LaneSurfaces<W>,
 ) -> bool {
+    use std::arch::x86_64::*;
+    assert_eq!(W, 16);
     let slots: [&[SlotRow; 2]; 16] = std::array::from_fn(|i| &rows[h.slot[i % W] as usize]);
-    let columns = crate::lanes::transpose_16x16(slots.map(|r| &r[0].0));
-    let field =
-        |columns: &[[f32; 16]; 16], f: usize| F32s::<W>(std::array::from_fn(|i| columns[f][i]));
-    let flag = |f: usize| field(&columns, f).to_bits().ne(U32s::splat(0));
-    if lanes.and_not(flag(SlotRow::FLAT)).any() {
+    let fields = crate::lanes::transpose_16x16(slots.map(|r| &r[0].0));
+    let set = |f: usize| {
+        let v = _mm512_castps_si512(fields[f]);
+        _mm512_test_epi32_mask(v, v)
+    };
+    let lanes_bits = lanes.bits() as u16;
+    if lanes_bits & !set(SlotRow::FLAT) != 0 {
         return false;
     }
-    let vector = |columns: &[[f32; 16]; 16], f: usize| V3s {
-        x: field(columns, f),
-        y: field(columns, f + 1),
-        z: field(columns, f + 2),
-    };
-    let positions = [0, 1, 2].map(|c| vector(&columns, SlotRow::POSITIONS + 3 * c));
-    let transformed = lanes & flag(SlotRow::TRANSFORMED);
-    let to_world = transformed.any().then(|| {
-        let maps = crate::lanes::transpose_16x16(slots.map(|r| &r[1].0));
-        [0, 1, 2, 3].map(|c| vector(&maps, 3 * c))
-    });
-    surfaces.set_flat_lanes(
-        lanes,
-        positions,
+    let transformed = lanes_bits & set(SlotRow::TRANSFORMED);
+    let maps = (transformed != 0).then(|| crate::lanes::transpose_16x16(slots.map(|r| &r[1].0)));
+    surfaces.set_flat_rows(
+        lanes_bits,
+        (&fields, SlotRow::POSITIONS, SlotRow::NORMAL),
         (h.b1, h.b2),
-        vector(&columns, SlotRow::NORMAL),
-        (transformed, to_world),
+        (transformed, maps.as_ref()),
     );
-    let ids = (
-        field(&columns, SlotRow::INSTANCE).to_bits(),
-        field(&columns, SlotRow::PRIM).to_bits(),
-    );
-    found.set_lanes(lanes, h.t, ids);
+    found.in_lanes = found.in_lanes | lanes;
+    crate::lanes::store_lanes_16(&mut found.t, lanes_bits, _mm512_loadu_ps(h.t.0.as_ptr()));
+    for (ids, f) in [
+        (&mut found.instance, SlotRow::INSTANCE),
+        (&mut found.prim, SlotRow::PRIM),
+    ] {
+        _mm512_mask_storeu_ps(ids.0.as_mut_ptr().cast(), lanes_bits, fields[f]);
+    }
     true
 }
 

@@ -176,16 +176,16 @@ macro_rules! widest {
 }
 pub(crate) use widest;
 
-/// Sixteen records of sixteen 32-bit fields as sixteen lanes of each field: `columns[f][i]` is
-/// `rows[i][f]`, moved in AVX-512 registers (16 loads, 64 shuffles, 16 stores) instead of one
-/// scalar store per lane and field. The bits move untouched.
+/// Sixteen records of sixteen 32-bit fields as sixteen lanes of each field: lane i of
+/// `columns[f]` is `rows[i][f]`, moved in AVX-512 registers (16 loads and 64 shuffles) instead
+/// of one scalar store per lane and field. The bits move untouched.
 ///
 /// # Safety
 /// The CPU must have AVX-512 F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-pub(crate) unsafe fn transpose_16x16(rows: [&[f32; 16]; 16]) -> [[f32; 16]; 16] {
+pub(crate) unsafe fn transpose_16x16(rows: [&[f32; 16]; 16]) -> [std::arch::x86_64::__m512; 16] {
     use std::arch::x86_64::*;
     let r: [__m512; 16] = std::array::from_fn(|i| _mm512_loadu_ps(rows[i].as_ptr()));
     // Pairs of rows interleaved: within each 128-bit block, t[2k] holds fields 0, 1 and
@@ -208,7 +208,7 @@ pub(crate) unsafe fn transpose_16x16(rows: [&[f32; 16]; 16]) -> [[f32; 16]; 16] 
             _mm512_shuffle_ps::<0xEE>(a, b)
         }
     });
-    let mut columns = [[0.0f32; 16]; 16];
+    let mut columns = [_mm512_setzero_ps(); 16];
     for e in 0..4 {
         let (a, b, c, d) = (u[e], u[4 + e], u[8 + e], u[12 + e]);
         // Blocks (a0 a1 b0 b1), (a2 a3 b2 b3), (c0 c1 d0 d1), (c2 c3 d2 d3); then field 4k + e is
@@ -221,17 +221,32 @@ pub(crate) unsafe fn transpose_16x16(rows: [&[f32; 16]; 16]) -> [[f32; 16]; 16] 
             _mm512_shuffle_f32x4::<0x44>(c, d),
             _mm512_shuffle_f32x4::<0xEE>(c, d),
         );
-        let fields = [
-            _mm512_shuffle_f32x4::<0x88>(x0, y0),
-            _mm512_shuffle_f32x4::<0xDD>(x0, y0),
-            _mm512_shuffle_f32x4::<0x88>(x1, y1),
-            _mm512_shuffle_f32x4::<0xDD>(x1, y1),
-        ];
-        for (k, field) in fields.into_iter().enumerate() {
-            _mm512_storeu_ps(columns[4 * k + e].as_mut_ptr(), field);
-        }
+        columns[e] = _mm512_shuffle_f32x4::<0x88>(x0, y0);
+        columns[4 + e] = _mm512_shuffle_f32x4::<0xDD>(x0, y0);
+        columns[8 + e] = _mm512_shuffle_f32x4::<0x88>(x1, y1);
+        columns[12 + e] = _mm512_shuffle_f32x4::<0xDD>(x1, y1);
     }
     columns
+}
+
+/// Stores the `lanes` (bits) of `v` into those of `dst`, leaving its other lanes.
+///
+/// # Safety
+/// The CPU must have AVX-512 F.
+///
+/// # Panics
+/// Unless W is 16.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(crate) unsafe fn store_lanes_16<const W: usize>(
+    dst: &mut F32s<W>,
+    lanes: u16,
+    v: std::arch::x86_64::__m512,
+) {
+    assert_eq!(W, 16);
+    // SAFETY: dst holds 16 f32 (W = 16).
+    std::arch::x86_64::_mm512_mask_storeu_ps(dst.0.as_mut_ptr(), lanes, v);
 }
 
 /// The narrowest wave whose stages run their vector kernels (the path tracer's light and BSDF

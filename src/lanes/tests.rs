@@ -866,7 +866,7 @@ fn mask_bits_are_the_lanes() {
 
 #[cfg(target_arch = "x86_64")]
 #[test]
-fn transpose_16x16_moves_every_field_to_its_lane() {
+fn transpose_16x16_moves_every_field_to_its_lane_and_masked_stores_keep_the_rest() {
     if !crate::lanes::has_avx512() {
         eprintln!("skipped: this CPU has no AVX-512");
         return;
@@ -878,9 +878,13 @@ fn transpose_16x16_moves_every_field_to_its_lane() {
     let refs: [&[f32; 16]; 16] = std::array::from_fn(|i| &rows[i]);
     // SAFETY: the CPU has AVX-512 F.
     let columns = unsafe { crate::lanes::transpose_16x16(refs) };
-    for (f, column) in columns.iter().enumerate() {
-        for (i, v) in column.iter().enumerate() {
-            assert_eq!(v.to_bits(), rows[i][f].to_bits(), "field {f} of row {i}");
+    for (f, &column) in columns.iter().enumerate() {
+        let mut lanes = crate::lanes::F32s::<16>::splat(0.0);
+        // SAFETY: as above; only lanes 0 … 14 are stored, lane 15 keeps its zero.
+        unsafe { crate::lanes::store_lanes_16(&mut lanes, 0x7fff, column) };
+        for (i, v) in lanes.0.iter().enumerate() {
+            let expected = if i == 15 { 0.0 } else { rows[i][f] };
+            assert_eq!(v.to_bits(), expected.to_bits(), "field {f} of row {i}");
         }
     }
 }
