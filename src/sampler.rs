@@ -283,6 +283,7 @@ impl<const W: usize> SamplerLanes<W> {
 
     /// The next 2D point of the samplers of the `live` lanes ([`Sampler::get_2d`]; the others
     /// draw nothing and get numbers that mean nothing).
+    #[inline(always)]
     pub fn get_2d(&mut self, live: Mask<W>) -> (F32s<W>, F32s<W>) {
         if !self.all_sobol(live) {
             let mut out = (F32s::default(), F32s::default());
@@ -306,6 +307,7 @@ impl<const W: usize> SamplerLanes<W> {
 
     /// The next number of the samplers of the `live` lanes ([`Sampler::get_1d`]; the others
     /// draw nothing and get numbers that mean nothing).
+    #[inline(always)]
     pub fn get_1d(&mut self, live: Mask<W>) -> F32s<W> {
         if !self.all_sobol(live) {
             let mut out = F32s::default();
@@ -345,6 +347,7 @@ impl<const W: usize> SamplerLanes<W> {
 
     /// The next lobe choice and 2D point of the samplers of the `live` lanes
     /// ([`Sampler::get_choice_2d`]; the others draw nothing and get numbers that mean nothing).
+    #[inline(always)]
     pub fn get_choice_2d(&mut self, live: Mask<W>) -> (F32s<W>, F32s<W>, F32s<W>) {
         if !self.all_sobol(live) {
             let mut out = (F32s::default(), F32s::default(), F32s::default());

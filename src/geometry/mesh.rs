@@ -690,6 +690,7 @@ impl<const W: usize> SurfaceLanes<W> {
 
     /// [`run`](Self::run), written into `out` (which a returned value, the size of a few
     /// hundred floats, would be copied into).
+    #[inline(always)]
     pub fn run_into(&self, lanes: Mask<W>, out: &mut SurfacesOut<W>) {
         let given_only = !lanes.and_not(self.given).any();
         crate::lanes::widest!(

@@ -869,6 +869,7 @@ impl<const W: usize> LambertRoute<W> {
 
     /// [`take_surfaces_here`](Self::take_surfaces_here), compiled for the widest vector
     /// instructions the CPU has that suit W lanes.
+    #[inline(always)]
     fn take_surfaces(&mut self, on: Mask<W>, out: &SurfacesOut<W>) -> Mask<W> {
         crate::lanes::widest!(
             W,
@@ -911,6 +912,7 @@ impl<const W: usize> LambertRoute<W> {
     /// Completes the vertices of the lanes that [`enter`](Self::enter)ed: the direction to the
     /// viewer and the shading frame of every lane at once (where `enter` left it), the light
     /// kernel's inputs, and the light samples of lights the kernel does not take.
+    #[inline(always)]
     fn prepare(&mut self, scene: &Scene, paths: &PathLanes<W>, hits: WaveHits<'_, W>) {
         self.prepare_lanes(paths);
         self.sample_lights_alone(self.deferred, scene, paths, hits);
@@ -1034,6 +1036,7 @@ impl<const W: usize> LambertRoute<W> {
     /// Picks the lights of the route's lanes with their light-sample points `u` (as
     /// [`Picked::choose`] does one lane at a time) and sets the light kernel's inputs for
     /// them, for all lanes at once, where the route has the scene's lights (`power`).
+    #[inline(always)]
     fn choose_lights(&mut self, u: (F32s<W>, F32s<W>)) {
         let Some(power) = &self.power else { return };
         let on = self.on;
@@ -1068,6 +1071,7 @@ impl<const W: usize> LambertRoute<W> {
 
     /// [`advance_here`](Self::advance_here), compiled for the widest vector instructions the
     /// CPU has that suit W lanes (the same operations, so the same bits).
+    #[inline(always)]
     fn advance(&self, paths: &mut PathLanes<W>, on: Mask<W>, lit: Mask<W>) -> Mask<W> {
         crate::lanes::widest!(
             W,
@@ -1099,6 +1103,7 @@ impl<const W: usize> LambertRoute<W> {
 
     /// Takes the light kernel's samples (`out`) of the lanes it decided, compiled for the
     /// widest vector instructions the CPU has that suit W lanes.
+    #[inline(always)]
     fn take_light_samples(&mut self, out: &LightLanesOut<W>) {
         crate::lanes::widest!(
             W,

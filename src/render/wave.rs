@@ -303,6 +303,7 @@ fn next_lane(
 /// Starts the samples of the `fresh` lanes, whose samplers are set (pixel (x, y) in the lanes
 /// of `xy`), as [`camera_sample`] does one at a time, for all of them at once: the jitter,
 /// the film position and the pinhole camera's ray (the lens point left out).
+#[inline(always)]
 fn start_in_lanes<const W: usize>(
     scene: &Scene,
     fresh: Mask<W>,
