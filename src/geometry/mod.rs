@@ -400,14 +400,8 @@ unsafe fn flat_rows_in_lanes<const W: usize>(
         (h.b1, h.b2),
         (transformed, maps.as_ref()),
     );
-    found.in_lanes = found.in_lanes | lanes;
-    crate::lanes::store_lanes_16(&mut found.t, lanes_bits, _mm512_loadu_ps(h.t.0.as_ptr()));
-    for (ids, f) in [
-        (&mut found.instance, SlotRow::INSTANCE),
-        (&mut found.prim, SlotRow::PRIM),
-    ] {
-        _mm512_mask_storeu_ps(ids.0.as_mut_ptr().cast(), lanes_bits, fields[f]);
-    }
+    let ids = (fields[SlotRow::INSTANCE], fields[SlotRow::PRIM]);
+    found.set_rows(lanes_bits, &h.t, ids);
     true
 }
 
@@ -1171,14 +1165,31 @@ impl<const W: usize> LaneSurfaces<W> {
         (self.instance[i], self.prim[i]) = (instance, prim);
     }
 
-    /// Makes the `lanes` hits at distances `t` on triangles `prim` of instances `instance`, as
-    /// [`set`](Self::set) makes each.
-    #[inline(always)]
-    pub fn set_lanes(&mut self, lanes: Mask<W>, t: F32s<W>, (instance, prim): (U32s<W>, U32s<W>)) {
-        self.in_lanes = self.in_lanes | lanes;
-        self.t = F32s::select(lanes, t, self.t);
-        self.instance = U32s::select(lanes, instance, self.instance);
-        self.prim = U32s::select(lanes, prim, self.prim);
+    /// [`set`](Self::set) in the `lanes` (bits) of a wave of sixteen at once: their distances
+    /// from `t`, their instances and triangles the bits of `instance` and `prim`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F.
+    ///
+    /// # Panics
+    /// Unless W is 16.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    unsafe fn set_rows(
+        &mut self,
+        lanes: u16,
+        t: &F32s<W>,
+        (instance, prim): (std::arch::x86_64::__m512, std::arch::x86_64::__m512),
+    ) {
+        use std::arch::x86_64::{_mm512_loadu_ps, _mm512_mask_storeu_ps};
+        assert_eq!(W, 16);
+        self.in_lanes = self.in_lanes | Mask::from_bits(u64::from(lanes));
+        crate::lanes::store_lanes_16(&mut self.t, lanes, _mm512_loadu_ps(t.0.as_ptr()));
+        for (ids, v) in [(&mut self.instance, instance), (&mut self.prim, prim)] {
+            // SAFETY: `ids` holds 16 u32 (W = 16), stored with their bits.
+            _mm512_mask_storeu_ps(ids.0.as_mut_ptr().cast(), lanes, v);
+        }
     }
 
     /// Lane `i`'s hit (`i` in [`in_lanes`](Self::in_lanes)).

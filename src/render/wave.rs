@@ -82,13 +82,14 @@ fn run_wave<const W: usize>(
             stats: &mut TraceStats
         ) => (),
         (scene, cancel, origin, work, sums, stats),
-        wave_loop::<W>(scene, cancel, origin, work, sums, stats)
+        run_wave_here::<W>(scene, cancel, origin, work, sums, stats)
     )
 }
 
-/// [`run_wave`]'s loop, inlined into each of its copies.
+/// [`run_wave`]'s loop, inlined into each of its copies (the same operations, so the same
+/// bits).
 #[inline(always)]
-fn wave_loop<const W: usize>(
+fn run_wave_here<const W: usize>(
     scene: &Scene,
     cancel: Option<&AtomicBool>,
     origin: (u32, u32),
