@@ -568,6 +568,7 @@ impl SphericalTriangle {
 
 /// The triangle lights that a wave's lanes sample, one per lane (structure of arrays), for
 /// [`TriangleLanes::sample`].
+#[repr(C, align(64))]
 pub(crate) struct TriangleLanes<const W: usize> {
     v: [V3s<W>; 3],
     n: V3s<W>,
@@ -578,6 +579,7 @@ pub(crate) struct TriangleLanes<const W: usize> {
 }
 
 /// What [`TriangleLanes::sample`] found in each lane.
+#[repr(C, align(64))]
 pub(crate) struct TriangleSamples<const W: usize> {
     /// The lanes it decided: those behind a one-sided emitter and those that sample the
     /// triangle by area ([`Light::sample`]'s choice, by its bounds or by the solid angle in

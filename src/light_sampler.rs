@@ -134,6 +134,7 @@ impl PowerSampler {
 
 /// [`PowerSampler::pick_lanes`]' choices, lane by lane.
 #[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
 pub struct PickLanes<const W: usize> {
     /// The light's index (an exact integer).
     pub light: F32s<W>,

@@ -222,16 +222,17 @@ impl Sampler {
 /// lane's stream at once, scrambled Sobol points in SIMD lanes (independent numbers, which follow
 /// a sequential generator, one lane at a time). A lane's sampler is [`set`](Self::set) when its
 /// sample starts and [`get`](Self::get) out for the steps that run one lane at a time.
+#[repr(C, align(64))]
 pub struct SamplerLanes<const W: usize> {
+    pixel_seed: U32s<W>,
+    reversed_index: U32s<W>,
+    dimension: U32s<W>,
     /// Each lane's sequence.
     kinds: [SamplerKind; W],
     /// How many lanes draw independent numbers (mostly none: then every draw runs in lanes
     /// without looking at the lanes' kinds).
     independent_lanes: u32,
     rng: [Pcg32; W],
-    pixel_seed: U32s<W>,
-    reversed_index: U32s<W>,
-    dimension: U32s<W>,
 }
 
 impl<const W: usize> SamplerLanes<W> {
@@ -393,6 +394,7 @@ impl<const W: usize> Default for SamplerLanes<W> {
 /// The scrambled Sobol streams of a wave's lanes, at one dimension (pair) each: the values
 /// [`Sampler`] computes for one lane, computed for W lanes at once with the same integer
 /// operations (so with the same bits).
+#[repr(C, align(64))]
 struct SobolLanes<const W: usize> {
     /// [`Sampler::next_dimension_hash`] of each lane.
     hash: U64s<W>,

@@ -222,6 +222,7 @@ impl Bsdf {
 /// The Lambertian lobes of W lanes (one per lane, structure of arrays) for
 /// [`LambertLanes::sample`]: what [`Bsdf::sample`] reads of a [`Lobes::Lambert`] BSDF.
 #[derive(Default)]
+#[repr(C, align(64))]
 pub(crate) struct LambertLanes<const W: usize> {
     /// The shading frame's axes.
     pub s: V3s<W>,
@@ -238,6 +239,7 @@ pub(crate) struct LambertLanes<const W: usize> {
 }
 
 /// What [`LambertLanes::sample`] found in each lane.
+#[repr(C, align(64))]
 pub(crate) struct LambertSamples<const W: usize> {
     /// The lanes with a sample ([`Bsdf::sample`] gives `Some`).
     pub valid: Mask<W>,

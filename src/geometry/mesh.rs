@@ -462,6 +462,7 @@ pub struct CornerData {
 /// W hits on meshes, one per lane, for [`Mesh::surface`] in SIMD lanes (lanes set by
 /// [`Mesh::gather_surface`]; the others hold whatever they held, and their results mean
 /// nothing).
+#[repr(C, align(64))]
 pub struct SurfaceLanes<const W: usize> {
     corners: [V3s<W>; 3],
     b1: F32s<W>,
@@ -486,6 +487,7 @@ pub struct SurfaceLanes<const W: usize> {
 /// What [`SurfaceLanes::run`] computes in each lane: [`Mesh::surface`]'s point, geometric
 /// and shading normals and texture coordinates.
 #[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
 pub struct SurfacesOut<const W: usize> {
     /// The hit point.
     pub p: V3s<W>,

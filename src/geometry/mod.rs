@@ -434,6 +434,7 @@ pub struct SurfaceHit {
 /// The segments of a wave's shadow rays, one per lane, as a structure of arrays: lane i looks
 /// along `o + t·d` for t in (0, `t_max`) where `live` holds; the other lanes are idle.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 pub struct SegmentLanes<const W: usize> {
     /// The lanes with a segment.
     pub live: Mask<W>,
@@ -1131,6 +1132,7 @@ impl Geometry {
 
 /// The hits of a wave whose surfaces were computed in SIMD lanes
 /// ([`Geometry::intersect_wave`]), as lanes: each on a mesh without extra vertex attributes.
+#[repr(C, align(64))]
 pub struct LaneSurfaces<const W: usize> {
     /// The lanes with such a hit (the others' values mean nothing).
     pub in_lanes: Mask<W>,

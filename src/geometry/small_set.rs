@@ -67,11 +67,12 @@ pub struct SmallSet {
 
 /// A wave's rays, structure-of-arrays: origins, directions, and the end of the segment looked
 /// along (0 for idle lanes, which then hit nothing).
+#[repr(C, align(64))]
 struct WaveRays<'a, const W: usize> {
-    /// The segments' origins, as they are (not copied).
-    o: [&'a [f32; W]; 3],
     d: [[f32; W]; 3],
     t_max: [f32; W],
+    /// The segments' origins, as they are (not copied).
+    o: [&'a [f32; W]; 3],
 }
 
 impl<'a, const W: usize> WaveRays<'a, W> {
@@ -95,6 +96,7 @@ impl<'a, const W: usize> WaveRays<'a, W> {
 }
 
 /// A wave's closest hits on a [`SmallSet`], lane by lane.
+#[repr(C, align(64))]
 pub struct SlotHits<const W: usize> {
     /// The lanes with a hit.
     pub hit: Mask<W>,
@@ -122,6 +124,7 @@ impl<const W: usize> SlotHits<W> {
 
 /// The best hits of a wave's lanes: distance, barycentrics of corners 1 and 2, and the slot
 /// of the triangle in the set (−1 for none).
+#[repr(C, align(64))]
 struct WaveHits<const W: usize> {
     t: [f32; W],
     b1: [f32; W],

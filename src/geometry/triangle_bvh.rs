@@ -95,15 +95,16 @@ impl TriRay {
 /// shear's dominant axis took unpredictable branches and its divisions waited on them, before
 /// each walk of a large mesh could start (a third of the time between a 327k-triangle
 /// icosphere's shadow-ray walks).
+#[repr(C, align(64))]
 pub struct TriRayLanes<const W: usize> {
     org: V3s<W>,
     inv: V3s<W>,
-    /// The dominant axis kz (0, 1 or 2) of each lane's direction.
-    kz: [u8; W],
     /// Where d[kz] < 0: there kx and ky are swapped.
     flip: Mask<W>,
     /// d[kx] / d[kz], d[ky] / d[kz] and 1 / d[kz].
     shear: V3s<W>,
+    /// The dominant axis kz (0, 1 or 2) of each lane's direction.
+    kz: [u8; W],
 }
 
 impl<const W: usize> TriRayLanes<W> {
@@ -1597,6 +1598,7 @@ fn meets_here<const W: usize>(
 
 /// A wave's rays as [`meets_here`] tests them against boxes: origins and the directions'
 /// reciprocals, per axis.
+#[repr(C, align(64))]
 struct SlabRays<const W: usize> {
     org: [F32s<W>; 3],
     inv: [F32s<W>; 3],

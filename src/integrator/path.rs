@@ -83,7 +83,7 @@ pub struct Shadow {
     /// The segment to test: (0, `t_max`) along `ray`.
     pub t_max: f32,
     /// Throughput × BSDF × light × MIS weight ÷ pdf.
-    radiance: Rgb,
+    pub radiance: Rgb,
 }
 
 impl Path {
@@ -419,6 +419,16 @@ impl Path {
         self.go_on(material.absorption, hit, s, count_found, sampler)
     }
 
+    /// Whether [`scatter`](Path::scatter) at `vertex` adds nothing to the radiance after the
+    /// light sample's term (no split samples, no mirror ray): then that term may be added
+    /// later, before anything the path's next vertex adds, with the same bits (the render
+    /// loop does so while the sample's shadow ray waits to be tested with others).
+    pub fn light_sample_comes_last(&self, vertex: &Vertex) -> bool {
+        vertex.split == 1.0
+            && (self.depth > MIRROR_SPLIT_DEPTH
+                || vertex.bsdf.mirror_reflection(vertex.wo).is_none())
+    }
+
     /// Continues the path from `hit` by its BSDF sample `s` (`absorption`: the medium inside
     /// the surface's solid, entered or left by transmission; `count_found`: whether the next
     /// vertex counts the light it finds), with Russian roulette from [`RR_DEPTH`] on. Returns
@@ -477,6 +487,7 @@ fn russian_roulette(beta: Rgb, eta_scale: f32, u: f32) -> Option<Rgb> {
 /// lanes' paths here without taking them out). A lane whose vertex takes the general route
 /// is [`take`](Self::take)n out as a [`Path`] and [`put`](Self::put) back when it goes on;
 /// either way a lane's numbers are the same.
+#[repr(C, align(64))]
 pub struct PathLanes<const W: usize> {
     ray_o: V3s<W>,
     ray_d: V3s<W>,
@@ -484,11 +495,11 @@ pub struct PathLanes<const W: usize> {
     l: V3s<W>,
     beta: V3s<W>,
     prev_pdf: F32s<W>,
-    prev_delta: [bool; W],
     prev_p: V3s<W>,
     prev_n: V3s<W>,
-    medium: [Option<Vec3>; W],
     eta_scale: F32s<W>,
+    prev_delta: [bool; W],
+    medium: [Option<Vec3>; W],
     count_found: [bool; W],
     aov: [Option<Box<AovSample>>; W],
 }
@@ -562,6 +573,14 @@ impl<const W: usize> PathLanes<W> {
     #[inline]
     pub fn end(&mut self, i: usize) -> (Rgb, Option<Box<AovSample>>) {
         (self.l.lane(i), self.aov[i].take())
+    }
+
+    /// Adds `radiance` to the radiance of the `lanes`' paths: the terms of light samples whose
+    /// shadow rays were answered after their vertices scattered, added as the vertices would
+    /// have added them.
+    #[inline(always)]
+    pub fn add_radiance(&mut self, lanes: Mask<W>, radiance: &V3s<W>) {
+        self.l = V3s::select(lanes, self.l + *radiance, self.l);
     }
 
     /// Ends lane `i`'s path where its ray left a scene without an environment
@@ -638,6 +657,7 @@ impl<const W: usize> Default for PathLanes<W> {
 pub use crate::lanes::KERNELS_FROM as LANE_KERNELS_FROM;
 
 /// A wave's working memory for the stages that run in SIMD lanes, kept from step to step.
+#[repr(C, align(64))]
 pub struct Scratch<const W: usize> {
     lights: LightLanes<W>,
     lambert: LambertLanes<W>,
@@ -667,6 +687,7 @@ impl<const W: usize> Default for Scratch<W> {
 /// their shadow rays made as in [`Path::sample_lights`], and they scatter by
 /// [`Path::scatter_lambert`]. The same operations in the same order, so the same bits as the
 /// general route. Used from [`LANE_KERNELS_FROM`] lanes on.
+#[repr(C, align(64))]
 pub struct LambertRoute<const W: usize> {
     /// The lanes on the route this step.
     on: Mask<W>,
@@ -677,14 +698,8 @@ pub struct LambertRoute<const W: usize> {
     /// The lanes whose shading frame [`enter`](Self::enter) computed (the others' is computed
     /// in lanes).
     scalar_frame: Mask<W>,
-    picked: [Option<Picked>; W],
-    /// The scene's lights, when the route picks them in lanes.
-    power: Option<PowerLights>,
     /// Where `power` is set: each lane's light (an exact integer).
     light_index: F32s<W>,
-    /// Per instance, whether every hit on it whose surface is computed in lanes belongs on
-    /// the route, and then its albedo ([`Material::route_albedo`]).
-    instance_albedo: Vec<(bool, Rgb)>,
     /// The lanes with a light sample: its shadow ray (over (0, `shadow_t`)) and its radiance.
     has_shadow: Mask<W>,
     shadow_o: V3s<W>,
@@ -697,6 +712,12 @@ pub struct LambertRoute<const W: usize> {
     ns: V3s<W>,
     lights: LightLanes<W>,
     bsdf: LambertLanes<W>,
+    picked: [Option<Picked>; W],
+    /// The scene's lights, when the route picks them in lanes.
+    power: Option<PowerLights>,
+    /// Per instance, whether every hit on it whose surface is computed in lanes belongs on
+    /// the route, and then its albedo ([`Material::route_albedo`]).
+    instance_albedo: Vec<(bool, Rgb)>,
 }
 
 impl<const W: usize> LambertRoute<W> {
@@ -751,6 +772,13 @@ impl<const W: usize> LambertRoute<W> {
             self.shadow_t[i] = shadow.t_max;
             self.shadow_radiance.set(i, shadow.radiance);
         }
+    }
+
+    /// The route's lanes with a light sample, and the radiance each adds where its shadow ray
+    /// is clear.
+    #[inline]
+    pub fn light_samples(&self) -> (Mask<W>, &V3s<W>) {
+        (self.has_shadow & self.on, &self.shadow_radiance)
     }
 
     /// The lanes on the route this step.
@@ -1338,6 +1366,7 @@ fn kernel_emission(scene: &Scene, light: &Light) -> Option<(Rgb, bool)> {
 /// The lanes of [`Path::sample_lights`] that sample a triangle light by area from a
 /// Lambertian surface: what [`Path::light_sample`] reads, one lane per path (structure of
 /// arrays; other lanes hold zeros, and their results mean nothing).
+#[repr(C, align(64))]
 struct LightLanes<const W: usize> {
     triangles: TriangleLanes<W>,
     u: (F32s<W>, F32s<W>),
@@ -1358,6 +1387,7 @@ struct LightLanes<const W: usize> {
 }
 
 /// What [`LightLanes::run`] found in each lane.
+#[repr(C, align(64))]
 struct LightLanesOut<const W: usize> {
     /// The lanes whose result is here (the others sample a triangle that may be seen large:
     /// see [`TriangleSamples::decided`](crate::light::TriangleSamples)).

@@ -9,6 +9,7 @@
 
 mod adaptive;
 mod film;
+mod occlusion_queue;
 mod pass;
 mod schedule;
 #[cfg(test)]

@@ -14,6 +14,7 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::film::Sink;
+use super::occlusion_queue::OcclusionQueue;
 use crate::aov::AovSample;
 use crate::geometry::mesh::SurfaceLanes;
 use crate::geometry::{LaneSurfaces, SegmentLanes, SurfaceHit};
@@ -62,7 +63,11 @@ struct Lane {
     index: u32,
 }
 
-/// Runs every sample of `work` in a wave of W lanes, refilling lanes as their paths end.
+/// How many waves a thread keeps in flight, so that the shadow rays of several fill the
+/// occlusion kernel's lanes ([`OcclusionQueue`]).
+const WAVES: usize = 3;
+
+/// Runs every sample of `work` in waves of W lanes, refilling lanes as their paths end.
 fn run_wave<const W: usize>(
     scene: &Scene,
     cancel: Option<&AtomicBool>,
@@ -88,6 +93,13 @@ fn run_wave<const W: usize>(
 
 /// [`run_wave`]'s loop, inlined into each of its copies (the same operations, so the same
 /// bits).
+///
+/// The waves take turns, a step each. A step's light samples add their terms only once their
+/// shadow rays are answered, which is at the start of the wave's next turn, before anything
+/// the step after adds: the same sums in the same order as if the rays had been tested at
+/// once. Meanwhile the other waves' turns queue their rays, so that the occlusion kernel mostly
+/// runs on full lanes. A wave whose step cannot wait (a vertex that adds more light after its
+/// light sample: split BSDF samples, the mirror ray of glass) has its rays tested at once.
 #[inline(always)]
 fn run_wave_here<const W: usize>(
     scene: &Scene,
@@ -97,81 +109,204 @@ fn run_wave_here<const W: usize>(
     sums: &mut Sink,
     stats: &mut TraceStats,
 ) {
-    let mut queue = work
-        .iter()
-        .enumerate()
-        .flat_map(|(k, w)| w.indices.clone().map(move |i| (k, i)));
-    let mut lanes: [Option<Lane>; W] = std::array::from_fn(|_| None);
-    let mut paths = Box::new(PathLanes::<W>::new());
-    let mut samplers = Box::new(SamplerLanes::<W>::new());
-    // The paths of the lanes off the Lambertian route, taken out of `paths` for the step.
-    let mut off_route: [Option<Path>; W] = std::array::from_fn(|_| None);
-    let mut hits: [Option<SurfaceHit>; W] = [None; W];
-    let mut vertices: [Option<Vertex>; W] = std::array::from_fn(|_| None);
-    let mut scratch = Box::new(Scratch::<W>::new());
-    let mut route = Box::new(LambertRoute::<W>::new(scene));
-    let mut surfaces = Box::new(SurfaceLanes::<W>::new());
-    let mut found = Box::new(LaneSurfaces::<W>::none());
-    let mut queue_empty = false;
-    // The last pixel whose sampler key was derived, and the key: a pixel's samples mostly
-    // follow one another.
-    let mut pixel_key = (u64::MAX, 0);
-    // Samples whose camera rays are drawn for all new lanes at once (the common case: Sobol
-    // points through a pinhole, no render passes); the others one lane at a time.
-    let in_lanes = W >= crate::lanes::KERNELS_FROM
-        && scene.settings.sampler == SamplerKind::Sobol
-        && scene.camera.lens_radius <= 0.0
-        && !sums.wants_aovs();
+    let mut source = Samples {
+        scene,
+        origin,
+        work,
+        queue: work
+            .iter()
+            .enumerate()
+            .flat_map(|(k, w)| w.indices.clone().map(move |i| (k, i))),
+        empty: false,
+        pixel_key: (u64::MAX, 0),
+        // Samples whose camera rays are drawn for all new lanes at once (the common case:
+        // Sobol points through a pinhole, no render passes); the others one lane at a time.
+        in_lanes: W >= crate::lanes::KERNELS_FROM
+            && scene.settings.sampler == SamplerKind::Sobol
+            && scene.camera.lens_radius <= 0.0
+            && !sums.wants_aovs(),
+    };
+    let mut waves: [Wave<W>; WAVES] = std::array::from_fn(|_| Wave::new());
+    // Small work (a pixel's samples at a time, as time-budgeted passes take them) in fewer
+    // waves, each filled a few times over: a wave draining its last paths runs its steps
+    // for few lanes.
+    let samples: usize = work.iter().map(|w| w.indices.len()).sum();
+    let in_flight = samples.div_ceil(4 * W).clamp(1, WAVES);
+    let mut step = Box::new(Step::new(scene));
+    let mut queue = OcclusionQueue::<W, WAVES>::new();
     loop {
-        if !queue_empty {
-            // The lanes started in lanes, as bits (a mask written lane by lane and then read
-            // four lanes at a time waits for its narrow stores).
-            let mut fresh_bits = 0u64;
-            let mut film = (F32s::<W>::default(), F32s::<W>::default());
-            for i in Mask::<W>::from_bits(!occupied(&lanes)).iter() {
-                let Some((lane, (x, y))) = next_lane(scene, origin, &mut queue, work, sums, stats)
-                else {
-                    queue_empty = true;
-                    break;
-                };
-                let index = lane.index;
-                lanes[i] = Some(lane);
-                if in_lanes {
-                    let pixel = pixel_index(scene, x, y);
-                    if pixel_key.0 != pixel {
-                        pixel_key = (pixel, Sampler::pixel_key(scene.settings.seed, pixel));
-                    }
-                    let kind = scene.settings.sampler;
-                    samplers.set(i, Sampler::with_key(kind, pixel_key.1, u64::from(index)));
-                    (film.0[i], film.1[i]) = (x as f32, y as f32);
-                    fresh_bits |= 1 << i;
-                } else {
-                    let (sampler, ray) = camera_sample(scene, x, y, index);
-                    let mut path = Path::new(ray);
-                    if sums.wants_aovs() {
-                        path.aov = Some(Box::default());
-                    }
-                    samplers.set(i, sampler);
-                    paths.put(i, path);
-                }
+        let mut any_live = false;
+        for (w, wave) in waves[..in_flight].iter_mut().enumerate() {
+            wave.settle(w, scene, &mut queue, sums, stats);
+            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                return;
             }
-            if fresh_bits != 0 {
-                let fresh = Mask::<W>::from_bits(fresh_bits);
-                start_in_lanes(scene, fresh, film, &mut samplers, &mut paths);
+            if !source.empty {
+                wave.refill(&mut source, sums, stats);
+            }
+            if wave.step(w, &mut step, &mut queue, scene, sums, stats) {
+                any_live = true;
+            }
+            while queue.is_full() {
+                queue.run(scene, stats);
             }
         }
-        let live = Mask::<W>::from_bits(occupied(&lanes));
-        if !live.any() || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        if !any_live {
             return;
         }
+    }
+}
+
+/// Where the waves take their samples from: the work's samples in order, and what starting
+/// them needs.
+struct Samples<'a, Q> {
+    scene: &'a Scene,
+    origin: (u32, u32),
+    work: &'a [PixelWork],
+    /// The samples not taken yet, as (entry of `work`, sample index).
+    queue: Q,
+    /// Whether `queue` ran out.
+    empty: bool,
+    /// The last pixel whose sampler key was derived, and the key: a pixel's samples mostly
+    /// follow one another.
+    pixel_key: (u64, u64),
+    /// Whether new lanes' camera rays are drawn in lanes ([`start_in_lanes`]).
+    in_lanes: bool,
+}
+
+/// A wave of W paths, and what its last step left to do: the terms of the light samples whose
+/// shadow rays wait, and the paths that ended with them.
+#[repr(C, align(64))]
+struct Wave<const W: usize> {
+    paths: PathLanes<W>,
+    samplers: SamplerLanes<W>,
+    /// The lanes whose light sample waits for its shadow ray, and the radiance each adds
+    /// where the ray is clear.
+    waiting: Mask<W>,
+    waiting_radiance: V3s<W>,
+    /// The lanes whose path ended at the last step (their samples go to the film once their
+    /// light samples are added).
+    ended: Mask<W>,
+    /// Each lane's sample, where bit i of `occupied` is set.
+    lanes: [Lane; W],
+    occupied: u64,
+}
+
+/// What one step of a wave works with, shared by the waves, which step one at a time (kept
+/// out of the waves so that the data a thread touches stays in its first-level cache).
+#[repr(C, align(64))]
+struct Step<'s, const W: usize> {
+    scratch: Scratch<W>,
+    route: LambertRoute<W>,
+    surfaces: SurfaceLanes<W>,
+    found: LaneSurfaces<W>,
+    shadows: SegmentLanes<W>,
+    /// The paths of the lanes off the Lambertian route, taken out of the wave's for the step.
+    off_route: [Option<Path>; W],
+    hits: [Option<SurfaceHit>; W],
+    vertices: [Option<Vertex<'s>>; W],
+}
+
+impl<'s, const W: usize> Step<'s, W> {
+    /// A step of no lane, for `scene`.
+    fn new(scene: &'s Scene) -> Self {
+        Step {
+            off_route: std::array::from_fn(|_| None),
+            hits: [None; W],
+            vertices: std::array::from_fn(|_| None),
+            scratch: Scratch::new(),
+            route: LambertRoute::new(scene),
+            surfaces: SurfaceLanes::new(),
+            found: LaneSurfaces::none(),
+            shadows: SegmentLanes::new(),
+        }
+    }
+}
+
+impl<const W: usize> Wave<W> {
+    /// A wave of idle lanes.
+    fn new() -> Self {
+        Wave {
+            lanes: std::array::from_fn(|_| Lane { pixel: 0, index: 0 }),
+            occupied: 0,
+            paths: PathLanes::new(),
+            samplers: SamplerLanes::new(),
+            waiting: Mask::splat(false),
+            waiting_radiance: V3s::default(),
+            ended: Mask::splat(false),
+        }
+    }
+
+    /// Finishes what the wave's last step (wave `w` of `queue`) left: adds the light samples'
+    /// terms whose shadow rays are clear (running the queue until they are all answered) and
+    /// hands the paths that ended to the film.
+    #[inline(always)]
+    fn settle<const N: usize>(
+        &mut self,
+        w: usize,
+        scene: &Scene,
+        queue: &mut OcclusionQueue<W, N>,
+        sums: &mut Sink,
+        stats: &mut TraceStats,
+    ) {
+        while queue.is_waiting(w) {
+            queue.run(scene, stats);
+        }
+        if self.waiting.any() {
+            let clear = self.waiting.and_not(Mask::from_bools(&queue.blocked(w)));
+            self.paths.add_radiance(clear, &self.waiting_radiance);
+            self.waiting = Mask::splat(false);
+        }
+        for i in self.ended.iter() {
+            let (radiance, aov) = self.paths.end(i);
+            finish(&self.lanes[i], radiance, aov.as_deref(), sums);
+        }
+        self.occupied &= !self.ended.bits();
+        self.ended = Mask::splat(false);
+    }
+
+    /// One step of the wave (wave `w` of `queue`): finds every path's next vertex, shades it,
+    /// samples its light and queues the shadow ray, and scatters it. Returns `false` when no
+    /// lane has a sample.
+    #[inline(always)]
+    fn step<'s, const N: usize>(
+        &mut self,
+        w: usize,
+        step: &mut Step<'s, W>,
+        queue: &mut OcclusionQueue<W, N>,
+        scene: &'s Scene,
+        sums: &mut Sink,
+        stats: &mut TraceStats,
+    ) -> bool {
+        if self.occupied == 0 {
+            return false;
+        }
+        let live = Mask::<W>::from_bits(self.occupied);
+        let Wave {
+            lanes,
+            occupied,
+            paths,
+            samplers,
+            ..
+        } = self;
+        let Step {
+            off_route,
+            hits,
+            vertices,
+            scratch,
+            route,
+            surfaces,
+            found,
+            shadows,
+        } = step;
         stats.rays += u64::from(live.count());
-        scene.intersect_wave(&paths.rays(live), &mut hits, &mut surfaces, &mut found);
+        scene.intersect_wave(&paths.rays(live), hits, surfaces, found);
         let (ux, uy) = samplers.get_2d(live);
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
         // The hits kept in lanes that belong on the route stay there; the others' are taken
         // out lane by lane.
-        let entered = route.enter_lanes(scene, &paths, &found, &u_light);
+        let entered = route.enter_lanes(scene, paths, found, &u_light);
         // The lanes whose vertex takes the general route (`Path::shade`).
         let mut general_bits = 0u64;
         for i in live.and_not(entered).iter() {
@@ -179,13 +314,14 @@ fn run_wave_here<const W: usize>(
                 // Left off the route by `enter_lanes`.
                 hits[i] = Some(found.hit(i));
             } else if let Some(hit) = &hits[i] {
-                if route.enter(i, scene, &paths, hit, u_light[i]) {
+                if route.enter(i, scene, paths, hit, u_light[i]) {
                     continue;
                 }
             } else if scene.escapes_dark() && !paths.records_passes(i) {
                 // Out of the scene, with nothing more to find.
                 let (radiance, aov) = paths.end_escaped(i);
-                finish(lanes[i].take(), radiance, aov.as_deref(), sums);
+                finish(&lanes[i], radiance, aov.as_deref(), sums);
+                *occupied &= !(1 << i);
                 continue;
             }
             let mut path = paths.take(i);
@@ -193,7 +329,8 @@ fn run_wave_here<const W: usize>(
                 off_route[i] = Some(path);
                 general_bits |= 1 << i;
             } else {
-                finish(lanes[i].take(), path.radiance(), path.aov.as_deref(), sums);
+                finish(&lanes[i], path.radiance(), path.aov.as_deref(), sums);
+                *occupied &= !(1 << i);
             }
         }
         let general = Mask::<W>::from_bits(general_bits);
@@ -201,38 +338,50 @@ fn run_wave_here<const W: usize>(
             Path::sample_lights(
                 scene,
                 off_route.each_ref().map(Option::as_ref),
-                &hits,
-                &mut vertices,
+                hits,
+                vertices,
                 &u_light,
-                &mut scratch,
+                scratch,
             );
         }
-        let wave_hits = WaveHits {
-            found: &found,
-            hits: &hits,
-        };
-        route.sample_lights(scene, &paths, wave_hits, (ux, uy));
+        let wave_hits = WaveHits { found, hits };
+        route.sample_lights(scene, paths, wave_hits, (ux, uy));
         // Only this step's vertices: a lane that is idle or whose path just ended traces none.
-        let mut shadows = SegmentLanes::<W>::new();
-        route.shadows(&mut shadows);
+        *shadows = SegmentLanes::new();
+        route.shadows(shadows);
+        let mut waits = true;
         for i in general.iter() {
-            if let Some(shadow) = vertices[i].as_ref().and_then(|v| v.shadow) {
+            let (Some(vertex), Some(path)) = (&vertices[i], &off_route[i]) else {
+                continue;
+            };
+            if let Some(shadow) = vertex.shadow {
                 shadows.set(i, &shadow.ray, shadow.t_max);
+                waits &= path.light_sample_comes_last(vertex);
             }
         }
-        stats.rays += u64::from(shadows.live.count());
-        let blocked = scene.occluded_lanes(&shadows);
+        queue.push(w, shadows);
+        // The answers now, if some vertex cannot wait for them; else none yet (the light
+        // samples' terms are added when the wave settles).
+        let blocked = if waits {
+            [true; W]
+        } else {
+            while queue.is_waiting(w) {
+                queue.run(scene, stats);
+            }
+            queue.blocked(w)
+        };
         let scattering = general | route.on_lanes();
         let u_scatter = samplers.get_choice_2d(scattering);
         let sampled = if general.any() {
-            Path::sample_bsdfs(&vertices, &u_scatter, &mut scratch)
+            Path::sample_bsdfs(vertices, &u_scatter, scratch)
         } else {
             [None; W]
         };
-        let ended_on_route = route.scatter(&u_scatter, &blocked, &mut paths, &mut samplers);
-        for i in ended_on_route.iter() {
-            let (radiance, aov) = paths.end(i);
-            finish(lanes[i].take(), radiance, aov.as_deref(), sums);
+        let mut ended = route.scatter(&u_scatter, &blocked, paths, samplers);
+        if waits {
+            let (lanes_lit, radiance) = route.light_samples();
+            self.waiting = lanes_lit;
+            self.waiting_radiance = *radiance;
         }
         for i in general.iter() {
             let (Some(vertex), Some(hit), Some(mut path)) =
@@ -243,33 +392,87 @@ fn run_wave_here<const W: usize>(
             let goes_on = samplers.with(i, |sampler| {
                 path.scatter(scene, hit, vertex, !blocked[i], sampled[i], sampler, stats)
             });
-            vertices[i] = None;
-            if goes_on {
-                paths.put(i, path);
-            } else {
-                finish(lanes[i].take(), path.radiance(), path.aov.as_deref(), sums);
+            if let (true, Some(shadow)) = (waits, vertex.shadow) {
+                self.waiting.set(i, true);
+                self.waiting_radiance.set(i, shadow.radiance);
             }
+            vertices[i] = None;
+            paths.put(i, path);
+            ended.set(i, !goes_on);
+        }
+        if waits {
+            self.ended = ended;
+        } else {
+            for i in ended.iter() {
+                let (radiance, aov) = paths.end(i);
+                finish(&lanes[i], radiance, aov.as_deref(), sums);
+            }
+            *occupied &= !ended.bits();
+        }
+        true
+    }
+
+    /// Gives the idle lanes the next samples of `source` (until it runs out).
+    #[inline(always)]
+    fn refill<Q: Iterator<Item = (usize, u32)>>(
+        &mut self,
+        source: &mut Samples<Q>,
+        sums: &mut Sink,
+        stats: &mut TraceStats,
+    ) {
+        let scene = source.scene;
+        // The lanes started in lanes, as bits (a mask written lane by lane and then read four
+        // lanes at a time waits for its narrow stores).
+        let mut fresh_bits = 0u64;
+        let mut film = (F32s::<W>::default(), F32s::<W>::default());
+        for i in Mask::<W>::from_bits(!self.occupied).iter() {
+            let Some((lane, (x, y))) = next_lane(
+                scene,
+                source.origin,
+                &mut source.queue,
+                source.work,
+                sums,
+                stats,
+            ) else {
+                source.empty = true;
+                break;
+            };
+            let index = lane.index;
+            self.lanes[i] = lane;
+            self.occupied |= 1 << i;
+            if source.in_lanes {
+                let pixel = pixel_index(scene, x, y);
+                if source.pixel_key.0 != pixel {
+                    source.pixel_key = (pixel, Sampler::pixel_key(scene.settings.seed, pixel));
+                }
+                let kind = scene.settings.sampler;
+                let sampler = Sampler::with_key(kind, source.pixel_key.1, u64::from(index));
+                self.samplers.set(i, sampler);
+                (film.0[i], film.1[i]) = (x as f32, y as f32);
+                fresh_bits |= 1 << i;
+            } else {
+                let (sampler, ray) = camera_sample(scene, x, y, index);
+                let mut path = Path::new(ray);
+                if sums.wants_aovs() {
+                    path.aov = Some(Box::default());
+                }
+                self.samplers.set(i, sampler);
+                self.paths.put(i, path);
+            }
+        }
+        if fresh_bits != 0 {
+            let fresh = Mask::<W>::from_bits(fresh_bits);
+            start_in_lanes(scene, fresh, film, &mut self.samplers, &mut self.paths);
         }
     }
 }
 
-/// The lanes holding a sample, as bits (bit i: lane i).
-#[inline(always)]
-fn occupied<const W: usize>(lanes: &[Option<Lane>; W]) -> u64 {
-    lanes
-        .iter()
-        .enumerate()
-        .fold(0, |bits, (i, lane)| bits | (u64::from(lane.is_some()) << i))
-}
-
-/// Adds what the finished path of `lane` (taken from its slot, which is then free) gives its
+/// Adds what the finished path of `lane` gives its
 /// pixel, its radiance and its passes' record, to the pixel's sums. (Not the path itself: moving
 /// a path assembled from the lanes copied it in 16-byte pieces, which waited for the narrower
 /// stores that had just written it.)
-fn finish(lane: Option<Lane>, radiance: Rgb, aov: Option<&AovSample>, sums: &mut Sink) {
-    if let Some(lane) = lane {
-        sums.add(lane.pixel, lane.index, radiance, aov);
-    }
+fn finish(lane: &Lane, radiance: Rgb, aov: Option<&AovSample>, sums: &mut Sink) {
+    sums.add(lane.pixel, lane.index, radiance, aov);
 }
 
 /// The next sample of the queue that traces a path in steps, as a lane and its pixel's
