@@ -102,6 +102,24 @@ def timing_row(peer: str, spp: int, seconds: float, exr_name: str,
 WIDTH_HEIGHT = 256 * 256
 
 
+SEED_STEP = 1000
+"""A rung's k-th image is rendered with seed spp + SEED_STEP·k (every renderer the same seeds)."""
+
+DEFAULT_SEEDS = 3
+"""Images per rung: one seed's RMSE moves by a few per cent, which moves a time to equal error
+twice as much."""
+
+
+def rung_seeds(spp: int, count: int) -> list[int]:
+    """The seeds of a rung's ``count`` images."""
+    return [spp + SEED_STEP * k for k in range(count)]
+
+
+def seeded_exr(peer: str, spp: int, k: int) -> str:
+    """The file name of a rung's k-th image (the first keeps the one-image name)."""
+    return f"{peer}_{spp}spp.exr" if k == 0 else f"{peer}_{spp}spp_seed{k}.exr"
+
+
 def best_of(repeats: int, render):
     """Calls ``render()`` -> (result, wall seconds, CPU seconds) ``repeats`` times (same seed:
     same image, only the time varies); returns the first result with the least wall and CPU

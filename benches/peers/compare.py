@@ -5,13 +5,15 @@
 
 A *run* is a folder holding ``timings.csv`` with at least the columns ``peer,spp,seconds``
 (optionally ``samples_per_second,exr,load1,cpu_seconds``) plus the EXRs it names: column ``exr``
-relative to the folder, or, when that column is missing or empty, ``<peer>_<spp>spp.exr``. Any renderer can
+relative to the folder (several images of the rung, rendered with different seeds, separated by
+``;``), or, when that column is missing or empty, ``<peer>_<spp>spp.exr``. Any renderer can
 be added this way (see ``lumo_cornell.py`` for lumo). By default every folder under ``out/``
 that has a ``timings.csv`` is a run.
 
 Error metric: RMSE over all pixels and all three channels of linear radiance,
 sqrt(mean((img - ref)^2)); also the relative MSE mean((img - ref)^2 / (ref^2 + 0.01)), averaged
-over pixels and channels.
+over pixels and channels. A rung of several images: the root of their mean squared error (and
+the mean of their relative MSEs).
 
 Equal-error table: the target is the RMSE of ``--target-peer`` at ``--target-spp`` (default:
 mitsuba-llvm at 64 spp). For each peer, the wall time to reach it is interpolated linearly in
@@ -50,7 +52,7 @@ class Rung:
     seconds: float
     samples_per_second: float
     load1: str
-    exr: Path
+    exr: list[Path]
     cpu_seconds: float = math.nan
     rmse: float = math.nan
     rel_mse: float = math.nan
@@ -83,7 +85,8 @@ def load_run(folder: Path) -> list[Rung]:
             cpu = (row.get("cpu_seconds") or "").strip()
             rungs.append(Rung(peer, spp, seconds,
                               float(sps) if sps else common.WIDTH_HEIGHT * spp / seconds,
-                              (row.get("load1") or "").strip(), folder / exr,
+                              (row.get("load1") or "").strip(),
+                              [folder / name.strip() for name in exr.split(";")],
                               float(cpu) if cpu else math.nan))
     if not rungs:
         raise SystemExit(f"{path}: no rows")
@@ -167,7 +170,9 @@ def main() -> None:
     peers: dict[str, list[Rung]] = {}
     for folder in runs:
         for r in load_run(folder):
-            r.rmse, r.rel_mse = errors(common.read_exr(r.exr), ref, r.exr)
+            each = [errors(common.read_exr(path), ref, path) for path in r.exr]
+            r.rmse = math.sqrt(sum(rmse * rmse for rmse, _ in each) / len(each))
+            r.rel_mse = sum(rel for _, rel in each) / len(each)
             peers.setdefault(r.peer, []).append(r)
 
     with open(args.results, "w", newline="") as f:

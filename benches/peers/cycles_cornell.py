@@ -22,8 +22,9 @@ The scene is built from ``cornell_scene.py``'s explicit triangles (Blender is z-
 
 Timing: one warm-up render at 1 spp first (kernel load, scene sync); each rung is then timed from
 Blender's ``render_pre`` to ``render_post`` handlers, i.e. scene sync (24 quads: negligible) plus
-path tracing, without writing the EXR. Each rung is timed --repeats times (default 3, same seed,
-identical image) and the fastest is kept, since the machine is shared.
+path tracing, without writing the EXR. Each rung renders --seeds images (default 3) with seeds
+spp, spp + 1000, spp + 2000 (every renderer's), each timed --repeats times (default 1); the
+fastest time is kept, since the machine is shared.
 
 Output: ``out/cycles/cycles_<spp>spp.exr`` (linear float32 RGB) and ``timings.csv`` (wall and
 CPU seconds of all threads between the handlers).
@@ -247,8 +248,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--spp", default=",".join(map(str, common.DEFAULT_LADDER)),
                     help="spp ladder, comma-separated (default 1,4,16,64,256)")
-    ap.add_argument("--repeats", type=int, default=3,
-                    help="time each rung this many times (same seed) and keep the fastest")
+    ap.add_argument("--seeds", type=int, default=common.DEFAULT_SEEDS,
+                    help="images per rung, with seeds spp + 1000 k (time: the fastest)")
+    ap.add_argument("--repeats", type=int, default=1,
+                    help="time each image this many times (same seed) and keep the fastest")
     ap.add_argument("--out", type=Path, default=common.HERE / "out")
     args = ap.parse_args()
     ladder = common.parse_ladder(args.spp)
@@ -271,10 +274,15 @@ def main() -> None:
 
     rows = []
     for spp in ladder:
-        name = f"{PEER}_{spp}spp.exr"
-        # Each run writes the EXR itself; only the times are kept.
-        _, dt, cpu = common.best_of(args.repeats, lambda: (None, *render(bpy, scene, timer, spp, spp, folder / name)))
-        rows.append(common.timing_row(PEER, spp, dt, name, cpu))
+        names, dt, cpu = [], math.inf, math.inf
+        for k, seed in enumerate(common.rung_seeds(spp, args.seeds)):
+            names.append(common.seeded_exr(PEER, spp, k))
+            # Each run writes the EXR itself; only the times are kept.
+            _, dt1, cpu1 = common.best_of(
+                args.repeats,
+                lambda: (None, *render(bpy, scene, timer, spp, seed, folder / names[-1])))
+            dt, cpu = min(dt, dt1), min(cpu, cpu1)
+        rows.append(common.timing_row(PEER, spp, dt, ";".join(names), cpu))
         common.print_rung(PEER, spp, dt, cpu)
     common.write_timings(folder / "timings.csv", rows)
     print(f"wrote {folder / 'timings.csv'}")

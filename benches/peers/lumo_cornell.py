@@ -4,9 +4,11 @@
         [--spp 1,4,16,64,256] [--time-regex 'spp in ([0-9.]+) s']
 
 For each rung it runs ``<lumo> render <scene> -o out/lumo/lumo_<spp>spp.exr --spp <spp>`` (the
-command can be changed with --command, a template with {lumo}, {scene}, {out}, {spp}), after one
-untimed warm-up run at 1 spp; each rung runs --repeats times (default 3, same seed) and the
-fastest is kept. The time recorded is
+command can be changed with --command, a template with {lumo}, {scene}, {out}, {spp}, {seed}),
+after one untimed warm-up run at 1 spp; each rung renders --seeds images (default 3) with seeds
+spp, spp + 1000, spp + 2000 (every renderer's), each run --repeats times (default 1), and the
+fastest time is kept (compare.py takes the root of the images' mean squared error as the
+rung's RMSE). The time recorded is
 
 - with --time-regex: the number captured by the regex's first group in lumo's stdout+stderr
   (use this when lumo prints its pure render time, comparable to the peers' render-only times;
@@ -57,11 +59,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--lumo", default=str(common.REPO_ROOT / "target" / "release" / "lumo"))
     ap.add_argument("--scene", default=str(common.REPO_ROOT / "scenes" / "cornell.json"))
-    ap.add_argument("--command", default="{lumo} render {scene} -o {out} --spp {spp}")
+    ap.add_argument("--command",
+                    default="{lumo} render {scene} -o {out} --spp {spp} --seed {seed}")
     ap.add_argument("--spp", default=",".join(map(str, common.DEFAULT_LADDER)))
     ap.add_argument("--time-regex", help="regex whose group 1 is lumo's render time in seconds")
-    ap.add_argument("--repeats", type=int, default=3,
-                    help="run each rung this many times (same seed) and keep the fastest")
+    ap.add_argument("--seeds", type=int, default=common.DEFAULT_SEEDS,
+                    help="images per rung, with seeds spp + 1000 k (time: the fastest)")
+    ap.add_argument("--repeats", type=int, default=1,
+                    help="run each image this many times (same seed) and keep the fastest")
     ap.add_argument("--peer", default="lumo")
     ap.add_argument("--out", type=Path, default=common.HERE / "out")
     args = ap.parse_args()
@@ -70,30 +75,32 @@ def main() -> None:
     folder.mkdir(parents=True, exist_ok=True)
     pattern = re.compile(args.time_regex) if args.time_regex else None
 
-    def command(spp: int, out: Path) -> list[str]:
+    def command(spp: int, out: Path, seed: int) -> list[str]:
         return shlex.split(args.command.format(lumo=shlex.quote(args.lumo),
                                                scene=shlex.quote(args.scene),
-                                               out=shlex.quote(str(out)), spp=spp))
+                                               out=shlex.quote(str(out)), spp=spp, seed=seed))
 
     warm = folder / "warmup.exr"
-    wall, _, _ = run(command(1, warm))
+    wall, _, _ = run(command(1, warm, 999_983))
     warm.unlink(missing_ok=True)
     print(f"warm-up (1 spp, not counted): {wall:.2f} s wall")
 
     rows = []
     for spp in ladder:
-        name = f"{args.peer}_{spp}spp.exr"
+        names = []
         seconds = cpu = float("inf")
-        for _ in range(args.repeats):
-            wall, cpu1, text = run(command(spp, folder / name))
-            if pattern:
-                m = pattern.search(text)
-                if not m:
-                    raise SystemExit(f"--time-regex {args.time_regex!r} matched nothing in "
-                                     f"lumo's output:\n{text}")
-                wall = float(m.group(1))
-            seconds, cpu = min(seconds, wall), min(cpu, cpu1)
-        rows.append(common.timing_row(args.peer, spp, seconds, name, cpu))
+        for k, seed in enumerate(common.rung_seeds(spp, args.seeds)):
+            names.append(common.seeded_exr(args.peer, spp, k))
+            for _ in range(args.repeats):
+                wall, cpu1, text = run(command(spp, folder / names[-1], seed))
+                if pattern:
+                    m = pattern.search(text)
+                    if not m:
+                        raise SystemExit(f"--time-regex {args.time_regex!r} matched nothing in "
+                                         f"lumo's output:\n{text}")
+                    wall = float(m.group(1))
+                seconds, cpu = min(seconds, wall), min(cpu, cpu1)
+        rows.append(common.timing_row(args.peer, spp, seconds, ";".join(names), cpu))
         print(f"{args.peer}: {spp:5d} spp  {seconds:8.3f} s "
               f"({'reported' if pattern else 'wall'}; load {common.load1():.2f})", flush=True)
     common.write_timings(folder / "timings.csv", rows)

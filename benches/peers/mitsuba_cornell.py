@@ -15,10 +15,12 @@ instead (OBJ meshes), as a cross-check.
 
 Timing: one warm-up render (1 spp, its own seed) runs first, so that Dr.Jit's kernel compilation
 and scene upload are excluded; each rung then times ``mi.render`` plus the copy to numpy (which
-forces evaluation of the lazy LLVM arrays). Writing the EXR is not timed. Each rung is timed
---repeats times (default 3, same seed) and the fastest is kept, since the machine is shared.
-Every rung uses its own seed (= its spp), distinct from the reference's seeds, so the noise of a
-rung and of the reference are independent.
+forces evaluation of the lazy LLVM arrays). Writing the EXR is not timed. Each rung renders
+--seeds images (default 3) with seeds spp, spp + 1000, spp + 2000 (the same seeds as every other
+renderer's), each timed --repeats times (default 1); the rung's time is the fastest, since the
+machine is shared, and compare.py takes the root of the images' mean squared error as its
+RMSE. The seeds are distinct from the reference's, so the noise of a rung and of the reference
+are independent.
 
 Output: ``out/mitsuba-<variant>/mitsuba-<variant>_<spp>spp.exr`` (linear float32 RGB) and
 ``timings.csv`` with columns ``peer,spp,seconds,samples_per_second,exr,load1,cpu_seconds``
@@ -28,6 +30,7 @@ Output: ``out/mitsuba-<variant>/mitsuba-<variant>_<spp>spp.exr`` (linear float32
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import tempfile
 import time
@@ -185,8 +188,10 @@ def main() -> None:
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--spp", default=",".join(map(str, common.DEFAULT_LADDER)),
                     help="spp ladder, comma-separated (default 1,4,16,64,256)")
-    ap.add_argument("--repeats", type=int, default=3,
-                    help="time each rung this many times (same seed) and keep the fastest")
+    ap.add_argument("--seeds", type=int, default=common.DEFAULT_SEEDS,
+                    help="images per rung, with seeds spp + 1000 k (time: the fastest)")
+    ap.add_argument("--repeats", type=int, default=1,
+                    help="time each image this many times (same seed) and keep the fastest")
     ap.add_argument("--scene", choices=("builtin", "explicit"), default="builtin")
     ap.add_argument("--sampler", default="independent",
                     choices=("independent", "ldsampler", "multijitter", "stratified"),
@@ -240,10 +245,14 @@ def main() -> None:
     folder = args.out / peer
     rows = []
     for spp in ladder:
-        img, dt, cpu = common.best_of(args.repeats, lambda: render(mi, scene, spp, seed=spp))
-        name = f"{peer}_{spp}spp.exr"
-        common.write_exr(folder / name, img)
-        rows.append(common.timing_row(peer, spp, dt, name, cpu))
+        names, dt, cpu = [], math.inf, math.inf
+        for k, seed in enumerate(common.rung_seeds(spp, args.seeds)):
+            img, dt1, cpu1 = common.best_of(args.repeats,
+                                            lambda: render(mi, scene, spp, seed=seed))
+            names.append(common.seeded_exr(peer, spp, k))
+            common.write_exr(folder / names[-1], img)
+            dt, cpu = min(dt, dt1), min(cpu, cpu1)
+        rows.append(common.timing_row(peer, spp, dt, ";".join(names), cpu))
         common.print_rung(peer, spp, dt, cpu)
     common.write_timings(folder / "timings.csv", rows)
     print(f"wrote {folder / 'timings.csv'}")
