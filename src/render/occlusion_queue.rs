@@ -44,6 +44,10 @@ pub(super) struct OcclusionQueue<const W: usize, const N: usize> {
     blocked: [u64; N],
     /// How many of each wave's rays wait.
     waiting: [u32; N],
+    /// Whether the CPU has AVX-512 (W = 16 compresses in registers) and BMI2 (`pdep`), found
+    /// once: the run-time checks cost as much as what they choose between.
+    has_avx512: bool,
+    has_bmi2: bool,
 }
 
 impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
@@ -59,6 +63,20 @@ impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
             batch_count: 0,
             blocked: [0; N],
             waiting: [0; N],
+            has_avx512: {
+                #[cfg(target_arch = "x86_64")]
+                let avx512 = W == 16 && crate::lanes::has_avx512();
+                #[cfg(not(target_arch = "x86_64"))]
+                let avx512 = false;
+                avx512
+            },
+            has_bmi2: {
+                #[cfg(target_arch = "x86_64")]
+                let bmi2 = std::arch::is_x86_feature_detected!("bmi2");
+                #[cfg(not(target_arch = "x86_64"))]
+                let bmi2 = false;
+                bmi2
+            },
         }
     }
 
@@ -142,8 +160,8 @@ impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
         while left > 0 {
             let (wave, lanes) = self.batches[self.first_batch];
             let count = lanes.count_ones().min(left);
-            let taken = deposit((1u64 << count) - 1, lanes);
-            self.blocked[wave] |= deposit(answers, lanes) & taken;
+            let taken = deposit((1u64 << count) - 1, lanes, self.has_bmi2);
+            self.blocked[wave] |= deposit(answers, lanes, self.has_bmi2) & taken;
             self.waiting[wave] -= count;
             answers >>= count;
             left -= count;
@@ -169,7 +187,7 @@ impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
         }
         let start = self.head + self.len;
         #[cfg(target_arch = "x86_64")]
-        if W == 16 && crate::lanes::has_avx512() {
+        if self.has_avx512 {
             // SAFETY: the CPU has AVX-512 F, each column holds 16 lanes, and every field has
             // room for 16 values after `start`.
             unsafe { compress_16(&mut self.fields, start, lanes as u16, &columns) };
@@ -188,13 +206,13 @@ impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
     }
 }
 
-/// The low bits of `bits` placed, in order, at the set bits of `mask` (the BMI2 `pdep`
-/// instruction, which this computes where the CPU lacks it).
+/// The low bits of `bits` placed, in order, at the set bits of `mask`: the BMI2 `pdep`
+/// instruction where the CPU has it (`bmi2`), else the same computed bit by bit.
 #[inline(always)]
-fn deposit(bits: u64, mask: u64) -> u64 {
+fn deposit(bits: u64, mask: u64, bmi2: bool) -> u64 {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("bmi2") {
-        // SAFETY: the CPU has BMI2.
+    if bmi2 {
+        // SAFETY: the caller found BMI2.
         return unsafe { std::arch::x86_64::_pdep_u64(bits, mask) };
     }
     let (mut out, mut rest, mut k) = (0, mask, 0);
@@ -245,10 +263,16 @@ mod tests {
 
     #[test]
     fn deposit_places_bits_at_the_mask() {
-        assert_eq!(deposit(0b1011, 0b1111_0000), 0b1011_0000);
-        assert_eq!(deposit(0b101, 0b1010_1000), 0b1000_1000);
-        assert_eq!(deposit(!0, 0b1001), 0b1001);
-        assert_eq!(deposit(0, 0xffff), 0);
+        #[cfg(target_arch = "x86_64")]
+        let with_pdep = std::arch::is_x86_feature_detected!("bmi2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let with_pdep = false;
+        for bmi2 in [false, with_pdep] {
+            assert_eq!(deposit(0b1011, 0b1111_0000, bmi2), 0b1011_0000);
+            assert_eq!(deposit(0b101, 0b1010_1000, bmi2), 0b1000_1000);
+            assert_eq!(deposit(!0, 0b1001, bmi2), 0b1001);
+            assert_eq!(deposit(0, 0xffff, bmi2), 0);
+        }
     }
 
     fn cornell() -> Scene {
