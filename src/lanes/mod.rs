@@ -78,13 +78,29 @@ pub const WIDTHS: [usize; 4] = [1, 4, 8, 16];
 /// byte and word (BW), doubleword and quadword (DQ) and vector length (VL) extensions, as every
 /// AVX-512 CPU since Skylake-SP and Zen 4 has (Embree's AVX-512 level). BW and DQ give the
 /// integer lanes (the samplers' hashes and bit reversals) byte shuffles and 64-bit multiplies.
+///
+/// Found once and kept in one flag: every dispatch of a wave's stages asks, and four feature
+/// lookups per call showed in the profile.
 #[cfg(target_arch = "x86_64")]
 #[inline]
 pub fn has_avx512() -> bool {
-    std::arch::is_x86_feature_detected!("avx512f")
-        && std::arch::is_x86_feature_detected!("avx512bw")
-        && std::arch::is_x86_feature_detected!("avx512dq")
-        && std::arch::is_x86_feature_detected!("avx512vl")
+    use std::sync::atomic::{AtomicU8, Ordering};
+    const UNKNOWN: u8 = 0;
+    const YES: u8 = 1;
+    const NO: u8 = 2;
+    static FOUND: AtomicU8 = AtomicU8::new(UNKNOWN);
+    match FOUND.load(Ordering::Relaxed) {
+        YES => true,
+        NO => false,
+        _ => {
+            let has = std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512bw")
+                && std::arch::is_x86_feature_detected!("avx512dq")
+                && std::arch::is_x86_feature_detected!("avx512vl");
+            FOUND.store(if has { YES } else { NO }, Ordering::Relaxed);
+            has
+        }
+    }
 }
 
 /// The widest lanes this CPU runs in one register: 16 with AVX-512 ([`has_avx512`]), 8 with
