@@ -103,6 +103,27 @@ pub fn has_avx512() -> bool {
     }
 }
 
+/// Whether the CPU has AVX2, the 8-lane code's instructions: found once and kept in one flag,
+/// as [`has_avx512`].
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub fn has_avx2() -> bool {
+    use std::sync::atomic::{AtomicU8, Ordering};
+    const UNKNOWN: u8 = 0;
+    const YES: u8 = 1;
+    const NO: u8 = 2;
+    static FOUND: AtomicU8 = AtomicU8::new(UNKNOWN);
+    match FOUND.load(Ordering::Relaxed) {
+        YES => true,
+        NO => false,
+        _ => {
+            let has = std::arch::is_x86_feature_detected!("avx2");
+            FOUND.store(if has { YES } else { NO }, Ordering::Relaxed);
+            has
+        }
+    }
+}
+
 /// The widest lanes this CPU runs in one register: 16 with AVX-512 ([`has_avx512`]), 8 with
 /// AVX2, 4 with SSE2 (every x86-64) or NEON (every AArch64), and 1 elsewhere.
 pub fn native_width() -> usize {
@@ -181,7 +202,7 @@ macro_rules! widest {
                 // SAFETY: the CPU has AVX-512 (F, BW, DQ, VL).
                 return unsafe { avx512::<$w>($($value),+) };
             }
-            if $w >= 8 && std::arch::is_x86_feature_detected!("avx2") {
+            if $w >= 8 && $crate::lanes::has_avx2() {
                 // SAFETY: the CPU has AVX2.
                 return unsafe { avx2::<$w>($($value),+) };
             }
