@@ -133,22 +133,22 @@ fn run_wave_here<const W: usize>(
     let samples: usize = work.iter().map(|w| w.indices.len()).sum();
     let in_flight = samples.div_ceil(4 * W).clamp(1, WAVES);
     let mut step = Box::new(Step::new(scene));
-    let mut queue = OcclusionQueue::<W, WAVES>::new();
+    let mut shadow_rays = OcclusionQueue::<W, WAVES>::new();
     loop {
         let mut any_live = false;
         for (w, wave) in waves[..in_flight].iter_mut().enumerate() {
-            wave.settle(w, scene, &mut queue, sums, stats);
+            wave.settle(w, scene, &mut shadow_rays, sums, stats);
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                 return;
             }
             if !source.empty {
                 wave.refill(&mut source, sums, stats);
             }
-            if wave.step(w, &mut step, &mut queue, scene, sums, stats) {
+            if wave.step(w, &mut step, &mut shadow_rays, scene, sums, stats) {
                 any_live = true;
             }
-            while queue.is_full() {
-                queue.run(scene, stats);
+            while shadow_rays.is_full() {
+                shadow_rays.run(scene, stats);
             }
         }
         if !any_live {
@@ -237,23 +237,25 @@ impl<const W: usize> Wave<W> {
         }
     }
 
-    /// Finishes what the wave's last step (wave `w` of `queue`) left: adds the light samples'
-    /// terms whose shadow rays are clear (running the queue until they are all answered) and
-    /// hands the paths that ended to the film.
+    /// Finishes what the wave's last step (wave `w` of `shadow_rays`) left: adds the light
+    /// samples' terms whose shadow rays are clear (running the queue until they are all
+    /// answered) and hands the paths that ended to the film.
     #[inline(always)]
     fn settle<const N: usize>(
         &mut self,
         w: usize,
         scene: &Scene,
-        queue: &mut OcclusionQueue<W, N>,
+        shadow_rays: &mut OcclusionQueue<W, N>,
         sums: &mut Sink,
         stats: &mut TraceStats,
     ) {
-        while queue.is_waiting(w) {
-            queue.run(scene, stats);
+        while shadow_rays.is_waiting(w) {
+            shadow_rays.run(scene, stats);
         }
         if self.waiting.any() {
-            let clear = self.waiting.and_not(Mask::from_bools(&queue.blocked(w)));
+            let clear = self
+                .waiting
+                .and_not(Mask::from_bools(&shadow_rays.blocked(w)));
             self.paths.add_radiance(clear, &self.waiting_radiance);
             self.waiting = Mask::splat(false);
         }
@@ -265,15 +267,15 @@ impl<const W: usize> Wave<W> {
         self.ended = Mask::splat(false);
     }
 
-    /// One step of the wave (wave `w` of `queue`): finds every path's next vertex, shades it,
-    /// samples its light and queues the shadow ray, and scatters it. Returns `false` when no
-    /// lane has a sample.
+    /// One step of the wave (wave `w` of `shadow_rays`): finds every path's next vertex, shades
+    /// it, samples its light and queues the shadow ray, and scatters it. Returns `false` when
+    /// no lane has a sample.
     #[inline(always)]
     fn step<'s, const N: usize>(
         &mut self,
         w: usize,
         step: &mut Step<'s, W>,
-        queue: &mut OcclusionQueue<W, N>,
+        shadow_rays: &mut OcclusionQueue<W, N>,
         scene: &'s Scene,
         sums: &mut Sink,
         stats: &mut TraceStats,
@@ -359,16 +361,16 @@ impl<const W: usize> Wave<W> {
                 waits &= path.light_sample_comes_last(vertex);
             }
         }
-        queue.push(w, shadows);
+        shadow_rays.push(w, shadows);
         // The answers now, if some vertex cannot wait for them; else none yet (the light
         // samples' terms are added when the wave settles).
         let blocked = if waits {
             [true; W]
         } else {
-            while queue.is_waiting(w) {
-                queue.run(scene, stats);
+            while shadow_rays.is_waiting(w) {
+                shadow_rays.run(scene, stats);
             }
-            queue.blocked(w)
+            shadow_rays.blocked(w)
         };
         let scattering = general | route.on_lanes();
         let u_scatter = samplers.get_choice_2d(scattering);
