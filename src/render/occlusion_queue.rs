@@ -70,13 +70,7 @@ impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
                 let avx512 = false;
                 avx512
             },
-            has_bmi2: {
-                #[cfg(target_arch = "x86_64")]
-                let bmi2 = std::arch::is_x86_feature_detected!("bmi2");
-                #[cfg(not(target_arch = "x86_64"))]
-                let bmi2 = false;
-                bmi2
-            },
+            has_bmi2: crate::lanes::has_bmi2(),
         }
     }
 
@@ -113,17 +107,14 @@ impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
         self.len >= W
     }
 
-    /// Whether some of wave `wave`'s rays wait.
+    /// Wave `wave`'s answers, the lanes whose segments are blocked, once the queue has run
+    /// until none of its rays waits.
     #[inline(always)]
-    pub fn is_waiting(&self, wave: usize) -> bool {
-        self.waiting[wave] != 0
-    }
-
-    /// Wave `wave`'s answers (all its rays answered): lane i blocked or not.
-    #[inline(always)]
-    pub fn blocked(&self, wave: usize) -> [bool; W] {
-        debug_assert_eq!(self.waiting[wave], 0);
-        Mask::<W>::from_bits(self.blocked[wave]).to_bools()
+    pub fn answers(&mut self, wave: usize, scene: &Scene, stats: &mut TraceStats) -> Mask<W> {
+        while self.waiting[wave] != 0 {
+            self.run(scene, stats);
+        }
+        Mask::from_bits(self.blocked[wave])
     }
 
     /// Tests the oldest W waiting rays (or all, if fewer wait) and hands their answers to
@@ -263,11 +254,7 @@ mod tests {
 
     #[test]
     fn deposit_places_bits_at_the_mask() {
-        #[cfg(target_arch = "x86_64")]
-        let with_pdep = std::arch::is_x86_feature_detected!("bmi2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let with_pdep = false;
-        for bmi2 in [false, with_pdep] {
+        for bmi2 in [false, crate::lanes::has_bmi2()] {
             assert_eq!(deposit(0b1011, 0b1111_0000, bmi2), 0b1011_0000);
             assert_eq!(deposit(0b101, 0b1010_1000, bmi2), 0b1000_1000);
             assert_eq!(deposit(!0, 0b1001, bmi2), 0b1001);
@@ -303,14 +290,11 @@ mod tests {
         let (mut blocked_seen, mut clear_seen) = (0, 0);
         for turn in 0..600 {
             let w = turn % N;
-            while queue.is_waiting(w) {
-                queue.run(scene, &mut stats);
-            }
+            let got = queue.answers(w, scene, &mut stats);
             if let Some(expected) = pending[w].take() {
-                let got = queue.blocked(w);
                 for (i, e) in expected.iter().enumerate() {
                     if let Some(e) = e {
-                        assert_eq!(got[i], *e, "W = {W}, turn {turn}, lane {i}");
+                        assert_eq!(got.lane(i), *e, "W = {W}, turn {turn}, lane {i}");
                         if *e {
                             blocked_seen += 1;
                         } else {

@@ -175,7 +175,7 @@ struct Samples<'a, Q> {
 }
 
 /// A wave of W paths, and what its last step left to do: the terms of the light samples whose
-/// shadow rays wait, and the paths that ended with them.
+/// shadow rays wait, and the paths that ended at it.
 #[repr(C, align(64))]
 struct Wave<const W: usize> {
     paths: PathLanes<W>,
@@ -184,8 +184,8 @@ struct Wave<const W: usize> {
     /// where the ray is clear.
     waiting: Mask<W>,
     waiting_radiance: V3s<W>,
-    /// The lanes whose path ended at the last step (their samples go to the film once their
-    /// light samples are added).
+    /// The lanes whose path ended at the last step (their samples go to the film when the
+    /// wave settles, after their light samples' terms).
     ended: Mask<W>,
     /// Each lane's sample, where bit i of `occupied` is set.
     lanes: [Lane; W],
@@ -249,13 +249,9 @@ impl<const W: usize> Wave<W> {
         sums: &mut Sink,
         stats: &mut TraceStats,
     ) {
-        while shadow_rays.is_waiting(w) {
-            shadow_rays.run(scene, stats);
-        }
+        let blocked = shadow_rays.answers(w, scene, stats);
         if self.waiting.any() {
-            let clear = self
-                .waiting
-                .and_not(Mask::from_bools(&shadow_rays.blocked(w)));
+            let clear = self.waiting.and_not(blocked);
             self.paths.add_radiance(clear, &self.waiting_radiance);
             self.waiting = Mask::splat(false);
         }
@@ -367,10 +363,7 @@ impl<const W: usize> Wave<W> {
         let blocked = if waits {
             [true; W]
         } else {
-            while shadow_rays.is_waiting(w) {
-                shadow_rays.run(scene, stats);
-            }
-            shadow_rays.blocked(w)
+            shadow_rays.answers(w, scene, stats).to_bools()
         };
         let scattering = general | route.on_lanes();
         let u_scatter = samplers.get_choice_2d(scattering);
@@ -402,15 +395,8 @@ impl<const W: usize> Wave<W> {
             paths.put(i, path);
             ended.set(i, !goes_on);
         }
-        if waits {
-            self.ended = ended;
-        } else {
-            for i in ended.iter() {
-                let (radiance, aov) = paths.end(i);
-                finish(&lanes[i], radiance, aov.as_deref(), sums);
-            }
-            *occupied &= !ended.bits();
-        }
+        // To the film when the wave settles (after its light samples' terms, if they wait).
+        self.ended = ended;
         true
     }
 
