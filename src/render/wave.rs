@@ -366,7 +366,13 @@ impl<const W: usize> Wave<W> {
             shadow_rays.answers(w, scene, stats).to_bools()
         };
         let scattering = general | route.on_lanes();
-        let u_scatter = samplers.get_choice_2d(scattering);
+        // A lobe choice only where a vertex off the route may have several lobes.
+        let u_scatter = if general.any() {
+            samplers.get_choice_2d(scattering)
+        } else {
+            let (x, y) = samplers.get_choice_2d_point(scattering);
+            (F32s::default(), x, y)
+        };
         let sampled = if general.any() {
             Path::sample_bsdfs(vertices, &u_scatter, scratch)
         } else {
