@@ -377,12 +377,9 @@ impl<const W: usize> SamplerLanes<W> {
     #[inline(always)]
     pub fn get_choice_2d_point(&mut self, live: Mask<W>) -> (F32s<W>, F32s<W>) {
         if !self.all_sobol(live) {
-            let mut out = (F32s::default(), F32s::default());
-            for i in live.iter() {
-                let (_, u) = self.with(i, Sampler::get_choice_2d);
-                (out.0[i], out.1[i]) = (u.x, u.y);
-            }
-            return out;
+            // Lanes of independent numbers draw the choice too: their generator is sequential.
+            let (_, x, y) = self.get_choice_2d(live);
+            return (x, y);
         }
         crate::lanes::widest!(
             W,
