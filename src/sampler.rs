@@ -295,6 +295,7 @@ impl<const W: usize> SamplerLanes<W> {
             return out;
         }
         crate::lanes::widest!(
+            gfni;
             W,
             (lanes: &mut SamplerLanes<W>, live: Mask<W>) => (F32s<W>, F32s<W>),
             (self, live),
@@ -318,6 +319,7 @@ impl<const W: usize> SamplerLanes<W> {
             return out;
         }
         crate::lanes::widest!(
+            gfni;
             W,
             (lanes: &mut SamplerLanes<W>, live: Mask<W>) => F32s<W>,
             (self, live),
@@ -359,6 +361,7 @@ impl<const W: usize> SamplerLanes<W> {
             return out;
         }
         crate::lanes::widest!(
+            gfni;
             W,
             (lanes: &mut SamplerLanes<W>, live: Mask<W>) => (F32s<W>, F32s<W>, F32s<W>),
             (self, live),
@@ -382,6 +385,7 @@ impl<const W: usize> SamplerLanes<W> {
             return (x, y);
         }
         crate::lanes::widest!(
+            gfni;
             W,
             (lanes: &mut SamplerLanes<W>, live: Mask<W>) => (F32s<W>, F32s<W>),
             (self, live),
@@ -847,6 +851,19 @@ mod tests {
     fn sampler_lanes_of_mixed_kinds_draw_each_lanes_numbers() {
         check_mixed_lanes::<4>();
         check_mixed_lanes::<8>();
+        check_mixed_lanes::<16>();
+    }
+
+    /// On a CPU with GFNI the draws above ran the copies that use it; the copies without it
+    /// draw the same numbers.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn sampler_lanes_without_gfni_draw_each_lanes_numbers() {
+        crate::lanes::forget_gfni();
+        assert!(!crate::lanes::has_gfni());
+        for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
+            check_lanes::<16>(kind);
+        }
         check_mixed_lanes::<16>();
     }
 

@@ -124,6 +124,33 @@ pub fn has_bmi2() -> bool {
     }
 }
 
+/// Whether the CPU has GFNI, whose affine byte transform reverses the bits of every byte in
+/// one instruction: the samplers' lanes reverse the bits of three 32-bit words per number
+/// drawn, in two instructions each with it instead of seven (`widest!(gfni; …)`). Found once,
+/// as [`has_avx512`]. Unit tests can turn it off (`forget_gfni`) to run the copies without it.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub fn has_gfni() -> bool {
+    #[cfg(test)]
+    if GFNI_FORGOTTEN.load(Ordering::Relaxed) {
+        return false;
+    }
+    static FOUND: AtomicU8 = AtomicU8::new(UNKNOWN);
+    found_once(&FOUND, || std::arch::is_x86_feature_detected!("gfni"))
+}
+
+/// Set by [`forget_gfni`].
+#[cfg(all(test, target_arch = "x86_64"))]
+static GFNI_FORGOTTEN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Makes [`has_gfni`] answer `false` from now on in this test process, so that the copies
+/// compiled without GFNI run (they give the same bits, so other tests running meanwhile are
+/// not disturbed).
+#[cfg(all(test, target_arch = "x86_64"))]
+pub(crate) fn forget_gfni() {
+    GFNI_FORGOTTEN.store(true, Ordering::Relaxed);
+}
+
 /// A CPU feature flag not looked up yet (then 1 for present, 2 for absent).
 const UNKNOWN: u8 = 0;
 
@@ -197,10 +224,29 @@ pub fn default_width() -> usize {
 /// for the widest vector instructions the CPU has that suit W: AVX-512 for W ≥ 16, AVX2 for
 /// W ≥ 8 (by `#[target_feature]` copies of it), else the baseline. Every copy performs the same
 /// lane operations, so gives the same bits.
+///
+/// `widest!(gfni; …)` adds a 16-lane copy that also uses GFNI (see [`has_gfni`]), run where the
+/// CPU has it: for the samplers' bit reversals, which LLVM then compiles to GFNI's affine
+/// transform. The wave loop has such a copy too, so that the samplers' draws inline into it.
 macro_rules! widest {
     ($w:ident, $arg:ident: &$ty:ty => $out:ty, $value:expr, $body:expr) => {
         $crate::lanes::widest!($w, ($arg: &$ty) => $out, ($value), $body)
     };
+    (gfni; $w:ident, ($($arg:ident: $ty:ty),+) => $out:ty, ($($value:expr),+), $body:expr) => {{
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl,gfni")]
+            #[inline]
+            unsafe fn avx512_gfni<const $w: usize>($($arg: $ty),+) -> $out {
+                $body
+            }
+            if $w >= 16 && $crate::lanes::has_avx512() && $crate::lanes::has_gfni() {
+                // SAFETY: the CPU has AVX-512 (F, BW, DQ, VL) and GFNI.
+                return unsafe { avx512_gfni::<$w>($($value),+) };
+            }
+        }
+        $crate::lanes::widest!($w, ($($arg: $ty),+) => $out, ($($value),+), $body)
+    }};
     // Several arguments: `($a: A, $b: B, …) => Out, ($x, $y, …)`.
     ($w:ident, ($($arg:ident: $ty:ty),+) => $out:ty, ($($value:expr),+), $body:expr) => {{
         #[cfg(target_arch = "x86_64")]

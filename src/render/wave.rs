@@ -77,6 +77,7 @@ fn run_wave<const W: usize>(
     stats: &mut TraceStats,
 ) {
     widest!(
+        gfni;
         W,
         (
             scene: &Scene,
