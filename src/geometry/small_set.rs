@@ -58,11 +58,21 @@ pub struct SmallSet {
     /// (`[V; 3]` per vertex), for vectors of 4, 8 and 16 lanes: the kernels' loop over
     /// triangles then computes no addresses (scaling indices took 10 of its ~60 instructions
     /// per triangle).
-    corner_bytes: [Vec<[u32; 3]>; 3],
+    corner_bytes: [Vec<Corners>; 3],
     /// Each triangle's (instance, primitive), increasing.
     ids: Vec<[u32; 2]>,
     /// The widest instruction set this CPU has.
     isa: Isa,
+}
+
+/// A triangle as the kernels' loop reads it: its corners as byte offsets into the array of
+/// sheared vertices, and its slot in the set as a float (exact: slots are small integers),
+/// which a lane that takes the triangle as its best hit copies straight from here.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(16))]
+struct Corners {
+    bytes: [u32; 3],
+    slot: f32,
 }
 
 /// A wave's rays, structure-of-arrays: origins, directions, and the end of the segment looked
@@ -168,7 +178,11 @@ impl SmallSet {
             let vertex_bytes = 3 * lanes * std::mem::size_of::<f32>();
             triangles
                 .iter()
-                .map(|t| t.map(|v| (v * vertex_bytes) as u32))
+                .enumerate()
+                .map(|(slot, t)| Corners {
+                    bytes: t.map(|v| (v * vertex_bytes) as u32),
+                    slot: slot as f32,
+                })
                 .collect()
         };
         Some(SmallSet {
@@ -181,7 +195,7 @@ impl SmallSet {
 
     /// Each triangle's corners as byte offsets into an array of `[V; 3]`, one per vertex.
     #[inline(always)]
-    fn corner_bytes<V: Vector>(&self) -> &[[u32; 3]] {
+    fn corner_bytes<V: Vector>(&self) -> &[Corners] {
         &self.corner_bytes[(V::LANES / 4).trailing_zeros() as usize]
     }
 
@@ -261,7 +275,7 @@ impl SmallSet {
         #[cfg(target_arch = "x86_64")]
         {
             use x86::{Avx2, Avx512, Sse2};
-            #[target_feature(enable = "avx512f")]
+            #[target_feature(enable = "avx512f,avx512dq")]
             #[inline]
             unsafe fn avx512<const W: usize, const CLOSEST: bool>(
                 set: &SmallSet,
@@ -270,7 +284,7 @@ impl SmallSet {
                 blocked: &mut [bool; W],
             ) {
                 for k in (0..W).step_by(16) {
-                    // SAFETY: the CPU has AVX-512F; lanes k..k + 16 lie within W.
+                    // SAFETY: the CPU has AVX-512 F and DQ; lanes k..k + 16 lie within W.
                     unsafe { chunk::<Avx512, W, CLOSEST>(set, wave, hits, blocked, k) };
                 }
             }
@@ -288,7 +302,8 @@ impl SmallSet {
                 }
             }
             if W.is_multiple_of(16) && self.isa == Isa::Avx512 {
-                // SAFETY: `isa` is AVX-512 only when the CPU has AVX-512F.
+                // SAFETY: `isa` is AVX-512 only when the CPU has AVX-512 F, BW, DQ and VL
+                // (`native_width`).
                 return unsafe { avx512::<W, CLOSEST>(self, wave, hits, blocked) };
             }
             if W.is_multiple_of(8) && self.isa != Isa::Sse2 {
@@ -393,6 +408,12 @@ trait Vector: Copy {
     unsafe fn and_not(a: Self::Mask, b: Self::Mask) -> Self::Mask;
     /// Bit i set where lane i holds.
     unsafe fn bits(m: Self::Mask) -> u32;
+    /// Whether no lane of `m` is one of `live`.
+    #[inline(always)]
+    unsafe fn none_of(m: Self::Mask, live: Self::Mask) -> bool {
+        // SAFETY: the caller's.
+        unsafe { Self::bits(m) & Self::bits(live) == 0 }
+    }
     /// `a` where `m` holds, else `b`.
     unsafe fn select(m: Self::Mask, a: Self, b: Self) -> Self;
 }
@@ -431,17 +452,17 @@ unsafe fn chunk<V: Vector, const W: usize, const CLOSEST: bool>(
         }
         if CLOSEST {
             let mut best = Best::<V>::load(hits, k);
-            // The slot as a float, counted along (exact: slots are small integers).
-            let (mut slot, one) = (V::splat(0.0), V::splat(1.0));
             for corners in set.corner_bytes::<V>() {
-                best.take(&candidate(&frame, *corners, all_live), slot);
-                slot = slot.add(one);
+                best.take(
+                    &candidate(&frame, corners.bytes, live),
+                    V::splat(corners.slot),
+                );
             }
             best.store(hits, k);
         } else {
             let mut blocked_bits = 0u32;
             for corners in set.corner_bytes::<V>() {
-                let c = candidate(&frame, *corners, all_live);
+                let c = candidate(&frame, corners.bytes, live);
                 blocked_bits |= V::bits(V::and_lt(c.ahead, c.t, t_max));
                 if blocked_bits == all_live {
                     break;
@@ -486,7 +507,7 @@ unsafe fn sheared_vertex<V: Vector>(
 
 /// The test of the triangle `corners` (byte offsets into `frame`, every lane's sheared
 /// vertices) in every lane, the edge functions recomputed in f64 where one is ±0 in a lane of
-/// `all_live`.
+/// `live`.
 ///
 /// # Safety
 /// The CPU runs V's instructions, and `frame` holds the vertices `corners` names.
@@ -494,7 +515,7 @@ unsafe fn sheared_vertex<V: Vector>(
 unsafe fn candidate<V: Vector>(
     frame: &[MaybeUninit<[V; 3]>; MAX_VERTICES],
     corners: [u32; 3],
-    all_live: u32,
+    live: V::Mask,
 ) -> Candidate<V> {
     // SAFETY: the caller's.
     unsafe {
@@ -512,10 +533,10 @@ unsafe fn candidate<V: Vector>(
         // instructions with AVX-512 instead of seven, in a loop bound by its vector
         // instructions. (Lanes that are not live have a bound of 0 and take no hit.)
         let zero = V::splat(0.0);
-        let one_sign = if V::bits(V::maybe_zero(u, v, w)) & all_live == 0 {
+        let one_sign = if V::none_of(V::maybe_zero(u, v, w), live) {
             V::same_sign(u, v, w)
         } else {
-            let on_edge = V::bits(V::any_zero(u, v, w)) & all_live;
+            let on_edge = V::bits(V::any_zero(u, v, w)) & V::bits(live);
             let mut p = [[0.0f32; MAX_LANES]; 6];
             for (array, value) in p.iter_mut().zip([ax, ay, bx, by, cx, cy]) {
                 value.store(array.as_mut_ptr());
@@ -1166,6 +1187,11 @@ mod x86 {
         #[inline(always)]
         unsafe fn bits(m: __mmask16) -> u32 {
             u32::from(m)
+        }
+        #[inline(always)]
+        unsafe fn none_of(m: __mmask16, live: __mmask16) -> bool {
+            // SAFETY: the caller's CPU has AVX-512 DQ. One `ktestw` instead of an AND and a test.
+            unsafe { _ktestz_mask16_u8(m, live) != 0 }
         }
         #[inline(always)]
         unsafe fn select(m: __mmask16, a: Self, b: Self) -> Self {
