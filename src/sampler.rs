@@ -854,8 +854,8 @@ mod tests {
         check_mixed_lanes::<16>();
     }
 
-    /// On a CPU with GFNI the draws above ran the copies that use it; the copies without it
-    /// draw the same numbers.
+    /// On a CPU with GFNI the other tests' 16-lane draws run the copies that use it (unless
+    /// this test has already run in the process); the copies without it draw the same numbers.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn sampler_lanes_without_gfni_draw_each_lanes_numbers() {

@@ -55,9 +55,9 @@ pub struct SmallSet {
     /// The triangles' distinct corners, (x, y, z, 0) each (at most [`MAX_VERTICES`]).
     vertices: Vec<[f32; 4]>,
     /// Each triangle's corners as byte offsets into the kernels' array of sheared vertices
-    /// (`[V; 3]` per vertex), for vectors of 4, 8 and 16 lanes: the kernels' loop over
-    /// triangles then computes no addresses (scaling indices took 10 of its ~60 instructions
-    /// per triangle).
+    /// (`[V; 3]` per vertex), for vectors of 4, 8 and 16 lanes, with its slot: the kernels'
+    /// loop over triangles then computes no addresses (scaling indices took 10 of its ~60
+    /// instructions per triangle).
     corner_bytes: [Vec<Corners>; 3],
     /// Each triangle's (instance, primitive), increasing.
     ids: Vec<[u32; 2]>,
