@@ -231,8 +231,8 @@ impl Light {
                 sphere,
                 ..
             } => {
-                if !two_sided && n.dot(p - v[0]) <= 0.0 {
-                    return None; // behind a one-sided emitter
+                if unlit_side(n.dot(p - v[0]), plane_scale(p, v[0]), two_sided) {
+                    return None; // behind a one-sided emitter, or in the emitter's plane
                 }
                 if let Some(st) = SphericalTriangle::seen_from(p, v, (n, area), sphere) {
                     return st
@@ -353,6 +353,28 @@ impl Light {
         }
     }
 
+    /// Points whose convex hull holds every point the light's samples can lie at, or `None`
+    /// for a light at infinity.
+    pub fn hull(&self) -> Option<Vec<Vec3>> {
+        match *self {
+            Light::Point { position, .. } | Light::Spot { position, .. } => Some(vec![position]),
+            Light::Triangle { v, .. } => Some(v.to_vec()),
+            Light::Sphere { center, radius, .. } => Some(
+                (0..8)
+                    .map(|k| {
+                        let corner = Vec3::new(
+                            if k & 1 == 0 { -radius } else { radius },
+                            if k & 2 == 0 { -radius } else { radius },
+                            if k & 4 == 0 { -radius } else { radius },
+                        );
+                        center + corner
+                    })
+                    .collect(),
+            ),
+            Light::Directional { .. } | Light::Environment { .. } => None,
+        }
+    }
+
     /// Whether the light's samples lie infinitely far away (their shadow rays run to ∞ along
     /// the sampled direction instead of to a point).
     pub fn at_infinity(&self) -> bool {
@@ -364,6 +386,32 @@ impl Light {
             | Light::Sphere { .. } => false,
         }
     }
+}
+
+/// Points this close to an emitting triangle's plane, relative to the largest coordinate of
+/// the point and the triangle's first corner ([`plane_scale`]), count as lying in it: 32 units
+/// in the last place of that coordinate, beyond the rounding of a hit point on the plane.
+const EDGE_ON: f32 = 1.0 / (1u32 << 18) as f32;
+
+/// The largest coordinate, in magnitude, of the shading point `p` and the triangle's corner
+/// `v0`: the scale of the rounding of p's distance to the triangle's plane.
+#[inline]
+fn plane_scale(p: Vec3, v0: Vec3) -> f32 {
+    use crate::lanes::max;
+    let largest = |v: Vec3| max(max(v.x.abs(), v.y.abs()), v.z.abs());
+    max(largest(p), largest(v0))
+}
+
+/// Whether a point at signed distance `h` from an emitting triangle's plane (positive on its
+/// front) receives nothing from it: behind a one-sided emitter, or in the plane (within
+/// [`EDGE_ON`] of `scale`), where the emitter is seen edge-on. A point on the emitter itself
+/// (a light whose surface also reflects) is in the plane: its light samples lie beside it,
+/// along directions the rounding of its position sets, and would add their radiance
+/// divided by a distance² and cosines of rounding errors, a firefly where the exact answer is
+/// nothing.
+#[inline]
+fn unlit_side(h: f32, scale: f32, two_sided: bool) -> bool {
+    h.abs() <= scale * EDGE_ON || (!two_sided && h <= 0.0)
 }
 
 /// Triangles that subtend at least this solid angle (sr) from the shading point are sampled
@@ -672,7 +720,14 @@ impl<const W: usize> TriangleLanes<W> {
     pub fn sample(&self, p: V3s<W>, u: (F32s<W>, F32s<W>)) -> TriangleSamples<W> {
         let zero = F32s::splat(0.0);
         let [v0, v1, v2] = self.v;
-        let behind = !self.two_sided & self.n.dot(p - v0).le(zero);
+        // `unlit_side` in every lane.
+        let h = self.n.dot(p - v0);
+        let scale =
+            p.x.abs()
+                .max(p.y.abs())
+                .max(p.z.abs())
+                .max(v0.x.abs().max(v0.y.abs()).max(v0.z.abs()));
+        let behind = h.abs().le(scale * F32s::splat(EDGE_ON)) | (!self.two_sided & h.le(zero));
         // `SphericalTriangle::seen_from`'s bounds, each lane's decision as there.
         let d2 = (p - self.centroid).length_squared();
         let far = self.r2.lt(F32s::splat(SPHERICAL_SAMPLING_FAR_SIN2) * d2);
@@ -1227,5 +1282,48 @@ pub(crate) mod tests {
         let solid_angle = 2.0 * PI * one_minus_cos_max(100.0, 4.0);
         let exact = 2.0 * PI * (1.0 - (1.0f32 - 4.0 / 100.0).sqrt());
         assert!((solid_angle - exact).abs() < 1e-5);
+    }
+
+    /// Points on an emitting triangle (its own surface, as a light that also reflects is hit)
+    /// see it edge-on and receive nothing: no sample, whichever side rounding puts them on,
+    /// from the light alone and in lanes. Points a little off the plane do receive light.
+    #[test]
+    fn points_in_an_emitters_plane_get_no_sample() {
+        let mut rng = crate::sampler::Pcg32::new(11, 5);
+        let (mut on_plane, mut off_plane_lit) = (0, 0);
+        for two_sided in [false, true] {
+            for _ in 0..2_000 {
+                let mut r = || rng.next_f32() * 2.0 - 1.0;
+                let v = [
+                    Vec3::new(r(), r(), r()),
+                    Vec3::new(r(), r(), r()),
+                    Vec3::new(r(), r(), r()),
+                ];
+                let light = triangle_light(v, Vec3::ONE, two_sided);
+                let Light::Triangle { n, .. } = light else {
+                    unreachable!()
+                };
+                // A point of the triangle (rounded in f32, so within rounding of its plane).
+                let (b1, b2) = (r() * 0.25 + 0.25, r() * 0.25 + 0.25);
+                let p = v[0] * (1.0 - b1 - b2) + v[1] * b1 + v[2] * b2;
+                let u = Vec2::new(r() * 0.5 + 0.5, r() * 0.5 + 0.5);
+                assert!(light.sample(p, u).is_none(), "{v:?} {p:?}");
+                let mut lanes = TriangleLanes::<4>::new();
+                for i in 0..4 {
+                    lanes.set(i, &light);
+                }
+                let out = lanes.sample(V3s::splat(p), (F32s::splat(u.x), F32s::splat(u.y)));
+                assert!(out.decided.all() && !out.valid.any());
+                on_plane += 1;
+                // Off the plane by a thousandth, in front: lit (unless the triangle is too
+                // thin to meet from there).
+                let lifted = p + n * 1e-3;
+                off_plane_lit += usize::from(light.sample(lifted, u).is_some());
+            }
+        }
+        assert!(
+            off_plane_lit > on_plane * 9 / 10,
+            "{off_plane_lit} of {on_plane}"
+        );
     }
 }

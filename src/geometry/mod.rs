@@ -3,6 +3,7 @@
 
 pub mod mesh;
 mod node8;
+pub mod shadow_casters;
 pub mod small_set;
 pub mod sphere;
 pub mod triangle;
@@ -17,6 +18,7 @@ use crate::bvh::{Bvh, TraversalRay};
 use crate::lanes::{F32s, Mask, U32s, V3s};
 use crate::math::{Aabb, Affine3A, Mat3, Ray, Vec2, Vec3};
 pub use mesh::{Mesh, OpacityInputs};
+use shadow_casters::{IdTriangle, LightPoints, ShadowCasters};
 use small_set::SmallSet;
 pub use sphere::{Plane, Sphere};
 use triangle::TriHit;
@@ -618,6 +620,14 @@ pub struct Geometry {
     /// Instance index of each primitive of `top`.
     top_instances: Vec<u32>,
     unbounded: Vec<u32>,
+    /// The scene's triangles in world space with their ids, when it is nothing else and few
+    /// ([`small_set::SMALL_SET_MAX`]); else empty. What [`limit_shadow_casters`] reads.
+    ///
+    /// [`limit_shadow_casters`]: Geometry::limit_shadow_casters
+    few_triangles: Vec<IdTriangle>,
+    /// The triangles shadow rays are tested against, when they are fewer than the scene's
+    /// ([`Geometry::limit_shadow_casters`]).
+    shadow_casters: Option<ShadowCasters>,
 }
 
 impl Geometry {
@@ -706,6 +716,14 @@ impl Geometry {
         );
         let corners = |i: usize| source.corners(i as u32);
         let id = |i: usize| source.id(i as u32);
+        let few_triangles = if top_instances.is_empty()
+            && unbounded.is_empty()
+            && flat_count <= small_set::SMALL_SET_MAX
+        {
+            (0..flat_count).map(|i| (corners(i), id(i))).collect()
+        } else {
+            Vec::new()
+        };
         // The triangles the small set takes, as indices into the set, increasing: all of them
         // when they are the whole scene and few, else its big triangles (if any).
         let chosen: Vec<usize> = if top_instances.is_empty()
@@ -776,7 +794,17 @@ impl Geometry {
             top_instances,
             instances,
             unbounded,
+            few_triangles,
+            shadow_casters: None,
         }
+    }
+
+    /// Leaves out of shadow rays' tests ([`shadowed`](Self::shadowed),
+    /// [`shadowed_lanes`](Self::shadowed_lanes)) the triangles that can block none, in a scene
+    /// of few triangles and nothing else ([`shadow_casters`] says which and why), given where
+    /// the lights' samples lie (`None`: some light is at infinity, and every triangle stays).
+    pub fn limit_shadow_casters(&mut self, lights: Option<&LightPoints>) {
+        self.shadow_casters = ShadowCasters::of(&self.few_triangles, lights);
     }
 
     /// Bounds of all bounded instances.
@@ -1289,6 +1317,43 @@ impl Geometry {
                     .get(i)
                     .is_some_and(|(ray, t_max)| self.occluded(&ray, 0.0, t_max))
             }),
+        }
+    }
+
+    /// How many triangles shadow rays are tested against, when fewer than the scene's
+    /// ([`limit_shadow_casters`](Self::limit_shadow_casters)).
+    pub fn shadow_caster_count(&self) -> Option<usize> {
+        self.shadow_casters.as_ref().map(|c| c.tree.len())
+    }
+
+    /// Whether something blocks the shadow ray `ray` (a segment from a point of the scene
+    /// towards a light sample, over (0, `t_max`)): [`Accel::occluded`] over the triangles
+    /// that can block one ([`limit_shadow_casters`](Self::limit_shadow_casters)), the same
+    /// answer for every such segment.
+    #[inline]
+    pub fn shadowed(&self, ray: &Ray, t_max: f32) -> bool {
+        match &self.shadow_casters {
+            Some(casters) => casters
+                .tree
+                .occluded(&TriRay::new(ray.o, ray.d), 0.0, t_max),
+            None => self.occluded(ray, 0.0, t_max),
+        }
+    }
+
+    /// [`shadowed`](Self::shadowed) for each of a wave's shadow rays (idle lanes report
+    /// `false`), as [`occluded_lanes`](Self::occluded_lanes) tests segments.
+    #[inline(always)]
+    pub fn shadowed_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
+        match &self.shadow_casters {
+            Some(ShadowCasters { set: Some(set), .. }) if W >= crate::lanes::KERNELS_FROM => {
+                set.occluded_lanes(segments)
+            }
+            Some(_) => std::array::from_fn(|i| {
+                segments
+                    .get(i)
+                    .is_some_and(|(ray, t_max)| self.shadowed(&ray, t_max))
+            }),
+            None => self.occluded_lanes(segments),
         }
     }
 }

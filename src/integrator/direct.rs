@@ -71,3 +71,58 @@ pub fn sample_light(
         t_max,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::test_lcg;
+
+    /// In the Cornell box shadow rays are tested against the two boxes alone (24 of the 36
+    /// triangles, `Geometry::limit_shadow_casters`), and every light sample's shadow ray is
+    /// blocked or clear exactly as when tested against every triangle: from points all over
+    /// the box, the light's own surface among them.
+    #[test]
+    fn leaving_walls_and_light_out_of_shadow_tests_changes_no_answer() {
+        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
+        let (scene, _) = crate::load::load(&file, &crate::load::LoadOptions::default())
+            .unwrap()
+            .build()
+            .unwrap();
+        assert_eq!(scene.geometry.shadow_caster_count(), Some(24));
+        let mut state = 5;
+        let mut r = || test_lcg(&mut state);
+        let (mut blocked, mut clear, mut on_light) = (0, 0, 0);
+        for _ in 0..40_000 {
+            let o = Vec3::new(1.8 * r() - 0.9, 1.8 * r() - 0.9, 1.8 * r() - 0.9);
+            let d = Vec3::new(2.0 * r() - 1.0, 2.0 * r() - 1.0, 2.0 * r() - 1.0);
+            let Some(hit) = scene.intersect(&Ray::new(o, d), 0.0, f32::INFINITY) else {
+                continue;
+            };
+            if (hit.p.y - 0.99).abs() < 1e-5 && hit.p.x.abs() < 0.23 {
+                on_light += 1;
+            }
+            for light in &scene.lights {
+                let u = Vec2::new(r(), r());
+                let Some(incident) = sample_light(&scene, light, &hit, u, Strategy::Mis) else {
+                    continue;
+                };
+                let (ray, t_max) = (&incident.shadow_ray, incident.t_max);
+                let every_triangle = scene.occluded(ray, 0.0, t_max);
+                assert_eq!(
+                    scene.shadowed(ray, t_max),
+                    every_triangle,
+                    "{hit:?} {ray:?}"
+                );
+                if every_triangle {
+                    blocked += 1;
+                } else {
+                    clear += 1;
+                }
+            }
+        }
+        assert!(
+            blocked > 1_000 && clear > 10_000 && on_light > 100,
+            "{blocked} {clear} {on_light}"
+        );
+    }
+}

@@ -72,7 +72,7 @@ fn direct(
             return;
         }
         stats.rays += 1;
-        if !scene.occluded(&incident.shadow_ray, 0.0, incident.t_max) {
+        if !scene.shadowed(&incident.shadow_ray, incident.t_max) {
             // Delta lights give their contribution; the others one sample of it.
             *l += f * ls.li / if ls.delta { pmf } else { pmf * ls.pdf };
         }

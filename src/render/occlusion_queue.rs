@@ -146,7 +146,7 @@ impl<const W: usize, const N: usize> OcclusionQueue<W, N> {
             t_max: column(6),
         };
         stats.rays += n as u64;
-        let mut answers = Mask::from_bools(&scene.occluded_lanes(&segments)).bits();
+        let mut answers = Mask::from_bools(&scene.shadowed_lanes(&segments)).bits();
         let mut left = n as u32;
         while left > 0 {
             let (wave, lanes) = self.batches[self.first_batch];
@@ -313,7 +313,7 @@ mod tests {
                 }
                 let ray = Ray::new(from, to - from);
                 segments.set(i, &ray, 1.0);
-                *e = Some(scene.occluded(&ray, 0.0, 1.0));
+                *e = Some(scene.shadowed(&ray, 1.0));
             }
             queue.push(w, &segments);
             pending[w] = Some(expected);

@@ -12,6 +12,7 @@ use super::{IntegratorKind, Scene, Settings};
 use crate::assets::{Assets, MeshData, TextureImage};
 use crate::camera::Camera;
 use crate::environment::Environment;
+use crate::geometry::shadow_casters::LightPoints;
 use crate::geometry::{Geometry, Instance, Mesh, Plane, Shape, Sphere};
 use crate::light::Light;
 use crate::light_sampler::{LightSampler, LightSamplerKind};
@@ -83,7 +84,7 @@ pub fn build(
         &mut warnings,
     );
     crate::phases::mark("build: area lights");
-    let geometry = Geometry::new(instances);
+    let mut geometry = Geometry::new(instances);
     crate::phases::mark("build: geometry (BVHs)");
 
     // The lights' order is their index: emissive shapes, the scene's lights, the environment.
@@ -98,6 +99,7 @@ pub fn build(
         lights.len() - 1
     });
     let light_sampler = LightSampler::new(&lights, LightSamplerKind::Auto);
+    geometry.limit_shadow_casters(light_points(&lights).as_ref());
 
     let camera = camera(desc);
     let settings = settings(desc);
@@ -115,6 +117,19 @@ pub fn build(
         has_alpha,
     };
     Ok((scene, warnings))
+}
+
+/// Where the lights' samples lie, for the shadow rays' tests; `None` when some light is at
+/// infinity.
+fn light_points(lights: &[Light]) -> Option<LightPoints> {
+    let mut hull = Vec::new();
+    for light in lights {
+        hull.extend(light.hull()?);
+    }
+    Some(LightPoints {
+        hull,
+        all_surfaces: lights.iter().all(|l| l.surface_instance().is_some()),
+    })
 }
 
 /// Items made from one of the scene's name-keyed tables (textures, materials), in the table's

@@ -139,17 +139,29 @@ impl Scene {
         self.intersect_lanes(&rays, hits, surfaces);
     }
 
-    /// Whether something blocks each of a wave's segments (tested over (0, `t_max`); idle lanes
-    /// report `false`), as [`occluded`](Scene::occluded) finds it.
-    #[inline(always)]
-    pub fn occluded_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
+    /// Whether something blocks the shadow ray `ray`, a segment from a point of the scene
+    /// towards a light sample (over (0, `t_max`)), as [`occluded`](Scene::occluded) finds it:
+    /// only the triangles that can block such a segment are tested
+    /// ([`Geometry::limit_shadow_casters`](crate::geometry::Geometry::limit_shadow_casters)).
+    #[inline]
+    pub fn shadowed(&self, ray: &Ray, t_max: f32) -> bool {
         if !self.has_alpha {
-            return self.geometry.occluded_lanes(segments);
+            return self.geometry.shadowed(ray, t_max);
+        }
+        self.occluded(ray, 0.0, t_max)
+    }
+
+    /// [`shadowed`](Scene::shadowed) for each of a wave's shadow rays (idle lanes report
+    /// `false`).
+    #[inline(always)]
+    pub fn shadowed_lanes<const W: usize>(&self, segments: &SegmentLanes<W>) -> [bool; W] {
+        if !self.has_alpha {
+            return self.geometry.shadowed_lanes(segments);
         }
         std::array::from_fn(|i| {
             segments
                 .get(i)
-                .is_some_and(|(ray, t_max)| self.occluded(&ray, 0.0, t_max))
+                .is_some_and(|(ray, t_max)| self.shadowed(&ray, t_max))
         })
     }
 
