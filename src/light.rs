@@ -884,6 +884,15 @@ pub(crate) mod tests {
         Light::triangle(0, 0, v, [Vec2::ZERO, Vec2::X, Vec2::Y], emission, two_sided)
     }
 
+    /// Three corners with coordinates drawn from `r`.
+    fn random_corners(r: &mut impl FnMut() -> f32) -> [Vec3; 3] {
+        [
+            Vec3::new(r(), r(), r()),
+            Vec3::new(r(), r(), r()),
+            Vec3::new(r(), r(), r()),
+        ]
+    }
+
     /// The one-sided white triangle light of corners `v` (facing +z for counter-clockwise
     /// corners).
     fn triangle(v: [Vec3; 3]) -> Light {
@@ -1096,11 +1105,7 @@ pub(crate) mod tests {
             let (mut by_f32, mut near) = (0, 0);
             for _ in 0..20_000 / W {
                 let mut r = || rng.next_f32() * 2.0 - 1.0;
-                let v = [
-                    Vec3::new(r(), r(), r()),
-                    Vec3::new(r(), r(), r()),
-                    Vec3::new(r(), r(), r()),
-                ];
+                let v = random_corners(&mut r);
                 let light = triangle_light(v, Vec3::ONE, true);
                 let Light::Triangle {
                     n, area, sphere, ..
@@ -1294,11 +1299,7 @@ pub(crate) mod tests {
         for two_sided in [false, true] {
             for _ in 0..2_000 {
                 let mut r = || rng.next_f32() * 2.0 - 1.0;
-                let v = [
-                    Vec3::new(r(), r(), r()),
-                    Vec3::new(r(), r(), r()),
-                    Vec3::new(r(), r(), r()),
-                ];
+                let v = random_corners(&mut r);
                 let light = triangle_light(v, Vec3::ONE, two_sided);
                 let Light::Triangle { n, .. } = light else {
                     unreachable!()

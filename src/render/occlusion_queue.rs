@@ -262,15 +262,6 @@ mod tests {
         }
     }
 
-    fn cornell() -> Scene {
-        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
-        let (scene, _) = crate::load::load(&file, &crate::load::LoadOptions::default())
-            .unwrap()
-            .build()
-            .unwrap();
-        scene
-    }
-
     /// Waves push segments from random points of the box towards random points (some lanes
     /// idle), take their turns as the render loop does, and every answer they get is what the
     /// scene says of their own segment.
@@ -329,7 +320,7 @@ mod tests {
 
     #[test]
     fn waves_get_the_answers_to_their_own_segments() {
-        let scene = cornell();
+        let scene = crate::scene::test_cornell();
         answers_are_each_waves_own::<16>(&scene);
         answers_are_each_waves_own::<8>(&scene);
         answers_are_each_waves_own::<4>(&scene);

@@ -282,11 +282,7 @@ fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
 #[test]
 fn a_cancel_stops_a_wave_within_a_step() {
     use std::sync::atomic::AtomicBool;
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
-    let (scene, _) = crate::load::load(&file, &crate::load::LoadOptions::default())
-        .unwrap()
-        .build()
-        .unwrap();
+    let scene = crate::scene::test_cornell();
     let work = [PixelWork {
         x: 100,
         y: 100,
