@@ -83,7 +83,7 @@ mod tests {
     /// the box, the light's own surface among them.
     #[test]
     fn leaving_walls_and_light_out_of_shadow_tests_changes_no_answer() {
-        let scene = crate::scene::test_cornell();
+        let scene = crate::load::test_cornell();
         assert_eq!(scene.geometry.shadow_caster_count(), Some(24));
         let mut state = 5;
         let mut r = || test_lcg(&mut state);

@@ -583,6 +583,17 @@ pub fn load_json_str(text: &str, label: &Path, base_dir: &Path) -> Result<Loaded
     })
 }
 
+/// The repository's Cornell box (`scenes/cornell.json`), built, for the unit tests.
+#[cfg(test)]
+pub(crate) fn test_cornell() -> crate::scene::Scene {
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
+    let (scene, _) = load(&file, &LoadOptions::default())
+        .unwrap()
+        .build()
+        .unwrap();
+    scene
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -320,7 +320,7 @@ mod tests {
 
     #[test]
     fn waves_get_the_answers_to_their_own_segments() {
-        let scene = crate::scene::test_cornell();
+        let scene = crate::load::test_cornell();
         answers_are_each_waves_own::<16>(&scene);
         answers_are_each_waves_own::<8>(&scene);
         answers_are_each_waves_own::<4>(&scene);

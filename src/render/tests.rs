@@ -282,7 +282,7 @@ fn a_cancel_stops_every_thread_within_the_tile_it_is_on() {
 #[test]
 fn a_cancel_stops_a_wave_within_a_step() {
     use std::sync::atomic::AtomicBool;
-    let scene = crate::scene::test_cornell();
+    let scene = crate::load::test_cornell();
     let work = [PixelWork {
         x: 100,
         y: 100,

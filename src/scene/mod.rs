@@ -260,14 +260,3 @@ fn alpha_hash(ray: &Ray, hit: &RawHit, instance: u32) -> f32 {
     );
     (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
-
-/// The repository's Cornell box (`scenes/cornell.json`), built, for the unit tests.
-#[cfg(test)]
-pub(crate) fn test_cornell() -> Scene {
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
-    let (scene, _) = crate::load::load(&file, &crate::load::LoadOptions::default())
-        .unwrap()
-        .build()
-        .unwrap();
-    scene
-}
