@@ -307,6 +307,101 @@ impl<const W: usize> SamplerLanes<W> {
         )
     }
 
+    /// [`get_2d`](Self::get_2d) of the `live` lanes and, computed in the same pass, the 2D
+    /// point their following [`get_choice_2d`](Self::get_choice_2d) will give: a
+    /// [`ScatterPoint`] to hand to [`get_choice_2d_from`](Self::get_choice_2d_from) in its place.
+    /// The same numbers as the two calls; the two points' chains of multiplications run side by
+    /// side instead of one after the other (each is some 80 cycles of latency), and the wave
+    /// reads the second after the light samples' work. Lanes of independent numbers draw
+    /// theirs in order then (their generator is sequential).
+    #[inline(always)]
+    pub fn get_2d_and_scatter_point(
+        &mut self,
+        live: Mask<W>,
+    ) -> ((F32s<W>, F32s<W>), ScatterPoint<W>) {
+        if !self.all_sobol(live) {
+            return (self.get_2d(live), ScatterPoint(None));
+        }
+        let (light, scatter) = self.light_and_scatter_points(live);
+        (light, ScatterPoint(Some(scatter)))
+    }
+
+    /// The two points of [`get_2d_and_scatter_point`](Self::get_2d_and_scatter_point), every
+    /// lane drawing Sobol points.
+    #[inline(always)]
+    fn light_and_scatter_points(
+        &mut self,
+        live: Mask<W>,
+    ) -> ((F32s<W>, F32s<W>), (F32s<W>, F32s<W>)) {
+        crate::lanes::widest!(
+            gfni;
+            W,
+            (lanes: &mut SamplerLanes<W>, live: Mask<W>)
+                => ((F32s<W>, F32s<W>), (F32s<W>, F32s<W>)),
+            (self, live),
+            {
+                let light = SobolLanes::at(lanes, 0).point_2d();
+                // After this draw, `get_choice_2d` skips the choice's dimension.
+                let scatter = SobolLanes::at(lanes, 2).point_2d();
+                lanes.advance(live, 1);
+                (light, scatter)
+            }
+        )
+    }
+
+    /// [`get_choice_2d`](Self::get_choice_2d) of the `live` lanes, whose 2D point `point` holds
+    /// when it was drawn ahead ([`get_2d_and_scatter_point`](Self::get_2d_and_scatter_point),
+    /// with nothing drawn between); the lobe choice only `with_choice` (else zeros, as
+    /// [`get_choice_2d_point`](Self::get_choice_2d_point) leaves it).
+    #[inline(always)]
+    pub fn get_choice_2d_from(
+        &mut self,
+        live: Mask<W>,
+        point: ScatterPoint<W>,
+        with_choice: bool,
+    ) -> (F32s<W>, F32s<W>, F32s<W>) {
+        let Some((x, y)) = point.0 else {
+            return if with_choice {
+                self.get_choice_2d(live)
+            } else {
+                let (x, y) = self.get_choice_2d_point(live);
+                (F32s::default(), x, y)
+            };
+        };
+        if !with_choice {
+            self.advance_lanes(live, 2);
+            return (F32s::default(), x, y);
+        }
+        (self.choice_alone(live), x, y)
+    }
+
+    /// The lobe choice of the next [`get_choice_2d`](Self::get_choice_2d) of the `live` lanes
+    /// (every one drawing Sobol points), which then move on as it moves them.
+    #[inline(always)]
+    fn choice_alone(&mut self, live: Mask<W>) -> F32s<W> {
+        crate::lanes::widest!(
+            gfni;
+            W,
+            (lanes: &mut SamplerLanes<W>, live: Mask<W>) => F32s<W>,
+            (self, live),
+            {
+                let out = SobolLanes::at(lanes, 1).choice();
+                lanes.advance(live, 2);
+                out
+            }
+        )
+    }
+
+    /// [`advance`](Self::advance) compiled for the widest vectors the CPU has.
+    fn advance_lanes(&mut self, live: Mask<W>, by: u32) {
+        crate::lanes::widest!(
+            W,
+            (lanes: &mut SamplerLanes<W>, live: Mask<W>, by: u32) => (),
+            (self, live, by),
+            lanes.advance(live, by)
+        )
+    }
+
     /// The next number of the samplers of the `live` lanes ([`Sampler::get_1d`]; the others
     /// draw nothing and get numbers that mean nothing).
     #[inline(always)]
@@ -418,6 +513,12 @@ impl<const W: usize> Default for SamplerLanes<W> {
     }
 }
 
+/// A wave's 2D points for scattering, drawn ahead by
+/// [`SamplerLanes::get_2d_and_scatter_point`] (`None` where lanes draw independent numbers,
+/// which are drawn in order when they are needed).
+#[derive(Clone, Copy)]
+pub struct ScatterPoint<const W: usize>(Option<(F32s<W>, F32s<W>)>);
+
 /// The scrambled Sobol streams of a wave's lanes, at one dimension (pair) each: the values
 /// [`Sampler`] computes for one lane, computed for W lanes at once with the same integer
 /// operations (so with the same bits).
@@ -462,6 +563,17 @@ impl<const W: usize> SobolLanes<W> {
         let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
         let x = laine_karras_lanes(shuffled, (hash >> 32).low_u32());
         to_unit_lanes(x.reverse_bits())
+    }
+
+    /// The lobe choice of [`choice_2d`](Self::choice_2d) alone.
+    #[inline(always)]
+    fn choice(&self) -> F32s<W> {
+        let hash = mix64_lanes(self.hash);
+        let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
+        let seed_z = lowbias32_lanes(scramble_seed_y_lanes(hash) ^ U32s::splat(0x9e37_79b9));
+        to_unit_lanes(
+            laine_karras_lanes(sobol_dim2_reversed_lanes(shuffled), seed_z).reverse_bits(),
+        )
     }
 
     /// [`owen_sobol_3d_shuffled`] of the shuffled index in every lane: the lobe choice and the
@@ -786,6 +898,29 @@ mod tests {
                 let (_, v) = single[i].get_choice_2d();
                 assert_eq!(px[i].to_bits(), v.x.to_bits(), "lane {i}");
                 assert_eq!(py[i].to_bits(), v.y.to_bits(), "lane {i}");
+            }
+            // A light point and the scatter point drawn ahead, then the scatter draw of some
+            // of those lanes, with and without the lobe choice.
+            let ((lx, ly), ahead) = lanes.get_2d_and_scatter_point(Mask::from_bools(&live));
+            let scattering: [bool; W] = std::array::from_fn(|i| live[i] && (i + step) % 2 == 0);
+            let with_choice = step % 3 != 1;
+            let (c, sx, sy) =
+                lanes.get_choice_2d_from(Mask::from_bools(&scattering), ahead, with_choice);
+            for i in (0..W).filter(|&i| live[i]) {
+                let u = single[i].get_2d();
+                assert_eq!(
+                    (lx[i].to_bits(), ly[i].to_bits()),
+                    (u.x.to_bits(), u.y.to_bits())
+                );
+                if scattering[i] {
+                    let (choice, v) = single[i].get_choice_2d();
+                    let choice = if with_choice { choice } else { 0.0 };
+                    assert_eq!(c[i].to_bits(), choice.to_bits(), "lane {i}");
+                    assert_eq!(
+                        (sx[i].to_bits(), sy[i].to_bits()),
+                        (v.x.to_bits(), v.y.to_bits())
+                    );
+                }
             }
             let skipping: [bool; W] = std::array::from_fn(|i| (i + step) % 4 == 1);
             lanes.skip_2d(Mask::from_bools(&skipping));

@@ -300,7 +300,7 @@ impl<const W: usize> Wave<W> {
         } = step;
         stats.rays += u64::from(live.count());
         scene.intersect_wave(&paths.rays(live), hits, surfaces, found);
-        let (ux, uy) = samplers.get_2d(live);
+        let ((ux, uy), scatter_point) = samplers.get_2d_and_scatter_point(live);
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
         // The hits kept in lanes that belong on the route stay there; the others' are taken
@@ -368,12 +368,7 @@ impl<const W: usize> Wave<W> {
         };
         let scattering = general | route.on_lanes();
         // A lobe choice only where a vertex off the route may have several lobes.
-        let u_scatter = if general.any() {
-            samplers.get_choice_2d(scattering)
-        } else {
-            let (x, y) = samplers.get_choice_2d_point(scattering);
-            (F32s::default(), x, y)
-        };
+        let u_scatter = samplers.get_choice_2d_from(scattering, scatter_point, general.any());
         let sampled = if general.any() {
             Path::sample_bsdfs(vertices, &u_scatter, scratch)
         } else {
