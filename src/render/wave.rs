@@ -299,8 +299,10 @@ impl<const W: usize> Wave<W> {
             shadows,
         } = step;
         stats.rays += u64::from(live.count());
-        scene.intersect_wave(&paths.rays(live), hits, surfaces, found);
+        // Drawn before the intersections, which do not need them: the draws' chains of
+        // multiplications then run beside the intersection kernel's first triangles.
         let ((ux, uy), scatter_point) = samplers.get_2d_and_scatter_point(live);
+        scene.intersect_wave(&paths.rays(live), hits, surfaces, found);
         let u_light: [_; W] = std::array::from_fn(|i| Vec2::new(ux[i], uy[i]));
         route.clear();
         // The hits kept in lanes that belong on the route stay there; the others' are taken
