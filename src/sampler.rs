@@ -435,12 +435,7 @@ impl<const W: usize> SamplerLanes<W> {
             }
             return;
         }
-        crate::lanes::widest!(
-            W,
-            (lanes: &mut SamplerLanes<W>, live: Mask<W>) => (),
-            (self, live),
-            lanes.advance(live, 1)
-        )
+        self.advance_lanes(live, 1);
     }
 
     /// The next lobe choice and 2D point of the samplers of the `live` lanes
@@ -550,8 +545,7 @@ impl<const W: usize> SobolLanes<W> {
     /// [`owen_sobol_2d_reversed`] in every lane.
     #[inline(always)]
     fn point_2d(&self) -> (F32s<W>, F32s<W>) {
-        let hash = mix64_lanes(self.hash);
-        let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
+        let (hash, shuffled) = self.hash_and_shuffled();
         owen_sobol_2d_lanes(shuffled, hash)
     }
 
@@ -559,8 +553,7 @@ impl<const W: usize> SobolLanes<W> {
     /// [`Sampler::get_1d`].
     #[inline(always)]
     fn point_1d(&self) -> F32s<W> {
-        let hash = mix64_lanes(self.hash);
-        let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
+        let (hash, shuffled) = self.hash_and_shuffled();
         let x = laine_karras_lanes(shuffled, (hash >> 32).low_u32());
         to_unit_lanes(x.reverse_bits())
     }
@@ -568,25 +561,35 @@ impl<const W: usize> SobolLanes<W> {
     /// The lobe choice of [`choice_2d`](Self::choice_2d) alone.
     #[inline(always)]
     fn choice(&self) -> F32s<W> {
-        let hash = mix64_lanes(self.hash);
-        let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
-        let seed_z = lowbias32_lanes(scramble_seed_y_lanes(hash) ^ U32s::splat(0x9e37_79b9));
-        to_unit_lanes(
-            laine_karras_lanes(sobol_dim2_reversed_lanes(shuffled), seed_z).reverse_bits(),
-        )
+        let (hash, shuffled) = self.hash_and_shuffled();
+        lobe_choice_lanes(shuffled, hash)
     }
 
     /// [`owen_sobol_3d_shuffled`] of the shuffled index in every lane: the lobe choice and the
     /// 2D point of [`Sampler::get_choice_2d`].
     #[inline(always)]
     fn choice_2d(&self) -> (F32s<W>, F32s<W>, F32s<W>) {
+        let (hash, shuffled) = self.hash_and_shuffled();
+        let (x, y) = owen_sobol_2d_lanes(shuffled, hash);
+        (lobe_choice_lanes(shuffled, hash), x, y)
+    }
+
+    /// Every lane's dimension hash ([`mix64`] of its key) and its sample index shuffled by that
+    /// hash (bits in natural order): what each of the points above starts from.
+    #[inline(always)]
+    fn hash_and_shuffled(&self) -> (U64s<W>, U32s<W>) {
         let hash = mix64_lanes(self.hash);
         let shuffled = laine_karras_lanes(self.reversed_index, hash.low_u32()).reverse_bits();
-        let seed_z = lowbias32_lanes(scramble_seed_y_lanes(hash) ^ U32s::splat(0x9e37_79b9));
-        let choice = laine_karras_lanes(sobol_dim2_reversed_lanes(shuffled), seed_z);
-        let (x, y) = owen_sobol_2d_lanes(shuffled, hash);
-        (to_unit_lanes(choice.reverse_bits()), x, y)
+        (hash, shuffled)
     }
+}
+
+/// The lobe choice (third Sobol dimension, scrambled) of [`owen_sobol_3d_shuffled`] in every
+/// lane, from the lanes' shuffled indices and dimension hashes.
+#[inline(always)]
+fn lobe_choice_lanes<const W: usize>(shuffled: U32s<W>, hash: U64s<W>) -> F32s<W> {
+    let seed_z = lowbias32_lanes(scramble_seed_y_lanes(hash) ^ U32s::splat(0x9e37_79b9));
+    to_unit_lanes(laine_karras_lanes(sobol_dim2_reversed_lanes(shuffled), seed_z).reverse_bits())
 }
 
 /// [`mix64`] in every lane.
