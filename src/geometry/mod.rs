@@ -716,20 +716,18 @@ impl Geometry {
         );
         let corners = |i: usize| source.corners(i as u32);
         let id = |i: usize| source.id(i as u32);
-        let few_triangles = if top_instances.is_empty()
+        // Whether the scene is its flat triangles alone, and few of them.
+        let few_alone = top_instances.is_empty()
             && unbounded.is_empty()
-            && flat_count <= small_set::SMALL_SET_MAX
-        {
+            && flat_count <= small_set::SMALL_SET_MAX;
+        let few_triangles = if few_alone {
             (0..flat_count).map(|i| (corners(i), id(i))).collect()
         } else {
             Vec::new()
         };
         // The triangles the small set takes, as indices into the set, increasing: all of them
         // when they are the whole scene and few, else its big triangles (if any).
-        let chosen: Vec<usize> = if top_instances.is_empty()
-            && unbounded.is_empty()
-            && (1..=small_set::SMALL_SET_MAX).contains(&flat_count)
-        {
+        let chosen: Vec<usize> = if few_alone && flat_count > 0 {
             (0..flat_count).collect()
         } else {
             big_triangles(&instances, &flat, corners)
